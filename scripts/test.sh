@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Install gfcs with every optional dependency and run all tests: the Rust core, then the Python package.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+python3 -m pip install --quiet ".[test]"
+cargo test --release
+python3 -m pytest -q
