@@ -6,12 +6,12 @@ use thiserror::Error;
 /// Errors raised by `fabric-core`. The core never panics on user input: it returns one of these.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum FabricError {
-    /// A URDF could not be parsed or is inconsistent (`source` is the file name or `"<string>"`).
-    #[error("URDF {source}: {message}")]
-    Urdf { source: String, message: String },
+    /// A URDF could not be parsed or is inconsistent (`file` is the file name or `"<string>"`).
+    #[error("URDF {file}: {message}")]
+    Urdf { file: String, message: String },
     /// A joint type the model does not support (planar, floating).
-    #[error("URDF {source}: joint '{joint}' has unsupported type '{kind}' (supported: revolute, continuous, prismatic, fixed, mimic)")]
-    UnsupportedJoint { source: String, joint: String, kind: String },
+    #[error("URDF {file}: joint '{joint}' has unsupported type '{kind}' (supported: revolute, continuous, prismatic, fixed, mimic)")]
+    UnsupportedJoint { file: String, joint: String, kind: String },
     /// A link name that is not in the robot.
     #[error("no link named '{link}' in robot '{robot}'")]
     MissingLink { robot: String, link: String },

@@ -1,1 +1,23 @@
-//! (module under construction by its owner)
+//! The robot model and its kinematics.
+//!
+//! * [`Robot`] (model.rs, urdf.rs): an immutable kinematic tree loaded from URDF (revolute, continuous,
+//!   prismatic, fixed and mimic joints), its active coordinates q and limits.
+//! * [`KinematicsWorkspace`], [`TaskPoint`] (kinematics.rs): recursive forward kinematics, link
+//!   velocities, and x, J, J̇q̇ of points and axes for the pullback of GF eq. 11–12 and 16.
+//! * [`CollisionSphere`] (spheres.rs) and the self-collision pairs (srdf.rs).
+//! * [`LinkGeometry`] (geometry.rs): URDF collision geometry for mesh-based validation.
+//! * [`Robot::panda`] (panda.rs): the shipped Franka Panda. [`batch`]: parallel forward kinematics.
+
+pub mod batch;
+mod geometry;
+mod kinematics;
+mod model;
+mod panda;
+mod spheres;
+mod srdf;
+mod urdf;
+
+pub use geometry::{GeometryKind, LinkGeometry};
+pub use kinematics::{KinematicsWorkspace, TaskPoint};
+pub use model::{Robot, RobotOptions};
+pub use spheres::CollisionSphere;

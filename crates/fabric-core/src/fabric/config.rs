@@ -1,0 +1,468 @@
+//! Fabric configuration: every gain of the Panda fabric (GF Sec. VII-A) and of speed control (GF App. E-B),
+//! with units and defaults. The defaults are also written, with comments, in
+//! `crates/fabric-core/assets/fabric_default.toml` (a test checks that file equals `Default`).
+//!
+//! Files may be TOML, YAML or JSON and may give any subset of the fields: the given values are merged over
+//! the defaults, unknown fields are rejected (`deny_unknown_fields`) and every error names the file and the
+//! dotted field path.
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::error::{FabricError, Result};
+
+/// Whether the geometry is bent into the energy (GF Sec. VI terminology).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    /// Geometric fabric: the pulled-back HD2 geometry π̃ is energized by the summed Finsler energy
+    /// (GF eq. 17), then forced and damped with speed control (eq. 40).
+    #[default]
+    Bent,
+    /// Unbent fabric: the same components without their geometries: the classical Lagrangian system of the
+    /// summed energies, M̃q̈ + ξ̃ = −∂ψ − B q̇ (GF Sec. III-B, VI), whose own geodesic flow π = −M̃⁻¹ξ̃
+    /// conserves L̃_e (α_Le = 0). Damping and speed regulation are the same as in `Bent`.
+    Unbent,
+}
+
+/// Joint-space attraction to the command q_g (GF VII-A1): energy L_e = (m/2)‖ẋ‖² on x = q − q_g,
+/// geometry π = −‖ẋ‖² ∂ψ_g, forcing −∂ψ_f, with ψ(x) = k ln cosh(α‖x‖).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointAttractionConfig {
+    /// m: isotropic mass of the attraction energy (> 0; it also keeps the root metric positive definite).
+    /// Default 1.0.
+    pub mass: f64,
+    /// k of the geometry ψ_g (rad; the far-field geometry acceleration is k α ‖q̇‖², units 1/rad).
+    /// Default 1.0.
+    pub geometry_gain: f64,
+    /// α of the geometry ψ_g (1/rad). Default 10.0.
+    pub geometry_sharpness: f64,
+    /// k of the forcing potential ψ_f (rad²/s² · mass; the far-field force is k α). Default 2.0.
+    pub potential_gain: f64,
+    /// α of the forcing potential ψ_f (1/rad). Default 5.0.
+    pub potential_sharpness: f64,
+}
+
+impl Default for JointAttractionConfig {
+    fn default() -> Self {
+        Self { mass: 1.0, geometry_gain: 1.0, geometry_sharpness: 10.0, potential_gain: 2.0, potential_sharpness: 5.0 }
+    }
+}
+
+/// End-effector attraction (GF VII-A3) for the position of the end-effector link origin (x = p − p_d, m)
+/// or, in `ee_orientation`, for each of its three unit axes (x = R e_i − R_d e_i, App. G). The target is
+/// the end-effector pose at the joint command q_g (or an explicit target). Energy
+/// L_e = ‖ẋ‖²(½(m̄ − m̲)(tanh(−α_m‖x‖) + 1) + m̲), geometry π = −‖ẋ‖² ∂ψ_g, forcing −∂ψ_f, ψ = k ln cosh(α‖x‖).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EeAttractionConfig {
+    /// Whether the component is used. Default false (GFCS commands are joint-space).
+    pub enabled: bool,
+    /// m̄: mass scale at the target. Default 2.0.
+    pub mass_max: f64,
+    /// m̲: mass scale far from the target (> 0 when enabled). Default 0.2.
+    pub mass_min: f64,
+    /// α_m: sharpness of the mass transition (1/m, or 1/unit for axes). Default 10.0.
+    pub mass_sharpness: f64,
+    /// k of the geometry ψ_g. Default 1.0.
+    pub geometry_gain: f64,
+    /// α of the geometry ψ_g (1/m). Default 10.0.
+    pub geometry_sharpness: f64,
+    /// k of the forcing potential ψ_f. Default 2.0.
+    pub potential_gain: f64,
+    /// α of the forcing potential ψ_f (1/m). Default 10.0.
+    pub potential_sharpness: f64,
+}
+
+impl Default for EeAttractionConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            mass_max: 2.0,
+            mass_min: 0.2,
+            mass_sharpness: 10.0,
+            geometry_gain: 1.0,
+            geometry_sharpness: 10.0,
+            potential_gain: 2.0,
+            potential_sharpness: 10.0,
+        }
+    }
+}
+
+/// Distance-space repulsion (GF VII-A2) on a distance x (m, or rad for joint limits):
+/// energy L_e = (k / 2x) s(ẋ) ẋ², geometry π = −ẋ² ∂ψ_g, forcing −∂ψ_f, with
+/// ψ(x) = k_b / x + (k_r / α) ln(1 + e^{−α(x − x_o)}). Leaves are formed only when x < `influence`.
+/// Below `x_min` (penetration) the metric continues by its tangent line and the potentials by their
+/// second-order Taylor polynomial: the push stays finite, nonzero and outward.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BarrierConfig {
+    /// Whether the component is used.
+    pub enabled: bool,
+    /// k: metric gain of the barrier energy (metric = k / x).
+    pub metric_gain: f64,
+    /// k_b of the geometry ψ_g (m).
+    pub geometry_barrier_gain: f64,
+    /// k_r of the geometry ψ_g (1/1: slope of the soft-ReLU).
+    pub geometry_relu_gain: f64,
+    /// k_b of the forcing potential ψ_f (mass · m³/s²).
+    pub potential_barrier_gain: f64,
+    /// k_r of the forcing potential ψ_f (mass · m/s²).
+    pub potential_relu_gain: f64,
+    /// α: soft-ReLU sharpness (1/m), shared by ψ_g and ψ_f.
+    pub relu_sharpness: f64,
+    /// x_o: soft-ReLU activation distance (m), shared by ψ_g and ψ_f.
+    pub relu_shift: f64,
+    /// Safety margin subtracted from the raw distance: x = d − margin (m or rad).
+    pub margin: f64,
+    /// Influence radius: a leaf exists only while x < influence (m or rad).
+    pub influence: f64,
+    /// x_min (> 0): start of the penetration continuation (m or rad).
+    pub x_min: f64,
+}
+
+impl BarrierConfig {
+    fn obstacle_default() -> Self {
+        Self {
+            enabled: true,
+            metric_gain: 0.5,
+            geometry_barrier_gain: 0.01,
+            geometry_relu_gain: 2.0,
+            potential_barrier_gain: 0.002,
+            potential_relu_gain: 0.5,
+            relu_sharpness: 20.0,
+            relu_shift: 0.1,
+            margin: 0.0,
+            influence: 0.3,
+            x_min: 0.005,
+        }
+    }
+    fn self_collision_default() -> Self {
+        Self { influence: 0.15, relu_shift: 0.05, ..Self::obstacle_default() }
+    }
+    fn joint_limit_default() -> Self {
+        Self {
+            enabled: true,
+            metric_gain: 0.3,
+            geometry_barrier_gain: 0.01,
+            geometry_relu_gain: 2.0,
+            potential_barrier_gain: 0.002,
+            potential_relu_gain: 0.5,
+            relu_sharpness: 20.0,
+            relu_shift: 0.1,
+            margin: 0.01,
+            influence: 0.4,
+            x_min: 0.005,
+        }
+    }
+}
+
+/// Speed control by damping regulation (GF Sec. V-A, App. E-B, eq. 40-46) with execution energy
+/// L_ex = ½‖q̇‖² and desired execution energy L_ex,d = ½ v_d².
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpeedConfig {
+    /// With `false`, α_reg = α_Le − β with β = s_β B + B̲: the plain energized, forced and damped fabric
+    /// (GF eq. 43 with β̃ = β) — used for theory checks. Default true.
+    pub enabled: bool,
+    /// v_d: desired joint speed ‖q̇‖ (rad/s). Default 1.2.
+    pub desired_speed: f64,
+    /// α_η of eq. 46 (s²/rad²): rate of the energy-injection switch η. Default 20.0.
+    pub eta_rate: f64,
+    /// α_shift of eq. 46 (dimensionless): offset of η. Default 0.0.
+    pub eta_shift: f64,
+    /// B of eq. 45's damper (1/s): extra damping near the command. Default 8.0.
+    pub goal_damping: f64,
+    /// B̲ (1/s): constant baseline damping. Default 0.5.
+    pub base_damping: f64,
+    /// α_β of eq. 45 (1/rad): switching rate of s_β(‖q − q_g‖). Default 10.0.
+    pub goal_switch_sharpness: f64,
+    /// r of eq. 45 (rad): distance to the command where s_β = ½. Default 0.3.
+    pub goal_switch_radius: f64,
+    /// k of α_boost = k η (1 − s_β)/(‖q̇‖ + ε) (rad/s²). Default 0.0 (off, as in GF except the cubby task).
+    pub boost_gain: f64,
+    /// ε of α_boost (rad/s, > 0). Default 1e-3.
+    pub boost_epsilon: f64,
+}
+
+impl Default for SpeedConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            desired_speed: 1.2,
+            eta_rate: 20.0,
+            eta_shift: 0.0,
+            goal_damping: 8.0,
+            base_damping: 0.5,
+            goal_switch_sharpness: 10.0,
+            goal_switch_radius: 0.3,
+            boost_gain: 0.0,
+            boost_epsilon: 1e-3,
+        }
+    }
+}
+
+/// The complete fabric configuration (GF Sec. VII-A components + App. E-B speed control).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FabricConfig {
+    /// Bent (geometric fabric) or unbent (classical Lagrangian) system. Default `bent`.
+    pub mode: Mode,
+    /// Joint-space attraction to the command (always on; its mass keeps the root metric invertible).
+    pub joint_attraction: JointAttractionConfig,
+    /// End-effector position attraction (off by default).
+    pub ee_position: EeAttractionConfig,
+    /// End-effector orientation attraction through the three axis task spaces (off by default).
+    pub ee_orientation: EeAttractionConfig,
+    /// Joint-limit repulsion: x = q − q_low − margin and x = q_up − margin − q (rad).
+    pub joint_limits: BarrierConfig,
+    /// Self-collision repulsion between sphere pairs: x = ‖c_a − c_b‖ − r_a − r_b − margin (m).
+    pub self_collision: BarrierConfig,
+    /// Obstacle repulsion for every robot sphere: x = d(c) − r − margin (m).
+    pub obstacles: BarrierConfig,
+    /// Speed control.
+    pub speed: SpeedConfig,
+}
+
+impl Default for FabricConfig {
+    fn default() -> Self {
+        Self {
+            mode: Mode::Bent,
+            joint_attraction: JointAttractionConfig::default(),
+            ee_position: EeAttractionConfig::default(),
+            ee_orientation: EeAttractionConfig { mass_sharpness: 2.0, geometry_sharpness: 2.0, potential_sharpness: 2.0, ..EeAttractionConfig::default() },
+            joint_limits: BarrierConfig::joint_limit_default(),
+            self_collision: BarrierConfig::self_collision_default(),
+            obstacles: BarrierConfig::obstacle_default(),
+            speed: SpeedConfig::default(),
+        }
+    }
+}
+
+fn format_error(source: &str, field: &str, message: impl Into<String>) -> FabricError {
+    FabricError::Format { file: source.to_string(), field: field.to_string(), message: message.into() }
+}
+
+fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "a table",
+    }
+}
+
+/// Merge `user` over `base` (the defaults), checking field names and value kinds against `base`.
+fn merge(base: &mut Value, user: Value, path: &str, source: &str) -> Result<()> {
+    match (base, user) {
+        (Value::Object(b), Value::Object(u)) => {
+            for (key, value) in u {
+                let sub = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
+                match b.get_mut(&key) {
+                    Some(slot) => merge(slot, value, &sub, source)?,
+                    None => {
+                        let known: Vec<&str> = b.keys().map(|k| k.as_str()).collect();
+                        return Err(format_error(source, &sub, format!("unknown field (expected one of: {})", known.join(", "))));
+                    }
+                }
+            }
+            Ok(())
+        }
+        (slot, value) => {
+            let same = matches!(
+                (&*slot, &value),
+                (Value::Bool(_), Value::Bool(_)) | (Value::Number(_), Value::Number(_)) | (Value::String(_), Value::String(_))
+            );
+            if !same {
+                return Err(format_error(source, path, format!("expected {}, got {}", kind(slot), kind(&value))));
+            }
+            *slot = value;
+            Ok(())
+        }
+    }
+}
+
+impl FabricConfig {
+    /// Parse a configuration from an already-decoded tree, merging it over the defaults.
+    fn from_value(user: Value, source: &str) -> Result<Self> {
+        let user = match user {
+            Value::Null => Value::Object(Default::default()),
+            v @ Value::Object(_) => v,
+            other => return Err(format_error(source, "<root>", format!("expected a table, got {}", kind(&other)))),
+        };
+        let mut base = serde_json::to_value(FabricConfig::default())
+            .map_err(|e| format_error(source, "<root>", e.to_string()))?;
+        merge(&mut base, user, "", source)?;
+        let cfg: FabricConfig =
+            serde_json::from_value(base).map_err(|e| format_error(source, "mode", e.to_string()))?;
+        cfg.validate_named(source)?;
+        Ok(cfg)
+    }
+
+    /// Parse TOML text (`source` names the file in errors). Missing fields take their defaults.
+    pub fn from_toml_str(s: &str, source: &str) -> Result<Self> {
+        let v: Value = toml::from_str(s).map_err(|e| format_error(source, "<toml>", e.to_string()))?;
+        Self::from_value(v, source)
+    }
+
+    /// Parse YAML text (`source` names the file in errors). Missing fields take their defaults.
+    pub fn from_yaml_str(s: &str, source: &str) -> Result<Self> {
+        let v: Value = serde_yaml::from_str(s).map_err(|e| format_error(source, "<yaml>", e.to_string()))?;
+        Self::from_value(v, source)
+    }
+
+    /// Parse JSON text (`source` names the file in errors). Missing fields take their defaults.
+    pub fn from_json_str(s: &str, source: &str) -> Result<Self> {
+        let v: Value = serde_json::from_str(s).map_err(|e| format_error(source, "<json>", e.to_string()))?;
+        Self::from_value(v, source)
+    }
+
+    /// Read a file, choosing the format by extension (.toml, .yaml/.yml, .json).
+    pub fn from_file(path: &std::path::Path) -> Result<Self> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| FabricError::Io { path: name.clone(), message: e.to_string() })?;
+        match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+            Some("toml") => Self::from_toml_str(&text, &name),
+            Some("yaml") | Some("yml") => Self::from_yaml_str(&text, &name),
+            Some("json") => Self::from_json_str(&text, &name),
+            _ => Err(format_error(&name, "<file>", "unknown extension (expected .toml, .yaml, .yml or .json)")),
+        }
+    }
+
+    /// The configuration as pretty JSON (every field, so it round-trips through `from_json_str`).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_else(|_| String::from("{}"))
+    }
+
+    /// Check ranges: every number finite; gains, margins ≥ 0; masses, x_min, influence, speeds > 0 where
+    /// the formulas divide by them.
+    pub fn validate(&self) -> Result<()> {
+        self.validate_named("fabric config")
+    }
+
+    fn validate_named(&self, source: &str) -> Result<()> {
+        let err = |field: &str, msg: &str| Err(format_error(source, field, msg));
+        let check = |field: &str, v: f64, positive: bool| -> Result<()> {
+            if !v.is_finite() {
+                return err(field, "must be finite");
+            }
+            if positive && v <= 0.0 {
+                return err(field, "must be > 0");
+            }
+            if !positive && v < 0.0 {
+                return err(field, "must be >= 0");
+            }
+            Ok(())
+        };
+        let ja = &self.joint_attraction;
+        check("joint_attraction.mass", ja.mass, true)?;
+        check("joint_attraction.geometry_gain", ja.geometry_gain, false)?;
+        check("joint_attraction.geometry_sharpness", ja.geometry_sharpness, true)?;
+        check("joint_attraction.potential_gain", ja.potential_gain, false)?;
+        check("joint_attraction.potential_sharpness", ja.potential_sharpness, true)?;
+        for (name, ee) in [("ee_position", &self.ee_position), ("ee_orientation", &self.ee_orientation)] {
+            check(&format!("{name}.mass_max"), ee.mass_max, false)?;
+            check(&format!("{name}.mass_min"), ee.mass_min, ee.enabled)?;
+            check(&format!("{name}.mass_sharpness"), ee.mass_sharpness, false)?;
+            check(&format!("{name}.geometry_gain"), ee.geometry_gain, false)?;
+            check(&format!("{name}.geometry_sharpness"), ee.geometry_sharpness, true)?;
+            check(&format!("{name}.potential_gain"), ee.potential_gain, false)?;
+            check(&format!("{name}.potential_sharpness"), ee.potential_sharpness, true)?;
+        }
+        for (name, b) in [("joint_limits", &self.joint_limits), ("self_collision", &self.self_collision), ("obstacles", &self.obstacles)] {
+            check(&format!("{name}.metric_gain"), b.metric_gain, false)?;
+            check(&format!("{name}.geometry_barrier_gain"), b.geometry_barrier_gain, false)?;
+            check(&format!("{name}.geometry_relu_gain"), b.geometry_relu_gain, false)?;
+            check(&format!("{name}.potential_barrier_gain"), b.potential_barrier_gain, false)?;
+            check(&format!("{name}.potential_relu_gain"), b.potential_relu_gain, false)?;
+            check(&format!("{name}.relu_sharpness"), b.relu_sharpness, false)?;
+            check(&format!("{name}.relu_shift"), b.relu_shift, false)?;
+            check(&format!("{name}.margin"), b.margin, false)?;
+            check(&format!("{name}.influence"), b.influence, true)?;
+            check(&format!("{name}.x_min"), b.x_min, true)?;
+        }
+        let s = &self.speed;
+        check("speed.desired_speed", s.desired_speed, true)?;
+        check("speed.eta_rate", s.eta_rate, false)?;
+        if !s.eta_shift.is_finite() {
+            return err("speed.eta_shift", "must be finite");
+        }
+        check("speed.goal_damping", s.goal_damping, false)?;
+        check("speed.base_damping", s.base_damping, false)?;
+        check("speed.goal_switch_sharpness", s.goal_switch_sharpness, false)?;
+        check("speed.goal_switch_radius", s.goal_switch_radius, false)?;
+        check("speed.boost_gain", s.boost_gain, false)?;
+        check("speed.boost_epsilon", s.boost_epsilon, true)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shipped_default_file_equals_default() {
+        let text = include_str!("../../assets/fabric_default.toml");
+        let parsed = FabricConfig::from_toml_str(text, "fabric_default.toml").unwrap();
+        assert_eq!(parsed, FabricConfig::default());
+        // and every field is spelled out in the file (no silent reliance on defaults)
+        let raw: Value = toml::from_str(text).unwrap();
+        let full = serde_json::to_value(FabricConfig::default()).unwrap();
+        fn same_keys(a: &Value, b: &Value, path: &str) {
+            if let (Value::Object(x), Value::Object(y)) = (a, b) {
+                for k in y.keys() {
+                    assert!(x.contains_key(k), "fabric_default.toml lacks {path}.{k}");
+                    same_keys(&x[k], &y[k], &format!("{path}.{k}"));
+                }
+            }
+        }
+        same_keys(&raw, &full, "");
+    }
+
+    #[test]
+    fn partial_files_merge_over_defaults_in_three_formats() {
+        let t = FabricConfig::from_toml_str("mode = \"unbent\"\n[obstacles]\nmetric_gain = 2.5\n", "a.toml").unwrap();
+        let y = FabricConfig::from_yaml_str("mode: unbent\nobstacles:\n  metric_gain: 2.5\n", "a.yaml").unwrap();
+        let j = FabricConfig::from_json_str(r#"{"mode": "unbent", "obstacles": {"metric_gain": 2.5}}"#, "a.json").unwrap();
+        assert_eq!(t, y);
+        assert_eq!(t, j);
+        assert_eq!(t.mode, Mode::Unbent);
+        assert_eq!(t.obstacles.metric_gain, 2.5);
+        // untouched fields of the same table keep the obstacle-specific defaults
+        assert_eq!(t.obstacles.influence, FabricConfig::default().obstacles.influence);
+        assert_eq!(t.joint_limits, FabricConfig::default().joint_limits);
+        assert_eq!(FabricConfig::from_yaml_str("", "empty.yaml").unwrap(), FabricConfig::default());
+        // round trip through to_json
+        let back = FabricConfig::from_json_str(&t.to_json(), "rt.json").unwrap();
+        assert_eq!(back, t);
+    }
+
+    #[test]
+    fn errors_name_file_and_field() {
+        let e = FabricConfig::from_toml_str("[obstacles]\nmetric_gian = 1.0\n", "cfg.toml").unwrap_err();
+        match e {
+            FabricError::Format { file, field, .. } => {
+                assert_eq!(file, "cfg.toml");
+                assert_eq!(field, "obstacles.metric_gian");
+            }
+            other => panic!("unexpected {other:?}"),
+        }
+        let e = FabricConfig::from_yaml_str("speed:\n  desired_speed: fast\n", "cfg.yaml").unwrap_err();
+        assert!(matches!(e, FabricError::Format { ref field, .. } if field == "speed.desired_speed"), "{e:?}");
+        let e = FabricConfig::from_json_str(r#"{"speed": {"desired_speed": -1.0}}"#, "cfg.json").unwrap_err();
+        assert!(matches!(e, FabricError::Format { ref field, ref file, .. } if field == "speed.desired_speed" && file == "cfg.json"));
+        let e = FabricConfig::from_json_str(r#"{"mode": "bendy"}"#, "m.json").unwrap_err();
+        assert!(matches!(e, FabricError::Format { ref field, .. } if field == "mode"));
+        let e = FabricConfig::from_json_str("[1, 2]", "arr.json").unwrap_err();
+        assert!(matches!(e, FabricError::Format { .. }));
+        let e = FabricConfig::from_toml_str("joint_attraction = 3", "x.toml").unwrap_err();
+        assert!(matches!(e, FabricError::Format { ref field, .. } if field == "joint_attraction"));
+        let e = FabricConfig::from_json_str(r#"{"joint_attraction": {"mass": 0.0}}"#, "z.json").unwrap_err();
+        assert!(matches!(e, FabricError::Format { ref field, .. } if field == "joint_attraction.mass"));
+        assert!(FabricConfig::from_toml_str("not toml = = 1", "bad.toml").is_err());
+    }
+}

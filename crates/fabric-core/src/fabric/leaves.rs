@@ -1,0 +1,70 @@
+//! Task maps of the 1-D distance leaves of the robot transform tree (GF VII-A2): the value x, its rate ẋ,
+//! the row Jacobian J = ∂x/∂q (n,) and the curvature J̇q̇, from the kinematics of sphere centres
+//! ([`TaskPoint`]: c, ċ = J_c q̇, J_c, J̇_c q̇).
+//!
+//! - Obstacle leaf, x = d(c) − r − margin with d the signed distance of the obstacle (gradient ∇d,
+//!   Hessian H, velocity v_o):
+//!   ```text
+//!   ẋ = ∇dᵀ (ċ − v_o),  J = ∇dᵀ J_c,  J̇q̇ = ∇dᵀ J̇_c q̇ + (ċ − v_o)ᵀ H (ċ − v_o).
+//!   ```
+//!   For a static obstacle this is the exact chain rule of x(q) = d(c(q)); for a moving one (translating
+//!   at constant v_o) it is d/dt of ẋ along the motion, so that ẍ = J q̈ + J̇q̇ still holds.
+//! - Self-collision leaf, x = ‖c_a − c_b‖ − r_a − r_b − margin, with u = c_a − c_b, n̂ = u/‖u‖:
+//!   ```text
+//!   ẋ = n̂ᵀ u̇,  J = n̂ᵀ (J_a − J_b),  J̇q̇ = n̂ᵀ (J̇_a q̇ − J̇_b q̇) + (‖u̇‖² − (n̂ᵀu̇)²) / ‖u‖.
+//!   ```
+//!   Coincident centres (‖u‖ < 1e-12) use n̂ = +z and drop the curvature term.
+//!
+//! Signs of J̇q̇ are checked against finite differences of J(q + t q̇) q̇ in `tests/fabric_leaves.rs`.
+
+use nalgebra::Vector3;
+
+use crate::robot::TaskPoint;
+use crate::scene::DistanceSample;
+
+/// Value, rate and curvature of a 1-D leaf; its row Jacobian is written into a caller buffer.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LeafState {
+    /// x (m).
+    pub x: f64,
+    /// ẋ (m/s).
+    pub xd: f64,
+    /// J̇q̇ (m/s²).
+    pub jdot_qdot: f64,
+}
+
+/// Obstacle leaf for a sphere of radius `radius` centred at the task point `c` and one distance `sample`
+/// of its centre; writes J (n,) into `jac`. See the module docs for the formulas.
+pub fn obstacle_leaf(c: &TaskPoint, radius: f64, margin: f64, sample: &DistanceSample, jac: &mut [f64]) -> LeafState {
+    let g = &sample.gradient;
+    let rel = c.xd - sample.velocity;
+    for (a, j) in jac.iter_mut().enumerate() {
+        let col = c.jac.column(a);
+        *j = g.x * col[0] + g.y * col[1] + g.z * col[2];
+    }
+    LeafState {
+        x: sample.distance - radius - margin,
+        xd: g.dot(&rel),
+        jdot_qdot: g.dot(&c.jdot_qdot) + rel.dot(&(sample.hessian * rel)),
+    }
+}
+
+/// Self-collision leaf between spheres (c_a, r_a) and (c_b, r_b); writes J (n,) into `jac`. See the module
+/// docs for the formulas.
+pub fn self_collision_leaf(a: &TaskPoint, ra: f64, b: &TaskPoint, rb: f64, margin: f64, jac: &mut [f64]) -> LeafState {
+    let u = a.x - b.x;
+    let ud = a.xd - b.xd;
+    let dist = u.norm();
+    let (n, curv) = if dist > 1e-12 {
+        let n = u / dist;
+        let along = n.dot(&ud);
+        (n, (ud.norm_squared() - along * along) / dist)
+    } else {
+        (Vector3::z(), 0.0)
+    };
+    for (k, j) in jac.iter_mut().enumerate() {
+        let (ca, cb) = (a.jac.column(k), b.jac.column(k));
+        *j = n.x * (ca[0] - cb[0]) + n.y * (ca[1] - cb[1]) + n.z * (ca[2] - cb[2]);
+    }
+    LeafState { x: dist - ra - rb - margin, xd: n.dot(&ud), jdot_qdot: n.dot(&(a.jdot_qdot - b.jdot_qdot)) + curv }
+}

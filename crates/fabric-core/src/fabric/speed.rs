@@ -1,0 +1,199 @@
+//! Speed control through damping regulation (GF Sec. V-A, App. E-B, eq. 40-46).
+//!
+//! The final acceleration is eq. 40,
+//!
+//! ```text
+//! q̈ = −M̃⁻¹ ∂ψ + π̃ + α_reg q̇,
+//! α_reg = α_ex^η − β_reg + α_boost                                   (eq. 44)
+//! α_ex^η = η α_ex^0 + (1 − η) α_ex^ψ
+//! β_reg = s_β(q) B + B̲ + max(0, α_ex^η − α_Le)
+//! s_β = ½ (tanh(−α_β (‖q − q_g‖ − r)) + 1)                          (eq. 45)
+//! η = ½ (tanh(−α_η (L_ex − L_ex,d) − α_shift) + 1)                   (eq. 46)
+//! α_boost = k η (1 − s_β) / (‖q̇‖ + ε)
+//! ```
+//!
+//! with the execution energy L_ex = ½‖q̇‖² (M_ex = I, ξ_ex = 0) and L_ex,d = ½ v_d². α_ex^0 and α_ex^ψ are
+//! the energization coefficients (eq. 7) of π̃ and of −M̃⁻¹∂ψ + π̃ with respect to L_ex.
+//!
+//! Since α_reg = min(α_ex^η, α_Le) − s_β B − B̲ + α_boost, the system is always damped with respect to the
+//! energized fabric (α_reg < α_Le when α_boost = 0), which is the stability condition of App. E-B.
+//!
+//! **q̇ = 0.** The coefficients divide by ‖q̇‖². Below [`SPEED_EPSILON`] they are set to 0: α_ex^0 → 0
+//! continuously for HD2 π̃; α_ex^ψ q̇ stays bounded by ‖M̃⁻¹∂ψ‖ + ‖π̃‖, so the term α q̇ → 0 either way. At
+//! rest the acceleration is −M̃⁻¹∂ψ: finite and nonzero away from the command (the potential starts the
+//! motion, as the paper notes for α_boost).
+
+use super::config::SpeedConfig;
+
+/// ‖q̇‖² below which the execution-energy coefficients are 0 (rad²/s²).
+pub const SPEED_EPSILON: f64 = 1e-12;
+
+/// Inputs of speed regulation, all in joint space (length n).
+#[derive(Clone, Copy, Debug)]
+pub struct SpeedInputs<'a> {
+    /// q̇ (rad/s).
+    pub qd: &'a [f64],
+    /// π̃ = −M̃⁻¹ f̃: the root geometry before energization (rad/s²).
+    pub pi: &'a [f64],
+    /// M̃⁻¹ ∂ψ: the acceleration of the forcing potential, with sign so that it enters as −M̃⁻¹∂ψ (rad/s²).
+    pub minv_grad: &'a [f64],
+    /// α_Le: energization coefficient of π̃ with respect to the fabric energy L̃_e (eq. 7; 1/s).
+    pub alpha_le: f64,
+    /// ‖q − q_g‖: distance to the command (rad), argument of s_β (eq. 45).
+    pub goal_distance: f64,
+}
+
+/// Every coefficient of the regulation, for diagnostics (all in 1/s unless stated).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SpeedTerms {
+    /// L_ex = ½‖q̇‖² (rad²/s²).
+    pub exec_energy: f64,
+    /// α_ex^0: energization of π̃ w.r.t. L_ex.
+    pub alpha_ex0: f64,
+    /// α_ex^ψ: energization of −M̃⁻¹∂ψ + π̃ w.r.t. L_ex.
+    pub alpha_expsi: f64,
+    /// η ∈ [0, 1] of eq. 46.
+    pub eta: f64,
+    /// α_ex^η = η α_ex^0 + (1 − η) α_ex^ψ.
+    pub alpha_ex_eta: f64,
+    /// s_β ∈ [0, 1] of eq. 45.
+    pub s_beta: f64,
+    /// β_reg (or, with speed control disabled, β = s_β B + B̲).
+    pub beta: f64,
+    /// α_boost.
+    pub alpha_boost: f64,
+    /// α_reg of eq. 44: the final coefficient of q̇ in eq. 40.
+    pub alpha_reg: f64,
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// s_β(d) = ½ (tanh(−α_β (d − r)) + 1) of eq. 45, for the distance d = ‖q − q_g‖.
+pub fn goal_switch(cfg: &SpeedConfig, goal_distance: f64) -> f64 {
+    0.5 * ((-cfg.goal_switch_sharpness * (goal_distance - cfg.goal_switch_radius)).tanh() + 1.0)
+}
+
+/// η of eq. 46 for the execution energy L_ex.
+pub fn eta(cfg: &SpeedConfig, exec_energy: f64) -> f64 {
+    let desired = 0.5 * cfg.desired_speed * cfg.desired_speed;
+    0.5 * ((-cfg.eta_rate * (exec_energy - desired) - cfg.eta_shift).tanh() + 1.0)
+}
+
+/// Compute the regulation coefficients of eq. 44-46 (see module docs). With `cfg.enabled == false` the
+/// result is the plain energized, forced and damped fabric: α_reg = α_Le − (s_β B + B̲).
+pub fn regulate(cfg: &SpeedConfig, inp: &SpeedInputs<'_>) -> SpeedTerms {
+    let v2 = dot(inp.qd, inp.qd);
+    let exec_energy = 0.5 * v2;
+    let s_beta = goal_switch(cfg, inp.goal_distance);
+    let damping = s_beta * cfg.goal_damping + cfg.base_damping;
+    if !cfg.enabled {
+        return SpeedTerms {
+            exec_energy,
+            s_beta,
+            beta: damping,
+            alpha_reg: inp.alpha_le - damping,
+            ..SpeedTerms::default()
+        };
+    }
+    let (alpha_ex0, alpha_expsi) = if v2 > SPEED_EPSILON {
+        let qd_pi = dot(inp.qd, inp.pi);
+        let qd_g = dot(inp.qd, inp.minv_grad);
+        (-qd_pi / v2, -(qd_pi - qd_g) / v2)
+    } else {
+        (0.0, 0.0)
+    };
+    let eta = eta(cfg, exec_energy);
+    let alpha_ex_eta = eta * alpha_ex0 + (1.0 - eta) * alpha_expsi;
+    let beta = damping + (alpha_ex_eta - inp.alpha_le).max(0.0);
+    let alpha_boost = cfg.boost_gain * eta * (1.0 - s_beta) / (v2.sqrt() + cfg.boost_epsilon);
+    SpeedTerms {
+        exec_energy,
+        alpha_ex0,
+        alpha_expsi,
+        eta,
+        alpha_ex_eta,
+        s_beta,
+        beta,
+        alpha_boost,
+        alpha_reg: alpha_ex_eta - beta + alpha_boost,
+    }
+}
+
+/// Eq. 40: qdd = −M̃⁻¹∂ψ + π̃ + α_reg q̇ (all slices of length n).
+pub fn regulated_acceleration(minv_grad: &[f64], pi: &[f64], alpha_reg: f64, qd: &[f64], qdd: &mut [f64]) {
+    for i in 0..qdd.len() {
+        qdd[i] = -minv_grad[i] + pi[i] + alpha_reg * qd[i];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg() -> SpeedConfig {
+        SpeedConfig { boost_gain: 2.0, ..SpeedConfig::default() }
+    }
+
+    #[test]
+    fn at_rest_the_potential_drives_and_nothing_blows_up() {
+        let c = cfg();
+        let qd = [0.0; 3];
+        let pi = [0.0; 3];
+        let g = [0.5, -1.0, 0.2];
+        let t = regulate(&c, &SpeedInputs { qd: &qd, pi: &pi, minv_grad: &g, alpha_le: 0.0, goal_distance: 1.0 });
+        assert!(t.alpha_reg.is_finite() && t.alpha_boost.is_finite());
+        let mut a = [0.0; 3];
+        regulated_acceleration(&g, &pi, t.alpha_reg, &qd, &mut a);
+        assert_eq!(a, [-0.5, 1.0, -0.2]);
+        // tiny velocities: α q̇ stays bounded by ‖M⁻¹∂ψ‖ + ‖π‖ + boost gain
+        for e in [1e-3, 1e-6, 1e-9] {
+            let qd = [e, 0.3 * e, -e];
+            let t = regulate(&c, &SpeedInputs { qd: &qd, pi: &pi, minv_grad: &g, alpha_le: 0.0, goal_distance: 1.0 });
+            let n = dot(&qd, &qd).sqrt();
+            assert!((t.alpha_reg * n).abs() <= 1.2 + 2.0 + 1e-9, "{}", t.alpha_reg * n);
+        }
+    }
+
+    #[test]
+    fn closed_forms_of_the_coefficients() {
+        let c = cfg();
+        let qd = [1.0, 0.5];
+        let pi = [0.2, -0.4];
+        let g = [1.0, 1.0];
+        let t = regulate(&c, &SpeedInputs { qd: &qd, pi: &pi, minv_grad: &g, alpha_le: -0.1, goal_distance: 0.2 });
+        let v2 = 1.25;
+        assert!((t.alpha_ex0 - 0.0 / v2).abs() < 1e-15); // q̇ᵀπ = 0.2 − 0.2 = 0
+        assert!((t.alpha_expsi - 1.5 / v2).abs() < 1e-15);
+        let eta = 0.5 * ((-c.eta_rate * (0.625 - 0.72)).tanh() + 1.0);
+        assert!((t.eta - eta).abs() < 1e-15);
+        let sb = 0.5 * ((-10.0f64 * (0.2 - 0.3)).tanh() + 1.0);
+        assert!((t.s_beta - sb).abs() < 1e-15);
+        let ex = eta * 0.0 + (1.0 - eta) * 1.5 / v2;
+        assert!((t.beta - (sb * 8.0 + 0.5 + (ex + 0.1).max(0.0))).abs() < 1e-14);
+        assert!(t.alpha_reg < -0.1 + t.alpha_boost, "damped w.r.t. the energized fabric");
+        // the execution energy is conserved by the η = 1 energized geometry: q̇ᵀ(π + α_ex^0 q̇) = 0
+        let mut a = [0.0; 2];
+        regulated_acceleration(&[0.0, 0.0], &pi, t.alpha_ex0, &qd, &mut a);
+        assert!(dot(&qd, &a).abs() < 1e-15);
+    }
+
+    #[test]
+    fn eta_switches_around_desired_speed() {
+        let c = SpeedConfig::default();
+        let d = 0.5 * c.desired_speed * c.desired_speed;
+        assert!((eta(&c, d) - 0.5).abs() < 1e-12);
+        assert!(eta(&c, 0.0) > 0.99);
+        assert!(eta(&c, d + 1.0) < 1e-6);
+        assert!(goal_switch(&c, 0.0) > 0.9 && goal_switch(&c, 2.0) < 1e-6);
+    }
+
+    #[test]
+    fn disabled_is_plain_damped_energization() {
+        let c = SpeedConfig { enabled: false, ..SpeedConfig::default() };
+        let t = regulate(&c, &SpeedInputs { qd: &[1.0], pi: &[3.0], minv_grad: &[0.0], alpha_le: -3.0, goal_distance: 5.0 });
+        assert!((t.alpha_reg - (-3.0 - t.beta)).abs() < 1e-15);
+        assert!((t.beta - (t.s_beta * c.goal_damping + c.base_damping)).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,277 @@
+//! Recursive forward kinematics, link velocities and velocity-product ("bias") accelerations, and the
+//! task-space quantities (x, ẋ = J q̇, J, J̇ q̇) of points and directions fixed on links.
+//!
+//! These are the ingredients of the pullback of a fabric component through a task map x = φ(q)
+//! (GF eq. 11–12 and 16): `M_q = JᵀMJ`, `f_q = Jᵀ(f + M J̇q̇)`. All vectors are in the world frame, which
+//! is the base link frame. `J̇q̇` is `d/dt (J(q + t q̇)) q̇` at t = 0, i.e. the task acceleration ẍ for q̈ = 0.
+//!
+//! Recursion (parent p, joint of unit world axis a, position θ and rate θ̇, child c), with ω angular
+//! velocity, v origin velocity, α and a_b the bias angular and linear accelerations (q̈ = 0):
+//! * revolute: ω_c = ω_p + a θ̇, α_c = α_p + ω_p × (a θ̇);
+//! * prismatic: ω_c = ω_p, α_c = α_p, and the joint origin gains a θ̇ in velocity and 2 ω_p × (a θ̇)
+//!   (Coriolis) in acceleration;
+//! * a point rigidly attached at offset r from a moving origin: v = v_o + ω × r,
+//!   a_b = a_b,o + α × r + ω × (ω × r).
+//!
+//! No function here allocates once the workspace exists.
+
+use nalgebra::{Isometry3, Matrix3, Matrix3xX, Vector3};
+
+use super::model::{Motion, Robot};
+use crate::error::{check_finite, check_len, FabricError, Result};
+
+/// Kinematic quantities of one task point or one task axis, in the world (base) frame:
+/// `x` (m, or unitless for an axis), `xd = J q̇`, `jac = ∂x/∂q` (3 × dof), `jdot_qdot = J̇ q̇`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TaskPoint {
+    /// Position (m) of the point, or the world direction of the axis.
+    pub x: Vector3<f64>,
+    /// Velocity ẋ = J q̇ (m/s, or 1/s for an axis).
+    pub xd: Vector3<f64>,
+    /// Jacobian J = ∂x/∂q, shape 3 × dof (columns in q order).
+    pub jac: Matrix3xX<f64>,
+    /// Velocity-product term J̇ q̇ (m/s², or 1/s² for an axis).
+    pub jdot_qdot: Vector3<f64>,
+}
+
+impl TaskPoint {
+    /// A zeroed task point for a robot with `dof` coordinates.
+    pub fn new(dof: usize) -> Self {
+        TaskPoint { x: Vector3::zeros(), xd: Vector3::zeros(), jac: Matrix3xX::zeros(dof), jdot_qdot: Vector3::zeros() }
+    }
+
+    /// Zero the Jacobian, resizing it to 3 × dof first if needed (allocates only then).
+    fn reset_jacobian(&mut self, dof: usize) {
+        if self.jac.ncols() == dof {
+            self.jac.fill(0.0);
+        } else {
+            self.jac = Matrix3xX::zeros(dof);
+        }
+    }
+}
+
+/// Per-thread scratch for one robot: every link's pose and motion after [`Robot::update`].
+/// Create it once with [`KinematicsWorkspace::new`]; it is reused without allocation.
+#[derive(Clone, Debug)]
+pub struct KinematicsWorkspace {
+    /// World pose of each link.
+    pose: Vec<Isometry3<f64>>,
+    /// World rotation matrix of each link (same as `pose`, cached for fast point transforms).
+    rot: Vec<Matrix3<f64>>,
+    /// Angular velocity ω (rad/s) of each link.
+    omega: Vec<Vector3<f64>>,
+    /// Velocity (m/s) of each link origin.
+    vel: Vec<Vector3<f64>>,
+    /// Bias angular acceleration α_b (rad/s², q̈ = 0) of each link.
+    alpha: Vec<Vector3<f64>>,
+    /// Bias linear acceleration a_b (m/s², q̈ = 0) of each link origin.
+    acc: Vec<Vector3<f64>>,
+    /// `scale · a`: mimic-scaled world axis of the joint above each link (zero for fixed joints).
+    jaxis: Vec<Vector3<f64>>,
+    /// A world point on the axis of the joint above each link (its frame origin).
+    pivot: Vec<Vector3<f64>>,
+}
+
+impl KinematicsWorkspace {
+    /// Scratch sized for `robot` (one entry per link).
+    pub fn new(robot: &Robot) -> Self {
+        let n = robot.link_names.len();
+        KinematicsWorkspace {
+            pose: vec![Isometry3::identity(); n],
+            rot: vec![Matrix3::identity(); n],
+            omega: vec![Vector3::zeros(); n],
+            vel: vec![Vector3::zeros(); n],
+            alpha: vec![Vector3::zeros(); n],
+            acc: vec![Vector3::zeros(); n],
+            jaxis: vec![Vector3::zeros(); n],
+            pivot: vec![Vector3::zeros(); n],
+        }
+    }
+}
+
+/// Add `col` to column `c` of a column-major 3 × dof matrix stored in `jac`.
+#[inline]
+fn add_column(jac: &mut [f64], c: usize, col: &Vector3<f64>) {
+    if let Some(dst) = jac.get_mut(3 * c..3 * c + 3) {
+        dst[0] += col.x;
+        dst[1] += col.y;
+        dst[2] += col.z;
+    }
+}
+
+impl Robot {
+    fn check_state(&self, q: &[f64], qd: Option<&[f64]>, ws: &KinematicsWorkspace) -> Result<()> {
+        check_len("q", q.len(), self.dof())?;
+        check_finite("q", q)?;
+        if let Some(qd) = qd {
+            check_len("qd", qd.len(), self.dof())?;
+            check_finite("qd", qd)?;
+        }
+        if ws.pose.len() != self.link_names.len() {
+            return Err(FabricError::Shape {
+                what: "kinematics workspace (links)".into(),
+                expected: format!("({},)", self.link_names.len()),
+                got: format!("({},)", ws.pose.len()),
+            });
+        }
+        Ok(())
+    }
+
+    /// Forward kinematics, link velocities and bias accelerations for q (dof,) in rad or m and q̇ (dof,)
+    /// in rad/s or m/s. Errors: `Shape` (wrong lengths, or a workspace of another robot), `NonFinite`.
+    pub fn update(&self, q: &[f64], qd: &[f64], ws: &mut KinematicsWorkspace) -> Result<()> {
+        self.check_state(q, Some(qd), ws)?;
+        self.propagate::<true>(q, qd, ws);
+        Ok(())
+    }
+
+    /// Forward kinematics only (q̇ = 0: velocities and bias accelerations are set to zero). Errors as
+    /// [`Robot::update`].
+    pub fn update_positions(&self, q: &[f64], ws: &mut KinematicsWorkspace) -> Result<()> {
+        self.check_state(q, None, ws)?;
+        self.propagate::<false>(q, q, ws);
+        Ok(())
+    }
+
+    fn propagate<const VEL: bool>(&self, q: &[f64], qd: &[f64], ws: &mut KinematicsWorkspace) {
+        for (i, joint) in self.joints.iter().enumerate() {
+            let Some(j) = joint else {
+                ws.pose[i] = Isometry3::identity();
+                ws.rot[i] = Matrix3::identity();
+                ws.omega[i] = Vector3::zeros();
+                ws.vel[i] = Vector3::zeros();
+                ws.alpha[i] = Vector3::zeros();
+                ws.acc[i] = Vector3::zeros();
+                continue;
+            };
+            let p = j.parent;
+            let parent = ws.pose[p];
+            // Joint frame after the motion; its origin lies on the joint axis.
+            let frame = parent * j.moved_frame(j.position(q));
+            let child = match &j.post {
+                Some(post) => frame * post,
+                None => frame,
+            };
+            let axis = match j.motion {
+                Motion::Fixed => Vector3::zeros(),
+                // The rotation about a (revolute) or the translation (prismatic) leaves a unchanged.
+                Motion::Revolute(a) | Motion::Prismatic(a) => frame.rotation * a.into_inner(),
+            };
+            ws.pose[i] = child;
+            ws.rot[i] = *child.rotation.to_rotation_matrix().matrix();
+            ws.jaxis[i] = axis * j.scale;
+            ws.pivot[i] = frame.translation.vector;
+            if !VEL {
+                ws.omega[i] = Vector3::zeros();
+                ws.vel[i] = Vector3::zeros();
+                ws.alpha[i] = Vector3::zeros();
+                ws.acc[i] = Vector3::zeros();
+                continue;
+            }
+            let rate = axis * j.velocity(qd);
+            let (wp, ap) = (ws.omega[p], ws.alpha[p]);
+            // Joint-frame origin as a point of the parent body...
+            let r = frame.translation.vector - parent.translation.vector;
+            let mut v = ws.vel[p] + wp.cross(&r);
+            let mut acc = ws.acc[p] + ap.cross(&r) + wp.cross(&wp.cross(&r));
+            let (mut w, mut al) = (wp, ap);
+            match j.motion {
+                Motion::Revolute(_) => {
+                    w += rate;
+                    al += wp.cross(&rate);
+                }
+                Motion::Prismatic(_) => {
+                    // ... plus its sliding along the axis and the Coriolis term.
+                    v += rate;
+                    acc += 2.0 * wp.cross(&rate);
+                }
+                Motion::Fixed => {}
+            }
+            if j.post.is_some() {
+                // Child origin as a point of the child body.
+                let s = child.translation.vector - frame.translation.vector;
+                v += w.cross(&s);
+                acc += al.cross(&s) + w.cross(&w.cross(&s));
+            }
+            ws.omega[i] = w;
+            ws.vel[i] = v;
+            ws.alpha[i] = al;
+            ws.acc[i] = acc;
+        }
+    }
+
+    /// World pose of `link` after the last update (world = base link frame).
+    ///
+    /// # Panics
+    /// When `link` is not a valid link index (use [`Robot::link_index`]) or `ws` belongs to another robot.
+    pub fn link_pose<'a>(&self, ws: &'a KinematicsWorkspace, link: usize) -> &'a Isometry3<f64> {
+        &ws.pose[link]
+    }
+
+    /// Angular velocity ω (rad/s) and origin velocity (m/s) of `link`, world frame.
+    ///
+    /// # Panics
+    /// As [`Robot::link_pose`].
+    pub fn link_velocity(&self, ws: &KinematicsWorkspace, link: usize) -> (Vector3<f64>, Vector3<f64>) {
+        (ws.omega[link], ws.vel[link])
+    }
+
+    /// A point fixed on `link` at `local` (link frame, m): x = T_link · local; J column j is
+    /// `a_j × (x − o_j)` for a revolute joint and `a_j` for a prismatic one (a_j scaled by the mimic
+    /// multiplier), and `J̇q̇ = a_b + α_b × r + ω × (ω × r)` with r = x − o_link.
+    ///
+    /// # Panics
+    /// As [`Robot::link_pose`].
+    pub fn point(&self, ws: &KinematicsWorkspace, link: usize, local: &Vector3<f64>, out: &mut TaskPoint) {
+        let r = ws.rot[link] * local;
+        let x = ws.pose[link].translation.vector + r;
+        let w = ws.omega[link];
+        out.x = x;
+        out.xd = ws.vel[link] + w.cross(&r);
+        out.jdot_qdot = ws.acc[link] + ws.alpha[link].cross(&r) + w.cross(&w.cross(&r));
+        out.reset_jacobian(self.dof());
+        let jac = out.jac.as_mut_slice();
+        for e in &self.chains[link] {
+            let a = ws.jaxis[e.link];
+            let col = if e.revolute { a.cross(&(x - ws.pivot[e.link])) } else { a };
+            add_column(jac, e.coord, &col);
+        }
+    }
+
+    /// A direction fixed on `link`: x = R_link · local_axis (unitless); J column j is `a_j × x` for a
+    /// revolute joint and 0 for a prismatic one, and `J̇q̇ = α_b × x + ω × (ω × x)`.
+    ///
+    /// # Panics
+    /// As [`Robot::link_pose`].
+    pub fn axis(&self, ws: &KinematicsWorkspace, link: usize, local_axis: &Vector3<f64>, out: &mut TaskPoint) {
+        let u = ws.rot[link] * local_axis;
+        let w = ws.omega[link];
+        out.x = u;
+        out.xd = w.cross(&u);
+        out.jdot_qdot = ws.alpha[link].cross(&u) + w.cross(&w.cross(&u));
+        out.reset_jacobian(self.dof());
+        let jac = out.jac.as_mut_slice();
+        for e in self.chains[link].iter().filter(|e| e.revolute) {
+            add_column(jac, e.coord, &ws.jaxis[e.link].cross(&u));
+        }
+    }
+
+    /// Centre of collision sphere `i` (world, m) and its kinematics: [`Robot::point`] on the sphere's
+    /// link at its centre.
+    ///
+    /// # Panics
+    /// When `i >= spheres().len()`, or as [`Robot::link_pose`].
+    pub fn sphere(&self, ws: &KinematicsWorkspace, i: usize, out: &mut TaskPoint) {
+        let s = &self.spheres[i];
+        self.point(ws, s.link, &s.center, out);
+    }
+
+    /// Centre of collision sphere `i` in the world frame (m), without derivatives.
+    ///
+    /// # Panics
+    /// As [`Robot::sphere`].
+    pub fn sphere_center(&self, ws: &KinematicsWorkspace, i: usize) -> Vector3<f64> {
+        let s = &self.spheres[i];
+        ws.pose[s.link].translation.vector + ws.rot[s.link] * s.center
+    }
+}

@@ -1,0 +1,253 @@
+//! The immutable robot model: a kinematic tree rooted at the base link, its active coordinates q, their
+//! limits, the collision spheres and the self-collision pairs.
+//!
+//! Links are stored in depth-first pre-order from the base link (index 0), so a link's parent always has a
+//! smaller index. Each non-base link `i` owns the joint that connects it to its parent (`joints[i]`).
+//! When the chosen base link is not the URDF root, the joints on the path from the root to the base are
+//! reversed (see [`TreeJoint::post`]), so every link of the URDF still gets a pose.
+
+use std::path::PathBuf;
+
+use nalgebra::{Isometry3, Unit, UnitQuaternion, Vector3};
+
+use super::geometry::LinkGeometry;
+use super::spheres::CollisionSphere;
+use crate::error::{FabricError, Result};
+
+/// Options for building a [`Robot`] from a URDF. `Default` leaves every choice to the model.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RobotOptions {
+    /// Link whose frame is the world frame of the model. Default: the URDF root link.
+    pub base_link: Option<String>,
+    /// End-effector link. Default: walking from the base, follow the only child, or the only child
+    /// subtree that holds a movable joint, and stop at a leaf or at a branching point (for the Panda with
+    /// its two finger joints, and for the MotionBenchMaker Panda: `panda_hand`). When `active_joints` is
+    /// given, the walk starts at the child link of the deepest active joint and only follows single fixed
+    /// children.
+    pub ee_link: Option<String>,
+    /// Active joints, in the order of q. Default: every revolute, continuous or prismatic joint that is not
+    /// a mimic joint, on the path from the base link to the end-effector link, in chain order.
+    pub active_joints: Option<Vec<String>>,
+    /// Directory that resolves `package://pkg/...` and relative mesh paths (default: the directory of the
+    /// URDF file, none for a URDF string).
+    pub mesh_dir: Option<PathBuf>,
+    /// Positions (rad or m) of inactive movable joints. Joints not listed are locked at 0 clamped into
+    /// their limits. Naming an active, fixed or mimic joint is an error.
+    pub locked_positions: Vec<(String, f64)>,
+}
+
+/// Motion of a joint about or along its unit axis, expressed in the joint frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Motion {
+    /// No motion (fixed joints).
+    Fixed,
+    /// Rotation by the joint position (rad) about the unit axis (right-hand rule).
+    Revolute(Unit<Vector3<f64>>),
+    /// Translation by the joint position (m) along the unit axis.
+    Prismatic(Unit<Vector3<f64>>),
+}
+
+/// One edge of the kinematic tree: `T_child = T_parent · pre · motion(θ) · post`, with the joint
+/// position `θ = scale · q[coord] + offset`. Joints not driven by q (locked joints and mimics of locked
+/// joints) are stored as `Motion::Fixed` with their constant motion folded into `pre`.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct TreeJoint {
+    /// URDF joint name.
+    pub name: String,
+    /// Parent link index (always smaller than the child index).
+    pub parent: usize,
+    /// Parent link frame → joint frame (the URDF `<origin>`; identity for reversed joints).
+    pub pre: Isometry3<f64>,
+    /// Joint frame after the motion → child link frame: `Some(origin⁻¹)` for a joint reversed because the
+    /// base is not the URDF root, `None` otherwise.
+    pub post: Option<Isometry3<f64>>,
+    /// Motion type and axis (negated for reversed joints).
+    pub motion: Motion,
+    /// Active coordinate driving the joint (`None`: locked).
+    pub coord: Option<usize>,
+    /// Mimic multiplier (1 for a plain active joint).
+    pub scale: f64,
+    /// Constant position part: the mimic offset, or the locked position.
+    pub offset: f64,
+}
+
+impl TreeJoint {
+    /// Joint position θ (rad or m) for the coordinates q.
+    #[inline]
+    pub fn position(&self, q: &[f64]) -> f64 {
+        match self.coord {
+            Some(c) => self.scale * q[c] + self.offset,
+            None => self.offset,
+        }
+    }
+
+    /// Joint velocity θ̇ for the coordinate velocities q̇.
+    #[inline]
+    pub fn velocity(&self, qd: &[f64]) -> f64 {
+        match self.coord {
+            Some(c) => self.scale * qd[c],
+            None => 0.0,
+        }
+    }
+
+    /// The transform `pre · motion(θ)` (parent link frame → joint frame after the motion).
+    #[inline]
+    pub fn moved_frame(&self, theta: f64) -> Isometry3<f64> {
+        match self.motion {
+            Motion::Fixed => self.pre,
+            Motion::Revolute(axis) => {
+                self.pre * UnitQuaternion::from_axis_angle(&axis, theta)
+            }
+            Motion::Prismatic(axis) => {
+                let mut iso = self.pre;
+                iso.translation.vector += iso.rotation * (axis.into_inner() * theta);
+                iso
+            }
+        }
+    }
+}
+
+/// One driven joint on the path from the base to a link: the Jacobian of a point on the link receives
+/// `scale · a × (p − o)` (revolute) or `scale · a` (prismatic) in column `coord`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct ChainEntry {
+    /// Child link of the joint (indexes the per-joint arrays of the workspace).
+    pub link: usize,
+    /// Active coordinate (column of the Jacobian).
+    pub coord: usize,
+    /// Revolute (true) or prismatic (false).
+    pub revolute: bool,
+}
+
+/// An immutable robot model: kinematic tree, active coordinates and limits, collision spheres and
+/// self-collision pairs. `Send + Sync + Clone`; evaluate it with a
+/// [`KinematicsWorkspace`](super::KinematicsWorkspace) per thread.
+#[derive(Clone, Debug)]
+pub struct Robot {
+    pub(crate) name: String,
+    /// File name or `"<string>"`, for error messages.
+    pub(crate) source: String,
+    pub(crate) link_names: Vec<String>,
+    /// `joints[i]` connects link `i` to its parent; `None` only for the base link (index 0).
+    pub(crate) joints: Vec<Option<TreeJoint>>,
+    /// For each link, the joints driven by an active coordinate on the path from the base: the
+    /// Jacobian columns of a point on the link.
+    pub(crate) chains: Vec<Vec<ChainEntry>>,
+    /// Rigid body of each link: links joined by fixed or locked joints share a body index.
+    pub(crate) bodies: Vec<usize>,
+    pub(crate) ee: usize,
+    pub(crate) joint_names: Vec<String>,
+    pub(crate) lower: Vec<f64>,
+    pub(crate) upper: Vec<f64>,
+    pub(crate) velocity_limits: Vec<f64>,
+    pub(crate) spheres: Vec<CollisionSphere>,
+    /// Link pairs (i < j) whose collisions are disabled by an SRDF.
+    pub(crate) disabled: Vec<(usize, usize)>,
+    pub(crate) self_pairs: Vec<(usize, usize)>,
+    pub(crate) geometry: Vec<LinkGeometry>,
+}
+
+impl Robot {
+    /// Robot name (the URDF `<robot name>`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Where the model came from (the URDF file name, or the `source` given with a URDF string).
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+
+    /// Number of active coordinates (length of q).
+    pub fn dof(&self) -> usize {
+        self.joint_names.len()
+    }
+
+    /// Names of the active joints, in the order of q.
+    pub fn joint_names(&self) -> &[String] {
+        &self.joint_names
+    }
+
+    /// Index in q of an active joint. Errors with `MissingJoint` when the joint is not active.
+    pub fn joint_index(&self, name: &str) -> Result<usize> {
+        self.joint_names.iter().position(|n| n == name).ok_or_else(|| FabricError::MissingJoint {
+            robot: self.name.clone(),
+            joint: name.to_string(),
+        })
+    }
+
+    /// Lower position limits of the active joints, shape (dof,), rad or m. Continuous joints: -2π (a
+    /// full turn each way keeps every angle reachable without wrapping, and stays finite for the
+    /// joint-limit fabric terms).
+    pub fn lower(&self) -> &[f64] {
+        &self.lower
+    }
+
+    /// Upper position limits of the active joints, shape (dof,), rad or m. Continuous joints: +2π.
+    pub fn upper(&self) -> &[f64] {
+        &self.upper
+    }
+
+    /// Velocity limits of the active joints, shape (dof,), rad/s or m/s (the URDF `<limit velocity>`;
+    /// `f64::INFINITY` for a continuous joint without one).
+    pub fn velocity_limits(&self) -> &[f64] {
+        &self.velocity_limits
+    }
+
+    /// Every link name, indexed by link index (depth-first order from the base link, index 0).
+    pub fn link_names(&self) -> &[String] {
+        &self.link_names
+    }
+
+    /// Index of a link by name. Errors with `MissingLink`.
+    pub fn link_index(&self, name: &str) -> Result<usize> {
+        self.link_names.iter().position(|n| n == name).ok_or_else(|| FabricError::MissingLink {
+            robot: self.name.clone(),
+            link: name.to_string(),
+        })
+    }
+
+    /// Parent link index of `link` (`None` for the base link or an index out of range).
+    pub fn link_parent(&self, link: usize) -> Option<usize> {
+        self.joints.get(link).and_then(|j| j.as_ref()).map(|j| j.parent)
+    }
+
+    /// Index of the end-effector link.
+    pub fn ee_link(&self) -> usize {
+        self.ee
+    }
+
+    /// Index of the base link: always 0. Its frame is the world frame of every pose.
+    pub fn base_link(&self) -> usize {
+        0
+    }
+
+    /// Rigid-body label of each link, shape (L,): links joined by fixed joints or by locked joints
+    /// (inactive, not driven by q) share a label, the smallest link index of the body.
+    pub fn rigid_bodies(&self) -> &[usize] {
+        &self.bodies
+    }
+
+    /// Link pairs `(i, j)`, `i < j`, whose collisions were disabled by the last SRDF (see
+    /// [`Robot::set_self_collision_from_srdf`]).
+    pub fn disabled_collisions(&self) -> &[(usize, usize)] {
+        &self.disabled
+    }
+
+    /// Collision spheres (centres in their link frames, m).
+    pub fn spheres(&self) -> &[CollisionSphere] {
+        &self.spheres
+    }
+
+    /// Sphere index pairs `(i, j)`, `i < j`, checked for self-collision: spheres on different rigid
+    /// bodies that are not adjacent (joined by one movable joint) and whose links are not disabled by an
+    /// SRDF.
+    pub fn self_collision_pairs(&self) -> &[(usize, usize)] {
+        &self.self_pairs
+    }
+
+    /// URDF `<collision>` elements (every geometry, spheres included): for mesh-based validation.
+    pub fn collision_geometry(&self) -> &[LinkGeometry] {
+        &self.geometry
+    }
+}

@@ -1,0 +1,81 @@
+//! Self-collision pairs: SRDF `<disable_collisions link1= link2=>` (parsed with roxmltree) and the
+//! sphere pairs that remain after removing pairs on one rigid body, on adjacent bodies and on disabled
+//! link pairs.
+
+use super::model::Robot;
+use crate::error::{FabricError, Result};
+
+impl Robot {
+    /// Disable the self-collision link pairs listed by `<disable_collisions>` elements of an SRDF,
+    /// replacing any earlier SRDF, and recompute [`Robot::self_collision_pairs`]. `source` names the text
+    /// in errors. Errors: `Format` naming the file and the element (malformed XML, a root other than
+    /// `<robot>`, a missing `link1`/`link2` attribute, a link the robot does not have).
+    pub fn set_self_collision_from_srdf(&mut self, srdf_xml: &str, source: &str) -> Result<()> {
+        let err = |field: String, message: String| FabricError::Format { file: source.to_string(), field, message };
+        let doc = roxmltree::Document::parse(srdf_xml).map_err(|e| err("(xml)".into(), e.to_string()))?;
+        let root = doc.root_element();
+        if root.tag_name().name() != "robot" {
+            return Err(err("(root)".into(), format!("expected <robot>, found <{}>", root.tag_name().name())));
+        }
+        let mut disabled = Vec::new();
+        for (k, node) in root.children().filter(|n| n.has_tag_name("disable_collisions")).enumerate() {
+            let line = doc.text_pos_at(node.range().start).row;
+            let link = |attr: &str| -> Result<usize> {
+                let field = format!("disable_collisions[{k}] (line {line}).{attr}");
+                let name = node.attribute(attr).ok_or_else(|| err(field.clone(), "missing attribute".into()))?;
+                self.link_index(name).map_err(|e| err(field, e.to_string()))
+            };
+            let (a, b) = (link("link1")?, link("link2")?);
+            disabled.push((a.min(b), a.max(b)));
+        }
+        disabled.sort_unstable();
+        disabled.dedup();
+        self.disabled = disabled;
+        self.recompute_self_pairs();
+        Ok(())
+    }
+
+    /// Recompute the self-collision sphere pairs from the spheres, the rigid bodies, the adjacency of
+    /// bodies (one movable joint between them) and the disabled link pairs.
+    pub(crate) fn recompute_self_pairs(&mut self) {
+        let n = self.link_names.len();
+        // excluded[a * n + b]: spheres on links a and b are never checked against each other.
+        let mut excluded = vec![false; n * n];
+        let mut exclude = |a: usize, b: usize| {
+            excluded[a * n + b] = true;
+            excluded[b * n + a] = true;
+        };
+        for a in 0..n {
+            for b in a..n {
+                if self.bodies[a] == self.bodies[b] {
+                    exclude(a, b);
+                }
+            }
+        }
+        // Adjacent bodies: a driven joint joins the parent's body to the child's body.
+        for (child, joint) in self.joints.iter().enumerate() {
+            let Some(j) = joint else { continue };
+            if self.bodies[child] == self.bodies[j.parent] {
+                continue;
+            }
+            let (pb, cb) = (self.bodies[j.parent], self.bodies[child]);
+            for a in (0..n).filter(|&a| self.bodies[a] == pb) {
+                for b in (0..n).filter(|&b| self.bodies[b] == cb) {
+                    exclude(a, b);
+                }
+            }
+        }
+        for &(a, b) in &self.disabled {
+            exclude(a, b);
+        }
+        let mut pairs = Vec::new();
+        for (i, si) in self.spheres.iter().enumerate() {
+            for (j, sj) in self.spheres.iter().enumerate().skip(i + 1) {
+                if !excluded[si.link * n + sj.link] {
+                    pairs.push((i, j));
+                }
+            }
+        }
+        self.self_pairs = pairs;
+    }
+}

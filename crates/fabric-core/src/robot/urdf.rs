@@ -1,0 +1,526 @@
+//! URDF (urdf-rs) → [`Robot`]: tree validation, re-rooting at the base link, choice of the end-effector
+//! and the active joints, mimic and locked joints, limits, collision spheres and geometry.
+
+use std::collections::HashMap;
+use std::f64::consts::TAU;
+use std::path::Path;
+
+use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
+use urdf_rs::{Geometry, JointType, Pose};
+
+use super::geometry::{resolve_mesh_path, GeometryKind, LinkGeometry};
+use super::model::{ChainEntry, Motion, Robot, RobotOptions, TreeJoint};
+use super::spheres::CollisionSphere;
+use crate::error::{FabricError, Result};
+
+impl Robot {
+    /// Build a robot from URDF text. `source` names the text in errors (a file name or `"<string>"`).
+    /// Mesh paths resolve against `opts.mesh_dir` (or the current directory).
+    ///
+    /// Errors: `Urdf` (malformed XML, inconsistent tree, bad limits), `UnsupportedJoint` (planar,
+    /// floating, spherical), `MissingLink` (base or end-effector), `MissingJoint` (active or locked
+    /// joint), `Value` / `NonFinite` (bad options).
+    pub fn from_urdf_str(xml: &str, source: &str, opts: &RobotOptions) -> Result<Robot> {
+        build(xml, source, opts, opts.mesh_dir.as_deref())
+    }
+
+    /// Build a robot from a URDF file. Mesh paths resolve against `opts.mesh_dir`, or else the
+    /// directory of the file. Errors as [`Robot::from_urdf_str`], plus `Io` when the file cannot be read.
+    pub fn from_urdf_file(path: &Path, opts: &RobotOptions) -> Result<Robot> {
+        let source = path.display().to_string();
+        let xml = std::fs::read_to_string(path)
+            .map_err(|e| FabricError::Io { path: source.clone(), message: e.to_string() })?;
+        let dir = opts.mesh_dir.clone().or_else(|| path.parent().map(Path::to_path_buf));
+        build(&xml, &source, opts, dir.as_deref())
+    }
+}
+
+fn urdf_err(source: &str, message: impl Into<String>) -> FabricError {
+    FabricError::Urdf { file: source.to_string(), message: message.into() }
+}
+
+fn is_movable(kind: &JointType) -> bool {
+    matches!(kind, JointType::Revolute | JointType::Continuous | JointType::Prismatic)
+}
+
+/// URDF `<origin>` as an isometry (rpy is fixed-axis: R = Rz(yaw)·Ry(pitch)·Rx(roll)).
+fn pose_to_iso(pose: &Pose, what: &str, source: &str) -> Result<Isometry3<f64>> {
+    if pose.xyz.iter().chain(pose.rpy.iter()).any(|v| !v.is_finite()) {
+        return Err(urdf_err(source, format!("{what}: origin contains NaN or infinite values")));
+    }
+    let [r, p, y] = pose.rpy.0;
+    Ok(Isometry3::from_parts(
+        Translation3::new(pose.xyz[0], pose.xyz[1], pose.xyz[2]),
+        UnitQuaternion::from_euler_angles(r, p, y),
+    ))
+}
+
+/// The validated URDF graph: name lookups, parent joint of each link, child joints of each link.
+struct Graph<'a> {
+    urdf: &'a urdf_rs::Robot,
+    source: &'a str,
+    link_index: HashMap<&'a str, usize>,
+    joint_index: HashMap<&'a str, usize>,
+    /// (URDF joint, parent link) of each URDF link.
+    parent: Vec<Option<(usize, usize)>>,
+    /// (URDF joint, child link) of each URDF link, in document order.
+    children: Vec<Vec<(usize, usize)>>,
+}
+
+impl<'a> Graph<'a> {
+    fn new(urdf: &'a urdf_rs::Robot, source: &'a str) -> Result<Self> {
+        if urdf.links.is_empty() {
+            return Err(urdf_err(source, "the robot has no <link>"));
+        }
+        let mut link_index = HashMap::new();
+        for (i, l) in urdf.links.iter().enumerate() {
+            if link_index.insert(l.name.as_str(), i).is_some() {
+                return Err(urdf_err(source, format!("duplicate link name '{}'", l.name)));
+            }
+        }
+        let mut joint_index = HashMap::new();
+        let mut parent = vec![None; urdf.links.len()];
+        let mut children = vec![Vec::new(); urdf.links.len()];
+        for (j, joint) in urdf.joints.iter().enumerate() {
+            if joint_index.insert(joint.name.as_str(), j).is_some() {
+                return Err(urdf_err(source, format!("duplicate joint name '{}'", joint.name)));
+            }
+            let kind = match joint.joint_type {
+                JointType::Floating => Some("floating"),
+                JointType::Planar => Some("planar"),
+                JointType::Spherical => Some("spherical"),
+                _ => None,
+            };
+            if let Some(kind) = kind {
+                return Err(FabricError::UnsupportedJoint {
+                    file: source.to_string(),
+                    joint: joint.name.clone(),
+                    kind: kind.to_string(),
+                });
+            }
+            let find = |name: &str| {
+                link_index.get(name).copied().ok_or_else(|| {
+                    urdf_err(source, format!("joint '{}' names unknown link '{name}'", joint.name))
+                })
+            };
+            let (p, c) = (find(&joint.parent.link)?, find(&joint.child.link)?);
+            if p == c {
+                return Err(urdf_err(source, format!("joint '{}' connects link '{}' to itself", joint.name, joint.parent.link)));
+            }
+            if parent[c].is_some() {
+                return Err(urdf_err(source, format!("link '{}' is the child of several joints", joint.child.link)));
+            }
+            parent[c] = Some((j, p));
+            children[p].push((j, c));
+        }
+        let roots: Vec<usize> = (0..urdf.links.len()).filter(|&l| parent[l].is_none()).collect();
+        if roots.len() != 1 {
+            let names: Vec<&str> = roots.iter().map(|&l| urdf.links[l].name.as_str()).collect();
+            return Err(urdf_err(source, format!("expected one root link, found {}: {names:?}", roots.len())));
+        }
+        // Every link must hang below the root; a link that does not sits on a cycle.
+        let mut seen = vec![false; urdf.links.len()];
+        let mut stack = vec![roots[0]];
+        while let Some(l) = stack.pop() {
+            seen[l] = true;
+            stack.extend(children[l].iter().map(|&(_, c)| c));
+        }
+        if let Some(l) = seen.iter().position(|s| !s) {
+            return Err(urdf_err(source, format!("link '{}' is on a joint cycle", urdf.links[l].name)));
+        }
+        Ok(Graph { urdf, source, link_index, joint_index, parent, children })
+    }
+
+    fn root(&self) -> usize {
+        self.parent.iter().position(Option::is_none).unwrap_or(0)
+    }
+
+    fn joint(&self, name: &str, robot: &str) -> Result<usize> {
+        self.joint_index.get(name).copied().ok_or_else(|| FabricError::MissingJoint {
+            robot: robot.to_string(),
+            joint: name.to_string(),
+        })
+    }
+}
+
+/// The tree re-rooted at the base link, in depth-first pre-order.
+struct Rooted {
+    /// URDF link index of each tree link.
+    order: Vec<usize>,
+    /// For each tree link but the base: (URDF joint, parent tree index, reversed).
+    edge: Vec<Option<(usize, usize, bool)>>,
+    children: Vec<Vec<usize>>,
+}
+
+fn reroot(g: &Graph, base: usize) -> Rooted {
+    let n = g.urdf.links.len();
+    let mut tree_index = vec![usize::MAX; n];
+    let mut rooted = Rooted { order: Vec::with_capacity(n), edge: Vec::with_capacity(n), children: Vec::new() };
+    // (URDF link, incoming edge)
+    let mut stack: Vec<(usize, Option<(usize, usize, bool)>)> = vec![(base, None)];
+    while let Some((l, edge)) = stack.pop() {
+        tree_index[l] = rooted.order.len();
+        rooted.order.push(l);
+        rooted.edge.push(edge);
+        let me = tree_index[l];
+        let mut next: Vec<(usize, Option<(usize, usize, bool)>)> = Vec::new();
+        if let Some((j, p)) = g.parent[l] {
+            if tree_index[p] == usize::MAX {
+                next.push((p, Some((j, me, true))));
+            }
+        }
+        for &(j, c) in &g.children[l] {
+            if tree_index[c] == usize::MAX {
+                next.push((c, Some((j, me, false))));
+            }
+        }
+        stack.extend(next.into_iter().rev());
+    }
+    rooted.children = vec![Vec::new(); rooted.order.len()];
+    for (i, e) in rooted.edge.iter().enumerate() {
+        if let Some((_, p, _)) = e {
+            rooted.children[*p].push(i);
+        }
+    }
+    rooted
+}
+
+/// Default end-effector: follow the only child, or the only child subtree holding a movable joint;
+/// with explicit active joints, start below the deepest one and follow single fixed children only.
+fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usize {
+    let n = t.order.len();
+    let movable_edge = |i: usize| t.edge[i].is_some_and(|(j, _, _)| is_movable(&g.urdf.joints[j].joint_type));
+    let mut current = 0;
+    if let Some(active) = active {
+        let depth = |mut i: usize| {
+            let mut d = 0;
+            while let Some((_, p, _)) = t.edge[i] {
+                i = p;
+                d += 1;
+            }
+            d
+        };
+        let deepest = (0..n)
+            .filter(|&i| t.edge[i].is_some_and(|(j, _, _)| active.contains(&j)))
+            .max_by_key(|&i| depth(i));
+        current = deepest.unwrap_or(0);
+        while let [only] = t.children[current][..] {
+            if movable_edge(only) {
+                break;
+            }
+            current = only;
+        }
+        return current;
+    }
+    let mut has_movable = vec![false; n];
+    for i in (0..n).rev() {
+        has_movable[i] |= movable_edge(i);
+        if let Some((_, p, _)) = t.edge[i] {
+            has_movable[p] |= has_movable[i];
+        }
+    }
+    loop {
+        let kids = &t.children[current];
+        let next = match kids[..] {
+            [] => None,
+            [only] => Some(only),
+            _ => match kids.iter().filter(|&&c| has_movable[c]).collect::<Vec<_>>()[..] {
+                [&only] => Some(only),
+                _ => None,
+            },
+        };
+        match next {
+            Some(c) => current = c,
+            None => return current,
+        }
+    }
+}
+
+/// Active joints (URDF joint indices, in q order).
+fn choose_active(g: &Graph, t: &Rooted, ee: usize, opts: &RobotOptions, robot: &str) -> Result<Vec<usize>> {
+    let joints = &g.urdf.joints;
+    let Some(names) = &opts.active_joints else {
+        let mut chain = Vec::new();
+        let mut i = ee;
+        while let Some((j, p, _)) = t.edge[i] {
+            if is_movable(&joints[j].joint_type) && joints[j].mimic.is_none() {
+                chain.push(j);
+            }
+            i = p;
+        }
+        chain.reverse();
+        if chain.is_empty() {
+            return Err(FabricError::Value {
+                what: "active joints".into(),
+                message: format!(
+                    "no movable joint between base '{}' and end-effector '{}'",
+                    g.urdf.links[t.order[0]].name, g.urdf.links[t.order[ee]].name
+                ),
+            });
+        }
+        return Ok(chain);
+    };
+    if names.is_empty() {
+        return Err(FabricError::Value { what: "active joints".into(), message: "the list is empty".into() });
+    }
+    let mut out = Vec::with_capacity(names.len());
+    for name in names {
+        let j = g.joint(name, robot)?;
+        let bad = |m: &str| FabricError::Value { what: format!("active joint '{name}'"), message: m.into() };
+        if !is_movable(&joints[j].joint_type) {
+            return Err(bad("is a fixed joint"));
+        }
+        if let Some(m) = &joints[j].mimic {
+            return Err(bad(&format!("is a mimic of '{}' and follows it", m.joint)));
+        }
+        if out.contains(&j) {
+            return Err(bad("is listed twice"));
+        }
+        out.push(j);
+    }
+    Ok(out)
+}
+
+/// How each URDF joint is driven: (coordinate, scale, offset); position = scale·q[coord] + offset.
+fn drives(g: &Graph, active: &[usize], opts: &RobotOptions, robot: &str) -> Result<Vec<(Option<usize>, f64, f64)>> {
+    let joints = &g.urdf.joints;
+    let mut locked: HashMap<usize, f64> = HashMap::new();
+    for (name, value) in &opts.locked_positions {
+        let j = g.joint(name, robot)?;
+        let bad = |m: &str| FabricError::Value { what: format!("locked joint '{name}'"), message: m.into() };
+        if !is_movable(&joints[j].joint_type) {
+            return Err(bad("is a fixed joint"));
+        }
+        if joints[j].mimic.is_some() {
+            return Err(bad("is a mimic joint (lock its source joint)"));
+        }
+        if active.contains(&j) {
+            return Err(bad("is an active joint"));
+        }
+        if !value.is_finite() {
+            return Err(FabricError::NonFinite { what: format!("locked position of joint '{name}'") });
+        }
+        locked.insert(j, *value);
+    }
+    let own = |j: usize| -> (Option<usize>, f64, f64) {
+        if let Some(c) = active.iter().position(|&a| a == j) {
+            return (Some(c), 1.0, 0.0);
+        }
+        let joint = &joints[j];
+        let value = locked.get(&j).copied().unwrap_or_else(|| match joint.joint_type {
+            JointType::Continuous => 0.0,
+            _ if joint.limit.lower <= joint.limit.upper => 0.0_f64.clamp(joint.limit.lower, joint.limit.upper),
+            _ => 0.0,
+        });
+        (None, 1.0, value)
+    };
+    let mut out = Vec::with_capacity(joints.len());
+    for (j, joint) in joints.iter().enumerate() {
+        if !is_movable(&joint.joint_type) {
+            out.push((None, 1.0, 0.0));
+            continue;
+        }
+        // Follow the mimic chain to a non-mimic source, composing q_m = k·q_src + o.
+        let (mut k, mut o, mut cur) = (1.0, 0.0, j);
+        let mut steps = 0;
+        while let Some(m) = &joints[cur].mimic {
+            let src = g.joint_index.get(m.joint.as_str()).copied().ok_or_else(|| {
+                urdf_err(g.source, format!("joint '{}' mimics unknown joint '{}'", joints[cur].name, m.joint))
+            })?;
+            if !is_movable(&joints[src].joint_type) {
+                return Err(urdf_err(g.source, format!("joint '{}' mimics fixed joint '{}'", joints[cur].name, m.joint)));
+            }
+            let (mult, off) = (m.multiplier.unwrap_or(1.0), m.offset.unwrap_or(0.0));
+            if !mult.is_finite() || !off.is_finite() {
+                return Err(urdf_err(g.source, format!("joint '{}': mimic multiplier/offset not finite", joints[cur].name)));
+            }
+            // q_cur = mult·q_src + off, and q_j = k·q_cur + o.
+            o += k * off;
+            k *= mult;
+            cur = src;
+            steps += 1;
+            if steps > joints.len() {
+                return Err(urdf_err(g.source, format!("joint '{}': mimic cycle", joint.name)));
+            }
+        }
+        let (c, s, off) = own(cur);
+        out.push((c, k * s, k * off + o));
+    }
+    Ok(out)
+}
+
+/// Position and velocity limits of the active joints.
+fn limits(g: &Graph, active: &[usize]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+    let (mut lo, mut hi, mut vel) = (Vec::new(), Vec::new(), Vec::new());
+    for &j in active {
+        let joint = &g.urdf.joints[j];
+        let lim = &joint.limit;
+        let continuous = joint.joint_type == JointType::Continuous;
+        let (l, u) = if continuous { (-TAU, TAU) } else { (lim.lower, lim.upper) };
+        if !(l.is_finite() && u.is_finite() && l < u) {
+            return Err(urdf_err(
+                g.source,
+                format!("joint '{}': position limits [{l}, {u}] are not a finite range (missing <limit>?)", joint.name),
+            ));
+        }
+        let v = if lim.velocity.is_finite() && lim.velocity > 0.0 {
+            lim.velocity
+        } else if continuous && lim.velocity == 0.0 {
+            f64::INFINITY
+        } else {
+            return Err(urdf_err(g.source, format!("joint '{}': velocity limit {} is not > 0", joint.name, lim.velocity)));
+        };
+        lo.push(l);
+        hi.push(u);
+        vel.push(v);
+    }
+    Ok((lo, hi, vel))
+}
+
+/// Tree joints (indexed by child tree link) from the re-rooted graph and the joint drives.
+fn tree_joints(g: &Graph, t: &Rooted, drive: &[(Option<usize>, f64, f64)]) -> Result<Vec<Option<TreeJoint>>> {
+    let mut out = Vec::with_capacity(t.order.len());
+    for edge in &t.edge {
+        let Some((j, parent, reversed)) = *edge else {
+            out.push(None);
+            continue;
+        };
+        let joint = &g.urdf.joints[j];
+        let origin = pose_to_iso(&joint.origin, &format!("joint '{}'", joint.name), g.source)?;
+        let motion = if is_movable(&joint.joint_type) {
+            let a = Vector3::from(joint.axis.xyz.0);
+            let norm = a.norm();
+            if !(norm.is_finite() && norm > 1e-12) {
+                return Err(urdf_err(g.source, format!("joint '{}': axis {:?} has no direction", joint.name, joint.axis.xyz.0)));
+            }
+            let axis = Unit::new_unchecked(if reversed { -a / norm } else { a / norm });
+            match joint.joint_type {
+                JointType::Prismatic => Motion::Prismatic(axis),
+                _ => Motion::Revolute(axis),
+            }
+        } else {
+            Motion::Fixed
+        };
+        let (coord, scale, offset) = drive[j];
+        let (pre, post) = if reversed { (Isometry3::identity(), Some(origin.inverse())) } else { (origin, None) };
+        let mut tj = TreeJoint { name: joint.name.clone(), parent, pre, post, motion, coord, scale, offset };
+        if coord.is_none() && motion != Motion::Fixed {
+            // A locked joint is a fixed transform: fold its constant motion into `pre`.
+            let rigid = tj.moved_frame(offset);
+            tj.pre = tj.post.map_or(rigid, |post| rigid * post);
+            tj.post = None;
+            tj.motion = Motion::Fixed;
+        }
+        out.push(Some(tj));
+    }
+    Ok(out)
+}
+
+/// Collision spheres and collision geometry of every link.
+fn collisions(g: &Graph, t: &Rooted, mesh_dir: Option<&Path>) -> Result<(Vec<CollisionSphere>, Vec<LinkGeometry>)> {
+    let (mut spheres, mut geometry) = (Vec::new(), Vec::new());
+    for (ti, &ul) in t.order.iter().enumerate() {
+        let link = &g.urdf.links[ul];
+        for (k, c) in link.collision.iter().enumerate() {
+            let what = format!("link '{}' collision {k}", link.name);
+            let origin = pose_to_iso(&c.origin, &what, g.source)?;
+            let positive = |v: f64| v.is_finite() && v > 0.0;
+            let kind = match &c.geometry {
+                Geometry::Sphere { radius } if positive(*radius) => {
+                    spheres.push(CollisionSphere { link: ti, center: origin.translation.vector, radius: *radius });
+                    GeometryKind::Sphere { radius: *radius }
+                }
+                Geometry::Box { size } if size.iter().all(|&v| positive(v)) => {
+                    GeometryKind::Box { size: Vector3::from(size.0) }
+                }
+                Geometry::Cylinder { radius, length } if positive(*radius) && positive(*length) => {
+                    GeometryKind::Cylinder { radius: *radius, length: *length }
+                }
+                Geometry::Capsule { radius, length } if positive(*radius) && length.is_finite() && *length >= 0.0 => {
+                    GeometryKind::Capsule { radius: *radius, length: *length }
+                }
+                Geometry::Mesh { filename, scale } => {
+                    let scale = scale.map(|s| Vector3::from(s.0)).unwrap_or_else(|| Vector3::repeat(1.0));
+                    if scale.iter().any(|v| !v.is_finite()) {
+                        return Err(urdf_err(g.source, format!("{what}: mesh scale is not finite")));
+                    }
+                    let (path, exists) = resolve_mesh_path(filename, mesh_dir);
+                    GeometryKind::Mesh { path, scale, exists }
+                }
+                other => return Err(urdf_err(g.source, format!("{what}: sizes must be finite and > 0, got {other:?}"))),
+            };
+            geometry.push(LinkGeometry { link: ti, origin, kind });
+        }
+    }
+    Ok((spheres, geometry))
+}
+
+fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) -> Result<Robot> {
+    let urdf = urdf_rs::read_from_string(xml).map_err(|e| urdf_err(source, e.to_string()))?;
+    let g = Graph::new(&urdf, source)?;
+    let name = urdf.name.clone();
+    let find_link = |l: &Option<String>, default: usize| -> Result<usize> {
+        match l {
+            None => Ok(default),
+            Some(n) => g.link_index.get(n.as_str()).copied().ok_or_else(|| FabricError::MissingLink {
+                robot: name.clone(),
+                link: n.clone(),
+            }),
+        }
+    };
+    let base = find_link(&opts.base_link, g.root())?;
+    let t = reroot(&g, base);
+    let mut tree_of = vec![0; t.order.len()];
+    for (ti, &ul) in t.order.iter().enumerate() {
+        tree_of[ul] = ti;
+    }
+    let explicit_active = match &opts.active_joints {
+        Some(names) => Some(names.iter().map(|n| g.joint(n, &name)).collect::<Result<Vec<_>>>()?),
+        None => None,
+    };
+    let ee = match &opts.ee_link {
+        Some(_) => tree_of[find_link(&opts.ee_link, base)?],
+        None => default_ee(&g, &t, explicit_active.as_deref()),
+    };
+    let active = choose_active(&g, &t, ee, opts, &name)?;
+    let drive = drives(&g, &active, opts, &name)?;
+    let (lower, upper, velocity_limits) = limits(&g, &active)?;
+    let joints = tree_joints(&g, &t, &drive)?;
+    let (spheres, geometry) = collisions(&g, &t, mesh_dir)?;
+
+    let n = t.order.len();
+    let mut chains: Vec<Vec<ChainEntry>> = vec![Vec::new(); n];
+    let mut bodies = vec![0; n];
+    for i in 1..n {
+        if let Some(j) = &joints[i] {
+            chains[i] = chains[j.parent].clone();
+            match (j.coord, j.motion) {
+                (Some(coord), Motion::Revolute(_) | Motion::Prismatic(_)) => {
+                    let revolute = matches!(j.motion, Motion::Revolute(_));
+                    chains[i].push(ChainEntry { link: i, coord, revolute });
+                    bodies[i] = i;
+                }
+                _ => bodies[i] = bodies[j.parent],
+            }
+        }
+    }
+    let mut robot = Robot {
+        name,
+        source: source.to_string(),
+        link_names: t.order.iter().map(|&l| urdf.links[l].name.clone()).collect(),
+        joints,
+        chains,
+        bodies,
+        ee,
+        joint_names: active.iter().map(|&j| urdf.joints[j].name.clone()).collect(),
+        lower,
+        upper,
+        velocity_limits,
+        spheres,
+        disabled: Vec::new(),
+        self_pairs: Vec::new(),
+        geometry,
+    };
+    robot.recompute_self_pairs();
+    Ok(robot)
+}

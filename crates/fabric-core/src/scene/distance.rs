@@ -1,0 +1,330 @@
+//! Signed distance from a point to one obstacle, with its gradient and Hessian.
+//!
+//! These are the distance task maps `x = d(p(q))` of the collision-avoidance components (GF Sec. VII-A,
+//! App. F: the repulsion lives on `x = d(p)` for every robot sphere centre `p`); the fabric pulls them
+//! back through `J_d = ∇dᵀ J_p` and needs the curvature `ṗᵀ ∇²d ṗ` for `J̇q̇` (GF eq. 11-12, 16).
+//!
+//! Conventions: metres; `d > 0` outside, `d < 0` inside; `∇d = ∂d/∂p` (world frame, unit length);
+//! `∇²d = ∂²d/∂p²` (world frame, symmetric). With `c` the closest surface point, `r = |p - c|`,
+//! `u = (p - c)/r` and `s = ±1` the side:
+//!
+//! | nearest feature | `d` | `∇d` | `∇²d` |
+//! |---|---|---|---|
+//! | flat face (box face, cylinder cap, half-space, mesh face) | `s r` | face normal | `0` |
+//! | straight edge with unit direction `e` (box edge, capsule core, mesh edge) | `s r - ρ` | `s u` | `s (I - uuᵀ - eeᵀ)/r` |
+//! | point (sphere centre, box corner, capsule end, mesh vertex, cloud point) | `s r - ρ` | `s u` | `s (I - uuᵀ)/r` |
+//! | cylinder side (radius `R`, radial `e_r`, tangent `e_θ`, `ρ_xy` = distance to the axis) | `ρ_xy - R` | `e_r` | `e_θ e_θᵀ / ρ_xy` |
+//! | cylinder rim (circle): `a = ρ_xy - R`, `b = |z| - h` | `√(a²+b²)` | `u` | `t tᵀ/d + (a/d) e_θ e_θᵀ/ρ_xy` |
+//!
+//! For meshes the feature is decided from all triangles touching the nearest point `c`: edges between
+//! coplanar triangles and vertices inside flat regions count as faces, vertices on a straight crease as
+//! edges, so the Hessian is exact for any triangulation.
+//!
+//! (`ρ` = sphere/capsule/cloud radius, `t` = unit vector normal to `u` in the (e_r, z) plane.) These are
+//! exact, including inside spheres, capsules and cylinders (inside a box or a cylinder the nearest
+//! feature is a face, so `d` = minus the distance to the nearest face; the Hessian is 0 on flat faces).
+//!
+//! Singularities (exact ties or `r <= 1e-12` m: a point on the surface, at a sphere/capsule centre, on
+//! a cylinder axis, on the medial surface of a box): the result stays finite and deterministic and the
+//! gradient stays unit. Ties between box faces pick the lowest axis index (x, then y, then z) and the
+//! `+` side when the coordinate is 0; between a cylinder cap and side the cap wins; when `r <= 1e-12` the
+//! gradient is a fixed fallback direction (sphere: `+z`; capsule core: `+x`; capsule end: `±z`; cylinder
+//! axis: `e_r = +x`; mesh: the triangle normal) and the Hessian is set to 0.
+
+use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
+use parry3d_f64::partitioning::BvhNode;
+use parry3d_f64::query::{PointQuery, PointQueryWithLocation};
+use parry3d_f64::shape::{Segment, TriMesh, TrianglePointLocation};
+
+use super::shape::{PointCloud, Shape};
+use super::ObstacleId;
+
+/// Below this distance (m) to a point/edge feature the Hessian `1/r` is replaced by 0 and the gradient by
+/// a fixed fallback direction (see the module documentation).
+pub const SINGULAR_EPS: f64 = 1e-12;
+
+/// Signed distance from a point `p` (world) to one obstacle surface and its derivatives w.r.t. `p`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DistanceSample {
+    /// The obstacle.
+    pub obstacle: ObstacleId,
+    /// Signed distance (m): positive outside, negative inside.
+    pub distance: f64,
+    /// `∂d/∂p` (world frame, unit length).
+    pub gradient: Vector3<f64>,
+    /// `∂²d/∂p²` (world frame, 1/m, symmetric).
+    pub hessian: Matrix3<f64>,
+    /// Linear velocity of the obstacle (m/s, world): `ḋ = ∇dᵀ (ṗ - v)` for a moving obstacle.
+    pub velocity: Vector3<f64>,
+}
+
+/// Signed distance, gradient and Hessian of one shape at one point (world frame), without identity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceDistance {
+    /// Signed distance (m), positive outside.
+    pub distance: f64,
+    /// `∂d/∂p` (world, unit).
+    pub gradient: Vector3<f64>,
+    /// `∂²d/∂p²` (world, 1/m).
+    pub hessian: Matrix3<f64>,
+}
+
+/// Distance of world point `p` to `shape` placed at `pose`, when it is `<= max_distance`
+/// (`f64::INFINITY` for no limit); `None` otherwise. See the module documentation for formulas.
+pub fn point_distance(
+    shape: &Shape,
+    pose: &Isometry3<f64>,
+    p: &Vector3<f64>,
+    max_distance: f64,
+) -> Option<SurfaceDistance> {
+    let rot = pose.rotation.to_rotation_matrix().into_inner();
+    eval_world(shape, &rot, &pose.translation.vector, p, max_distance)
+}
+
+/// [`point_distance`] with the rotation matrix `rot` (obstacle to world) precomputed.
+pub(crate) fn eval_world(
+    shape: &Shape,
+    rot: &Matrix3<f64>,
+    trans: &Vector3<f64>,
+    p: &Vector3<f64>,
+    max_distance: f64,
+) -> Option<SurfaceDistance> {
+    let local = rot.tr_mul(&(p - trans));
+    let l = eval_local(shape, &local, max_distance)?;
+    if l.d.is_nan() || l.d > max_distance {
+        return None;
+    }
+    let hessian = if l.curved { rot * l.h * rot.transpose() } else { Matrix3::zeros() };
+    Some(SurfaceDistance { distance: l.d, gradient: rot * l.g, hessian })
+}
+
+/// Result in the obstacle frame. `curved == false` means the Hessian is exactly 0.
+#[derive(Clone, Copy, Debug)]
+struct Local {
+    d: f64,
+    g: Vector3<f64>,
+    h: Matrix3<f64>,
+    curved: bool,
+}
+
+fn flat(d: f64, g: Vector3<f64>) -> Local {
+    Local { d, g, h: Matrix3::zeros(), curved: false }
+}
+
+/// `d = s|v| - offset` about a point feature (`v = p - c`).
+fn about_point(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) -> Local {
+    let r = v.norm();
+    if r <= SINGULAR_EPS {
+        return flat(s * r - offset, fallback);
+    }
+    let u = v / r;
+    let h = (Matrix3::identity() - u * u.transpose()) * (s / r);
+    Local { d: s * r - offset, g: u * s, h, curved: true }
+}
+
+/// `d = s|v| - offset` about a straight line of unit direction `e` (`v = p - c ⟂ e`).
+fn about_line(v: &Vector3<f64>, e: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) -> Local {
+    let r = v.norm();
+    if r <= SINGULAR_EPS {
+        return flat(s * r - offset, fallback);
+    }
+    let u = v / r;
+    let h = (Matrix3::identity() - u * u.transpose() - e * e.transpose()) * (s / r);
+    Local { d: s * r - offset, g: u * s, h, curved: true }
+}
+
+/// Widen a search limit so that features at exactly `max` are not lost to strict comparisons.
+fn widen(max: f64) -> f64 {
+    max + 1e-9 * (1.0 + max.abs())
+}
+
+fn sign_of(v: f64) -> f64 {
+    if v >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+fn eval_local(shape: &Shape, p: &Vector3<f64>, max_distance: f64) -> Option<Local> {
+    match shape {
+        Shape::Sphere { radius } => Some(about_point(p, 1.0, *radius, Vector3::z())),
+        Shape::Cuboid { half_extents } => Some(cuboid(p, half_extents)),
+        Shape::Cylinder { half_height, radius } => Some(cylinder(p, *half_height, *radius)),
+        Shape::Capsule { half_height, radius } => Some(capsule(p, *half_height, *radius)),
+        Shape::HalfSpace => Some(flat(p.z, Vector3::z())),
+        Shape::TriMesh(m) => trimesh(m, p, max_distance),
+        Shape::PointCloud(pc) => point_cloud(pc, p, max_distance),
+    }
+}
+
+/// Box of half extents `h`: face (Hessian 0), edge or corner outside; nearest face inside.
+fn cuboid(p: &Vector3<f64>, h: &Vector3<f64>) -> Local {
+    let q = p.abs() - h;
+    let outside = q.iter().filter(|&&v| v > 0.0).count();
+    match outside {
+        0 | 1 => {
+            // Inside, on the surface, or in a face region: the face of largest excess (first on ties).
+            let mut i = 0;
+            for k in 1..3 {
+                if q[k] > q[i] {
+                    i = k;
+                }
+            }
+            let mut g = Vector3::zeros();
+            g[i] = sign_of(p[i]);
+            flat(q[i], g)
+        }
+        2 => {
+            let j = (0..3).find(|&k| q[k] <= 0.0).unwrap_or(0);
+            let c = Vector3::from_fn(|k, _| p[k].clamp(-h[k], h[k]));
+            let mut e = Vector3::zeros();
+            e[j] = 1.0;
+            about_line(&(p - c), &e, 1.0, 0.0, Vector3::z())
+        }
+        _ => {
+            let c = Vector3::from_fn(|k, _| p[k].clamp(-h[k], h[k]));
+            about_point(&(p - c), 1.0, 0.0, Vector3::z())
+        }
+    }
+}
+
+/// Cylinder of half height `hh` and radius `radius` along z: side, cap, rim (circle) or inside.
+fn cylinder(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
+    let rho = p.x.hypot(p.y);
+    let on_axis = rho <= SINGULAR_EPS;
+    let (er, eth) = if on_axis {
+        (Vector3::x(), Vector3::y())
+    } else {
+        (Vector3::new(p.x / rho, p.y / rho, 0.0), Vector3::new(-p.y / rho, p.x / rho, 0.0))
+    };
+    let a = rho - radius;
+    let sz = sign_of(p.z);
+    let b = p.z.abs() - hh;
+    let z = Vector3::z();
+    if a > 0.0 && b > 0.0 {
+        // Rim: distance to a circle. ∇²d = t tᵀ/d + (a/d) ∇²ρ with ∇²ρ = e_θ e_θᵀ/ρ.
+        let d = a.hypot(b);
+        let g = (er * a + z * (b * sz)) / d;
+        let t = (er * (-b) + z * (a * sz)) / d;
+        let h = t * t.transpose() / d + eth * eth.transpose() * (a / (d * rho));
+        Local { d, g, h, curved: true }
+    } else if a > 0.0 || (b <= 0.0 && a > b) {
+        // Side (outside, or inside nearer to the side than to a cap).
+        if on_axis {
+            flat(a, er)
+        } else {
+            Local { d: a, g: er, h: eth * eth.transpose() / rho, curved: true }
+        }
+    } else {
+        flat(b, z * sz)
+    }
+}
+
+/// Capsule: distance to the core segment minus the radius.
+fn capsule(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
+    let zc = p.z.clamp(-hh, hh);
+    let v = Vector3::new(p.x, p.y, p.z - zc);
+    if p.z.abs() < hh {
+        about_line(&v, &Vector3::z(), 1.0, radius, Vector3::x())
+    } else {
+        about_point(&v, 1.0, radius, Vector3::z() * sign_of(p.z))
+    }
+}
+
+/// Triangle mesh via parry's point projection with feature location; signed with pseudo-normals.
+fn trimesh(m: &TriMesh, p: &Vector3<f64>, max_distance: f64) -> Option<Local> {
+    let solid = m.pseudo_normals_if_oriented().is_some();
+    let pt = Point3::from(*p);
+    let limit = if solid && m.local_aabb().contains_local_point(&pt) {
+        f64::INFINITY
+    } else if max_distance >= 0.0 {
+        widen(max_distance)
+    } else {
+        return None;
+    };
+    let (proj, (tri, loc)) = m.project_local_point_and_get_location_with_max_dist(&pt, false, limit)?;
+    let s = if solid && proj.is_inside { -1.0 } else { 1.0 };
+    let v = p - proj.point.coords;
+    let normal = m.triangle(tri).normal().map(|n| n.into_inner()).unwrap_or_else(Vector3::z);
+    let r = v.norm();
+    if r <= SINGULAR_EPS {
+        return Some(flat(s * r, normal));
+    }
+    if matches!(loc, TrianglePointLocation::OnFace(..) | TrianglePointLocation::OnSolid) {
+        return Some(flat(s * r, v * (s / r)));
+    }
+    // Nearest point on an edge or a vertex: the Hessian depends on the directions along which the
+    // nearest point slides (face region: 2, edge region: 1, vertex region: 0), found from every triangle
+    // touching it, so that edges between coplanar triangles and vertices on straight creases are exact.
+    let u = v / r;
+    Some(match sliding_directions(m, &proj.point, &u) {
+        Slide::Plane => flat(s * r, u * s),
+        Slide::Line(e) => about_line(&v, &e, s, 0.0, normal),
+        Slide::None => about_point(&v, s, 0.0, normal),
+    })
+}
+
+/// Directions (orthogonal to `u`) along which the nearest point `c` of a mesh slides as `p` moves.
+enum Slide {
+    Plane,
+    Line(Vector3<f64>),
+    None,
+}
+
+/// Collect the sliding directions at `c` from the triangles touching it: a triangle whose normal is
+/// parallel to `u` contributes its plane, any other contributes its edges through `c` orthogonal to `u`.
+fn sliding_directions(m: &TriMesh, c: &Point3<f64>, u: &Vector3<f64>) -> Slide {
+    const PARALLEL: f64 = 1e-7;
+    let scale = 1.0 + c.coords.abs().max();
+    let touch = 1e-9 * scale;
+    let mut basis: Vec<Vector3<f64>> = Vec::with_capacity(2);
+    let add = |w: Vector3<f64>, basis: &mut Vec<Vector3<f64>>| {
+        let mut w = w - u * u.dot(&w);
+        for b in basis.iter() {
+            w -= b * b.dot(&w);
+        }
+        if let Some(w) = w.try_normalize(1e-6) {
+            basis.push(w);
+        }
+    };
+    let leaves = m.bvh().leaves(|node: &BvhNode| {
+        (0..3).all(|i| node.mins()[i] - touch <= c[i] && c[i] <= node.maxs()[i] + touch)
+    });
+    for t in leaves {
+        if basis.len() >= 2 {
+            break;
+        }
+        let tri = m.triangle(t);
+        if tri.distance_to_local_point(c, true) > touch {
+            continue;
+        }
+        match tri.normal() {
+            Some(n) if n.dot(u).abs() >= 1.0 - PARALLEL => {
+                add(tri.b - tri.a, &mut basis);
+                add(tri.c - tri.a, &mut basis);
+            }
+            _ => {
+                for (a, b) in [(tri.a, tri.b), (tri.b, tri.c), (tri.c, tri.a)] {
+                    let Some(e) = (b - a).try_normalize(0.0) else { continue };
+                    let through_c = Segment::new(a, b).distance_to_local_point(c, true) <= touch;
+                    if through_c && e.dot(u).abs() < PARALLEL {
+                        add(e, &mut basis);
+                    }
+                }
+            }
+        }
+    }
+    match basis.len() {
+        0 => Slide::None,
+        1 => Slide::Line(basis[0]),
+        _ => Slide::Plane,
+    }
+}
+
+/// Point cloud: nearest point (BVH) minus the cloud radius.
+fn point_cloud(pc: &PointCloud, p: &Vector3<f64>, max_distance: f64) -> Option<Local> {
+    let (i, _) = pc.nearest(&Point3::from(*p), widen(max_distance + pc.radius()))?;
+    let c = pc.points().get(i)?;
+    Some(about_point(&(p - c.coords), 1.0, pc.radius(), Vector3::z()))
+}

@@ -1,0 +1,438 @@
+//! MoveIt `PlanningScene` and `MotionPlanRequest` YAML, as written by MotionBenchMaker.
+//!
+//! Scene (`world.collision_objects[*]`):
+//! * `id` (string, required) becomes the obstacle name; an object with several shapes gives obstacles
+//!   named `id/0`, `id/1`, ... in order (primitives first, then meshes).
+//! * `primitives[k]` with `type` (`box`, `sphere`, `cylinder`, case-insensitive, or the
+//!   `shape_msgs/SolidPrimitive` constants 1, 2, 3) and `dimensions`: box = FULL sizes `[x, y, z]`,
+//!   sphere = `[radius]`, cylinder = `[height, radius]` (axis = local z). Cones (type 4) are rejected.
+//! * `primitive_poses[k]` (one per primitive): `position` `[x, y, z]` and `orientation` quaternion
+//!   `[x, y, z, w]` (lists, or mappings with keys x, y, z, w). Quaternions are normalised; a zero one is
+//!   an error.
+//! * The object's own `pose`, when present, composes on the left: `world_T_shape = pose · primitive_pose`.
+//! * `meshes[k]` (`vertices: [{x, y, z}]`, `triangles: [{vertex_indices: [a, b, c]}]`) with
+//!   `mesh_poses[k]` become [`Shape::TriMesh`] obstacles (solid when closed, see
+//!   [`crate::scene::meshio::build_mesh`]). `planes` are rejected. `operation`, when present, must be
+//!   ADD (`0` or `"add"`).
+//! * Everything else (robot state, allowed collision matrix, headers) is ignored.
+//!
+//! Request: `group_name`, `start_state.joint_state.{name, position}` and
+//! `goal_constraints[0].joint_constraints[*].{joint_name, position}`.
+//!
+//! Every error is [`FabricError::Format`] naming the file and the field path, e.g.
+//! `world.collision_objects[3].primitives[0].dimensions`.
+
+use std::path::Path;
+
+use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use serde_yaml::Value;
+
+use super::meshio::build_mesh;
+use super::scene::Scene;
+use super::shape::{Obstacle, Shape};
+use crate::error::{FabricError, Result};
+
+/// A joint-space planning problem: the group, the start joint state and the joint goal, as
+/// `(joint name, position)` pairs in file order (rad or m).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotionPlanRequest {
+    /// `group_name` (e.g. `panda_arm`).
+    pub group: String,
+    /// `start_state.joint_state` names and positions (may include joints outside the group, e.g. fingers).
+    pub start: Vec<(String, f64)>,
+    /// `goal_constraints[0].joint_constraints[*]` joint names and positions.
+    pub goal: Vec<(String, f64)>,
+}
+
+impl MotionPlanRequest {
+    /// Start positions in the order of `joint_names` (e.g. [`crate::robot::Robot::joint_names`]).
+    /// `Err(MissingJoint)` when one is absent from the request.
+    pub fn start_for(&self, joint_names: &[String]) -> Result<Vec<f64>> {
+        self.pick(&self.start, joint_names)
+    }
+
+    /// Goal positions in the order of `joint_names`. `Err(MissingJoint)` when one is absent.
+    pub fn goal_for(&self, joint_names: &[String]) -> Result<Vec<f64>> {
+        self.pick(&self.goal, joint_names)
+    }
+
+    fn pick(&self, list: &[(String, f64)], joint_names: &[String]) -> Result<Vec<f64>> {
+        joint_names
+            .iter()
+            .map(|n| {
+                list.iter().find(|(m, _)| m == n).map(|(_, v)| *v).ok_or_else(|| {
+                    FabricError::MissingJoint {
+                        robot: format!("motion plan request (group '{}')", self.group),
+                        joint: n.clone(),
+                    }
+                })
+            })
+            .collect()
+    }
+}
+
+/// Parse a `MotionPlanRequest` YAML string; `source` names it in errors.
+pub fn parse_request_str(yaml: &str, source: &str) -> Result<MotionPlanRequest> {
+    let doc = Doc { file: source };
+    let root = doc.parse(yaml)?;
+    let group = doc.string(doc.field(&root, "", "group_name")?, "group_name")?;
+
+    let js_path = "start_state.joint_state";
+    let start_state = doc.field(&root, "", "start_state")?;
+    let js = doc.field(start_state, "start_state", "joint_state")?;
+    let names_path = format!("{js_path}.name");
+    let names = doc.seq(doc.field(js, js_path, "name")?, &names_path)?;
+    let pos_path = format!("{js_path}.position");
+    let positions = doc.numbers(doc.field(js, js_path, "position")?, &pos_path)?;
+    if names.len() != positions.len() {
+        return Err(doc.err(
+            &pos_path,
+            format!("{} positions for {} joint names", positions.len(), names.len()),
+        ));
+    }
+    let mut start = Vec::with_capacity(names.len());
+    for (i, (n, v)) in names.iter().zip(positions).enumerate() {
+        let name = doc.string(n, &format!("{names_path}[{i}]"))?;
+        doc.no_duplicate(&start, &name, &format!("{names_path}[{i}]"))?;
+        start.push((name, v));
+    }
+
+    let goals = doc.seq(doc.field(&root, "", "goal_constraints")?, "goal_constraints")?;
+    let first = goals.first().ok_or_else(|| doc.err("goal_constraints", "is empty"))?;
+    let jc_path = "goal_constraints[0].joint_constraints";
+    let jcs = doc.seq(doc.field(first, "goal_constraints[0]", "joint_constraints")?, jc_path)?;
+    if jcs.is_empty() {
+        return Err(doc.err(jc_path, "is empty"));
+    }
+    let mut goal = Vec::with_capacity(jcs.len());
+    for (i, jc) in jcs.iter().enumerate() {
+        let path = format!("{jc_path}[{i}]");
+        let name = doc.string(doc.field(jc, &path, "joint_name")?, &format!("{path}.joint_name"))?;
+        doc.no_duplicate(&goal, &name, &format!("{path}.joint_name"))?;
+        let v = doc.number(doc.field(jc, &path, "position")?, &format!("{path}.position"))?;
+        goal.push((name, v));
+    }
+    Ok(MotionPlanRequest { group, start, goal })
+}
+
+/// Parse a `MotionPlanRequest` YAML file. `Err(Io)` when it cannot be read.
+pub fn parse_request_file(path: &Path) -> Result<MotionPlanRequest> {
+    parse_request_str(&read(path)?, &path.display().to_string())
+}
+
+/// Read a text file, mapping failures to `FabricError::Io`.
+pub(crate) fn read(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path)
+        .map_err(|e| FabricError::Io { path: path.display().to_string(), message: e.to_string() })
+}
+
+/// Parse a `PlanningScene` YAML string into a [`Scene`] (see the module documentation).
+pub(crate) fn scene_from_str(yaml: &str, source: &str) -> Result<Scene> {
+    let doc = Doc { file: source };
+    let root = doc.parse(yaml)?;
+    let world = doc.field(&root, "", "world")?;
+    let mut scene = Scene::new();
+    let Some(objects) = doc.opt(world, "collision_objects") else {
+        return Ok(scene);
+    };
+    let objects = doc.seq(objects, "world.collision_objects")?;
+    for (i, obj) in objects.iter().enumerate() {
+        let path = format!("world.collision_objects[{i}]");
+        let id = doc.string(doc.field(obj, &path, "id")?, &format!("{path}.id"))?;
+        if let Some(op) = doc.opt(obj, "operation") {
+            let is_add = match op {
+                Value::Number(n) => n.as_i64() == Some(0),
+                Value::String(s) => s.eq_ignore_ascii_case("add"),
+                _ => false,
+            };
+            if !is_add {
+                return Err(doc.err(&format!("{path}.operation"), "only ADD (0) is supported in a scene"));
+            }
+        }
+        let object_pose = match doc.opt(obj, "pose") {
+            Some(v) => doc.pose(v, &format!("{path}.pose"))?,
+            None => Isometry3::identity(),
+        };
+        if let Some(planes) = doc.opt(obj, "planes") {
+            if !doc.seq(planes, &format!("{path}.planes"))?.is_empty() {
+                return Err(doc.err(&format!("{path}.planes"), "plane shapes are not supported"));
+            }
+        }
+        let mut shapes: Vec<(Shape, Isometry3<f64>, String)> = Vec::new();
+        doc.primitives(obj, &path, &mut shapes)?;
+        doc.meshes(obj, &path, &mut shapes)?;
+        if shapes.is_empty() {
+            return Err(doc.err(&path, "collision object has no primitives or meshes"));
+        }
+        let several = shapes.len() > 1;
+        for (k, (shape, pose, field)) in shapes.into_iter().enumerate() {
+            let name = if several { format!("{id}/{k}") } else { id.clone() };
+            scene
+                .add(Obstacle::new(name, shape, object_pose * pose))
+                .map_err(|e| doc.err(&field, e.to_string()))?;
+        }
+    }
+    Ok(scene)
+}
+
+/// Error context: the file name. Field paths are built by the callers.
+struct Doc<'a> {
+    file: &'a str,
+}
+
+fn join(path: &str, key: &str) -> String {
+    if path.is_empty() {
+        key.to_string()
+    } else {
+        format!("{path}.{key}")
+    }
+}
+
+impl Doc<'_> {
+    fn err(&self, field: &str, message: impl Into<String>) -> FabricError {
+        FabricError::Format {
+            file: self.file.to_string(),
+            field: if field.is_empty() { "<root>".into() } else { field.to_string() },
+            message: message.into(),
+        }
+    }
+
+    fn parse(&self, yaml: &str) -> Result<Value> {
+        let root: Value =
+            serde_yaml::from_str(yaml).map_err(|e| self.err("", format!("invalid YAML: {e}")))?;
+        if !root.is_mapping() {
+            return Err(self.err("", "expected a mapping at the top level"));
+        }
+        Ok(root)
+    }
+
+    /// Child `key` of mapping `v` (at `path`); missing or null is an error.
+    fn field<'v>(&self, v: &'v Value, path: &str, key: &str) -> Result<&'v Value> {
+        if !v.is_mapping() {
+            return Err(self.err(path, "expected a mapping"));
+        }
+        self.opt(v, key).ok_or_else(|| self.err(&join(path, key), "missing"))
+    }
+
+    /// Child `key` of `v`, `None` when absent or null.
+    fn opt<'v>(&self, v: &'v Value, key: &str) -> Option<&'v Value> {
+        v.get(key).filter(|c| !c.is_null())
+    }
+
+    fn seq<'v>(&self, v: &'v Value, path: &str) -> Result<&'v [Value]> {
+        v.as_sequence().map(|s| s.as_slice()).ok_or_else(|| self.err(path, "expected a list"))
+    }
+
+    fn number(&self, v: &Value, path: &str) -> Result<f64> {
+        let x = v.as_f64().ok_or_else(|| self.err(path, format!("expected a number, got {}", show(v))))?;
+        if !x.is_finite() {
+            return Err(self.err(path, "not finite"));
+        }
+        Ok(x)
+    }
+
+    fn numbers(&self, v: &Value, path: &str) -> Result<Vec<f64>> {
+        self.seq(v, path)?
+            .iter()
+            .enumerate()
+            .map(|(i, x)| self.number(x, &format!("{path}[{i}]")))
+            .collect()
+    }
+
+    fn string(&self, v: &Value, path: &str) -> Result<String> {
+        v.as_str().map(str::to_string).ok_or_else(|| self.err(path, format!("expected a string, got {}", show(v))))
+    }
+
+    fn no_duplicate(&self, list: &[(String, f64)], name: &str, path: &str) -> Result<()> {
+        if list.iter().any(|(n, _)| n == name) {
+            return Err(self.err(path, format!("joint '{name}' appears twice")));
+        }
+        Ok(())
+    }
+
+    /// `n` numbers from a list `[a, b, ...]` or a mapping with the given `keys`.
+    fn components(&self, v: &Value, path: &str, keys: &[&str]) -> Result<Vec<f64>> {
+        if v.is_mapping() {
+            keys.iter().map(|k| self.number(self.field(v, path, k)?, &join(path, k))).collect()
+        } else {
+            let xs = self.numbers(v, path)?;
+            if xs.len() != keys.len() {
+                return Err(self.err(path, format!("expected {} numbers, got {}", keys.len(), xs.len())));
+            }
+            Ok(xs)
+        }
+    }
+
+    fn pose(&self, v: &Value, path: &str) -> Result<Isometry3<f64>> {
+        let pp = join(path, "position");
+        let p = self.components(self.field(v, path, "position")?, &pp, &["x", "y", "z"])?;
+        let op = join(path, "orientation");
+        let q = self.components(self.field(v, path, "orientation")?, &op, &["x", "y", "z", "w"])?;
+        let quat = Quaternion::new(q[3], q[0], q[1], q[2]);
+        if quat.norm() < 1e-9 {
+            return Err(self.err(&op, "zero quaternion"));
+        }
+        Ok(Isometry3::from_parts(
+            Translation3::new(p[0], p[1], p[2]),
+            UnitQuaternion::from_quaternion(quat),
+        ))
+    }
+
+    fn primitives(
+        &self,
+        obj: &Value,
+        path: &str,
+        out: &mut Vec<(Shape, Isometry3<f64>, String)>,
+    ) -> Result<()> {
+        let Some(prims) = self.opt(obj, "primitives") else { return Ok(()) };
+        let prims_path = join(path, "primitives");
+        let prims = self.seq(prims, &prims_path)?;
+        if prims.is_empty() {
+            return Ok(());
+        }
+        let poses_path = join(path, "primitive_poses");
+        let poses = self.seq(self.field(obj, path, "primitive_poses")?, &poses_path)?;
+        if poses.len() != prims.len() {
+            return Err(self.err(
+                &poses_path,
+                format!("{} poses for {} primitives (need one each)", poses.len(), prims.len()),
+            ));
+        }
+        for (k, (prim, pose)) in prims.iter().zip(poses).enumerate() {
+            let pp = format!("{prims_path}[{k}]");
+            let shape = self.primitive(prim, &pp)?;
+            let pose = self.pose(pose, &format!("{poses_path}[{k}]"))?;
+            out.push((shape, pose, pp));
+        }
+        Ok(())
+    }
+
+    fn primitive(&self, prim: &Value, path: &str) -> Result<Shape> {
+        let tp = join(path, "type");
+        let kind = match self.field(prim, path, "type")? {
+            Value::String(s) => s.to_ascii_lowercase(),
+            Value::Number(n) => match n.as_i64() {
+                Some(1) => "box".into(),
+                Some(2) => "sphere".into(),
+                Some(3) => "cylinder".into(),
+                Some(4) => "cone".into(),
+                _ => return Err(self.err(&tp, format!("unknown primitive type {n}"))),
+            },
+            other => return Err(self.err(&tp, format!("expected a string, got {}", show(other)))),
+        };
+        let dp = join(path, "dimensions");
+        let expected = match kind.as_str() {
+            "box" => 3,
+            "sphere" => 1,
+            "cylinder" => 2,
+            "cone" => return Err(self.err(&tp, "cone primitives are not supported")),
+            _ => {
+                return Err(self.err(
+                    &tp,
+                    format!("unknown primitive type '{kind}' (expected box, sphere or cylinder)"),
+                ))
+            }
+        };
+        let dims = self.numbers(self.field(prim, path, "dimensions")?, &dp)?;
+        if dims.len() != expected {
+            let meaning = match expected {
+                3 => "[x, y, z] full sizes",
+                2 => "[height, radius]",
+                _ => "[radius]",
+            };
+            return Err(self.err(
+                &dp,
+                format!("a {kind} needs {expected} dimensions {meaning}, got {}", dims.len()),
+            ));
+        }
+        if let Some(i) = dims.iter().position(|&d| d <= 0.0) {
+            return Err(self.err(&format!("{dp}[{i}]"), format!("must be > 0, got {}", dims[i])));
+        }
+        Ok(match expected {
+            3 => Shape::cuboid_from_size(Vector3::new(dims[0], dims[1], dims[2])),
+            2 => Shape::Cylinder { half_height: 0.5 * dims[0], radius: dims[1] },
+            _ => Shape::Sphere { radius: dims[0] },
+        })
+    }
+
+    fn meshes(&self, obj: &Value, path: &str, out: &mut Vec<(Shape, Isometry3<f64>, String)>) -> Result<()> {
+        let Some(meshes) = self.opt(obj, "meshes") else { return Ok(()) };
+        let meshes_path = join(path, "meshes");
+        let meshes = self.seq(meshes, &meshes_path)?;
+        if meshes.is_empty() {
+            return Ok(());
+        }
+        let poses_path = join(path, "mesh_poses");
+        let poses = self.seq(self.field(obj, path, "mesh_poses")?, &poses_path)?;
+        if poses.len() != meshes.len() {
+            return Err(self.err(
+                &poses_path,
+                format!("{} poses for {} meshes (need one each)", poses.len(), meshes.len()),
+            ));
+        }
+        for (k, (mesh, pose)) in meshes.iter().zip(poses).enumerate() {
+            let mp = format!("{meshes_path}[{k}]");
+            let vp = join(&mp, "vertices");
+            let vertices = self
+                .seq(self.field(mesh, &mp, "vertices")?, &vp)?
+                .iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    let c = self.components(v, &format!("{vp}[{i}]"), &["x", "y", "z"])?;
+                    Ok(Point3::new(c[0], c[1], c[2]))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let tp = join(&mp, "triangles");
+            let mut triangles = Vec::new();
+            for (i, t) in self.seq(self.field(mesh, &mp, "triangles")?, &tp)?.iter().enumerate() {
+                let ip = format!("{tp}[{i}].vertex_indices");
+                let idx = self.numbers(self.field(t, &format!("{tp}[{i}]"), "vertex_indices")?, &ip)?;
+                if idx.len() != 3 {
+                    return Err(self.err(&ip, format!("expected 3 indices, got {}", idx.len())));
+                }
+                let mut tri = [0u32; 3];
+                for (j, &x) in idx.iter().enumerate() {
+                    if x < 0.0 || x.fract() != 0.0 || x >= vertices.len() as f64 {
+                        return Err(self.err(
+                            &format!("{ip}[{j}]"),
+                            format!("invalid vertex index {x} ({} vertices)", vertices.len()),
+                        ));
+                    }
+                    tri[j] = x as u32;
+                }
+                triangles.push(tri);
+            }
+            let mesh = build_mesh(vertices, triangles, &format!("{}: {mp}", self.file))
+                .map_err(|e| self.err(&mp, e.to_string()))?;
+            let pose = self.pose(pose, &format!("{poses_path}[{k}]"))?;
+            out.push((Shape::TriMesh(std::sync::Arc::new(mesh)), pose, mp));
+        }
+        Ok(())
+    }
+}
+
+/// Short rendering of a YAML value for error messages.
+fn show(v: &Value) -> String {
+    match v {
+        Value::Null => "null".into(),
+        Value::Bool(b) => b.to_string(),
+        Value::Number(n) => n.to_string(),
+        Value::String(s) => format!("'{s}'"),
+        Value::Sequence(_) => "a list".into(),
+        Value::Mapping(_) => "a mapping".into(),
+        Value::Tagged(_) => "a tagged value".into(),
+    }
+}
+
+impl Scene {
+    /// Load a MoveIt `PlanningScene` YAML string (MotionBenchMaker format, see [`crate::scene::moveit`]);
+    /// `source` names it in errors (`FabricError::Format` with the field path).
+    pub fn from_moveit_yaml_str(yaml: &str, source: &str) -> Result<Scene> {
+        scene_from_str(yaml, source)
+    }
+
+    /// Load a MoveIt `PlanningScene` YAML file. `Err(Io)` when it cannot be read.
+    pub fn from_moveit_yaml_file(path: &Path) -> Result<Scene> {
+        scene_from_str(&read(path)?, &path.display().to_string())
+    }
+}

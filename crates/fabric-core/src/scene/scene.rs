@@ -1,0 +1,391 @@
+//! The [`Scene`]: a set of obstacles with a broadphase (parry's dynamic [`Bvh`] over world AABBs) for
+//! point distance queries and shape distance queries.
+//!
+//! Obstacles are stored in slots; the BVH leaf index of an obstacle is its slot, so adding, moving and
+//! removing one obstacle touches only its own leaf (O(log n)); nothing is rebuilt, meshes and point
+//! clouds keep their own BVHs in their obstacle frame. Unbounded obstacles (half-spaces) are kept out of
+//! the BVH and always tested.
+
+use std::collections::HashMap;
+use std::fmt;
+
+use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
+use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
+use parry3d_f64::partitioning::{Bvh, BvhNode, BvhWorkspace, TraversalAction};
+use parry3d_f64::query;
+use parry3d_f64::shape::{Ball, Capsule, Cuboid, Cylinder, HalfSpace};
+
+use super::distance::{eval_world, DistanceSample};
+use super::shape::{aabb_signed_distance, check_pose, Obstacle, Shape};
+use crate::error::{FabricError, Result};
+
+/// Identifier of an obstacle in a [`Scene`]; never reused within one scene.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, PartialOrd, Ord)]
+pub struct ObstacleId(pub u64);
+
+#[derive(Clone, Debug)]
+struct Entry {
+    id: ObstacleId,
+    obstacle: Obstacle,
+    /// Rotation matrix of `obstacle.pose` (obstacle frame to world), cached for queries.
+    rot: Matrix3<f64>,
+    /// World AABB; `None` for unbounded shapes.
+    aabb: Option<Aabb>,
+}
+
+impl Entry {
+    fn new(id: ObstacleId, obstacle: Obstacle) -> Entry {
+        let rot = obstacle.pose.rotation.to_rotation_matrix().into_inner();
+        let aabb = obstacle.shape.aabb(&obstacle.pose);
+        Entry { id, obstacle, rot, aabb }
+    }
+
+    fn refresh(&mut self) {
+        self.rot = self.obstacle.pose.rotation.to_rotation_matrix().into_inner();
+        self.aabb = self.obstacle.shape.aabb(&self.obstacle.pose);
+    }
+
+    fn sample(&self, p: &Vector3<f64>, max_distance: f64) -> Option<DistanceSample> {
+        let s = eval_world(
+            &self.obstacle.shape,
+            &self.rot,
+            &self.obstacle.pose.translation.vector,
+            p,
+            max_distance,
+        )?;
+        Some(DistanceSample {
+            obstacle: self.id,
+            distance: s.distance,
+            gradient: s.gradient,
+            hessian: s.hessian,
+            velocity: self.obstacle.velocity,
+        })
+    }
+}
+
+/// Obstacles plus broadphase. Read-only during evaluation (`Send + Sync`); `Clone` copies everything
+/// (meshes and point clouds are shared through `Arc`).
+#[derive(Clone, Default)]
+pub struct Scene {
+    slots: Vec<Option<Entry>>,
+    free: Vec<u32>,
+    index: HashMap<ObstacleId, u32>,
+    unbounded: Vec<u32>,
+    next_id: u64,
+    bvh: Bvh,
+    bvh_workspace: BvhWorkspace,
+}
+
+impl fmt::Debug for Scene {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_list().entries(self.iter().map(|(id, o)| (id, &o.name, &o.shape))).finish()
+    }
+}
+
+impl Scene {
+    /// An empty scene.
+    pub fn new() -> Scene {
+        Scene::default()
+    }
+
+    /// Add an obstacle after validating it ([`Obstacle::validate`]: sizes > 0, finite unit pose,
+    /// finite velocity). O(log n).
+    pub fn add(&mut self, obstacle: Obstacle) -> Result<ObstacleId> {
+        obstacle.validate()?;
+        let slot = match self.free.pop() {
+            Some(s) => s,
+            None => u32::try_from(self.slots.len()).map_err(|_| FabricError::Value {
+                what: "scene".into(),
+                message: "too many obstacles".into(),
+            })?,
+        };
+        let id = ObstacleId(self.next_id);
+        self.next_id += 1;
+        let entry = Entry::new(id, obstacle);
+        match entry.aabb {
+            Some(aabb) => self.bvh.insert(aabb, slot),
+            None => self.unbounded.push(slot),
+        }
+        if slot as usize == self.slots.len() {
+            self.slots.push(Some(entry));
+        } else {
+            self.slots[slot as usize] = Some(entry);
+        }
+        self.index.insert(id, slot);
+        Ok(id)
+    }
+
+    /// Remove an obstacle and return it. `Err(Value)` for an unknown id. O(log n).
+    pub fn remove(&mut self, id: ObstacleId) -> Result<Obstacle> {
+        let slot = self.slot(id)?;
+        let entry = self.slots[slot as usize].take().ok_or_else(|| unknown(id))?;
+        self.index.remove(&id);
+        if entry.aabb.is_some() {
+            self.bvh.remove(slot);
+        } else {
+            self.unbounded.retain(|&s| s != slot);
+        }
+        self.free.push(slot);
+        Ok(entry.obstacle)
+    }
+
+    /// Move an obstacle to `pose` (finite, unit quaternion). O(log n): only its BVH leaf and the
+    /// ancestors that no longer contain it are enlarged.
+    pub fn set_pose(&mut self, id: ObstacleId, pose: Isometry3<f64>) -> Result<()> {
+        let slot = self.slot(id)?;
+        let entry = self.slots[slot as usize].as_mut().ok_or_else(|| unknown(id))?;
+        check_pose(&format!("obstacle '{}'", entry.obstacle.name), &pose)?;
+        entry.obstacle.pose = pose;
+        entry.refresh();
+        if let Some(aabb) = entry.aabb {
+            self.bvh.insert(aabb, slot);
+        }
+        Ok(())
+    }
+
+    /// Set the linear velocity (m/s, world) of an obstacle; it must be finite.
+    pub fn set_velocity(&mut self, id: ObstacleId, v: Vector3<f64>) -> Result<()> {
+        let slot = self.slot(id)?;
+        let entry = self.slots[slot as usize].as_mut().ok_or_else(|| unknown(id))?;
+        if !v.iter().all(|c| c.is_finite()) {
+            return Err(FabricError::NonFinite {
+                what: format!("obstacle '{}': velocity", entry.obstacle.name),
+            });
+        }
+        entry.obstacle.velocity = v;
+        Ok(())
+    }
+
+    /// The obstacle with this id, if any.
+    pub fn get(&self, id: ObstacleId) -> Option<&Obstacle> {
+        let slot = *self.index.get(&id)?;
+        self.slots.get(slot as usize)?.as_ref().map(|e| &e.obstacle)
+    }
+
+    /// The id of the first obstacle (lowest id) named `name`.
+    pub fn find(&self, name: &str) -> Option<ObstacleId> {
+        self.iter().find(|(_, o)| o.name == name).map(|(id, _)| id)
+    }
+
+    /// Ids of all obstacles, increasing (= insertion order).
+    pub fn ids(&self) -> Vec<ObstacleId> {
+        let mut ids: Vec<ObstacleId> = self.index.keys().copied().collect();
+        ids.sort_unstable();
+        ids
+    }
+
+    /// All obstacles with their ids, in increasing id order.
+    pub fn iter(&self) -> impl Iterator<Item = (ObstacleId, &Obstacle)> + '_ {
+        self.ids().into_iter().filter_map(move |id| self.get(id).map(|o| (id, o)))
+    }
+
+    /// Number of obstacles.
+    pub fn len(&self) -> usize {
+        self.index.len()
+    }
+
+    /// Whether the scene has no obstacle.
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+
+    /// Move every obstacle by `velocity · dt` (dt in s, may be negative). Leaves of moved obstacles are
+    /// updated and the BVH refitted once (O(n), no rebuild). A non-finite `dt` leaves the scene unchanged.
+    pub fn advance(&mut self, dt: f64) {
+        if !dt.is_finite() {
+            return;
+        }
+        let mut moved = false;
+        for (slot, entry) in self.slots.iter_mut().enumerate() {
+            let Some(entry) = entry else { continue };
+            if entry.obstacle.velocity == Vector3::zeros() {
+                continue;
+            }
+            entry.obstacle.pose.translation.vector += entry.obstacle.velocity * dt;
+            entry.refresh();
+            if let Some(aabb) = entry.aabb {
+                // Slots fit in u32 (checked in `add`).
+                self.bvh.insert_or_update_partially(aabb, slot as u32, 0.0);
+                moved = true;
+            }
+        }
+        if moved {
+            self.bvh.refit(&mut self.bvh_workspace);
+        }
+    }
+
+    /// Append to `out` a sample for every obstacle whose signed distance to `p` (world, m) is
+    /// `<= max_distance` (m; may be negative; `f64::INFINITY` for all). The BVH prunes every subtree
+    /// whose box is farther than `max_distance` (the signed box distance is a lower bound of the signed
+    /// distance of anything inside it), so no obstacle within range is missed and the cost grows with the
+    /// number of obstacles near `p`. Order: unbounded obstacles first, then BVH order (deterministic for a
+    /// given history of edits). A non-finite `p` or a NaN `max_distance` appends nothing.
+    pub fn query(&self, p: &Vector3<f64>, max_distance: f64, out: &mut Vec<DistanceSample>) {
+        if !p.iter().all(|c| c.is_finite()) || max_distance.is_nan() {
+            return;
+        }
+        for &slot in &self.unbounded {
+            if let Some(s) = self.entry(slot).and_then(|e| e.sample(p, max_distance)) {
+                out.push(s);
+            }
+        }
+        let pt = Point3::from(*p);
+        self.bvh.traverse(|node: &BvhNode| {
+            if aabb_signed_distance(&node.mins(), &node.maxs(), &pt) > max_distance {
+                return TraversalAction::Prune;
+            }
+            if let Some(slot) = node.leaf_data() {
+                if let Some(s) = self.entry(slot).and_then(|e| e.sample(p, max_distance)) {
+                    out.push(s);
+                }
+            }
+            TraversalAction::Continue
+        });
+    }
+
+    /// The obstacle of minimum signed distance to `p` (world) with its sample; `None` for an empty scene
+    /// or a non-finite `p`. Best-first BVH search pruned by signed box distances. Ties keep the first
+    /// obstacle found (deterministic).
+    pub fn signed_distance(&self, p: &Vector3<f64>) -> Option<DistanceSample> {
+        if !p.iter().all(|c| c.is_finite()) {
+            return None;
+        }
+        let mut best: Option<DistanceSample> = None;
+        for &slot in &self.unbounded {
+            if let Some(s) = self.entry(slot).and_then(|e| e.sample(p, f64::INFINITY)) {
+                if best.map_or(true, |b| s.distance < b.distance) {
+                    best = Some(s);
+                }
+            }
+        }
+        let bound = best.map_or(f64::INFINITY, |b| b.distance);
+        let pt = Point3::from(*p);
+        let found = self.bvh.find_best(
+            bound,
+            |node: &BvhNode, _| aabb_signed_distance(&node.mins(), &node.maxs(), &pt),
+            |slot, best_so_far| {
+                let s = self.entry(slot)?.sample(p, best_so_far)?;
+                Some((s.distance, s))
+            },
+        );
+        match found {
+            Some((_, (_, s))) => Some(s),
+            None => best,
+        }
+    }
+
+    /// Minimum distance (m) between a parry shape placed at `pose` (world) and all obstacles, when it is
+    /// `<= max` (m); `None` when every obstacle is farther or the scene is empty. Negative values are
+    /// penetration depths (from `parry::query::contact`) when parry supports the pair; for pairs where it
+    /// does not (e.g. mesh against mesh) an intersection gives 0. If parry supports no distance at all
+    /// for a pair, the distance between the two AABBs is used (a lower bound, so never optimistic).
+    /// Point clouds use the shape's point projection for each point near the shape.
+    pub fn shape_distance(
+        &self,
+        shape: &dyn parry3d_f64::shape::Shape,
+        pose: &Isometry3<f64>,
+        max: f64,
+    ) -> Option<f64> {
+        if max.is_nan() || check_pose("shape_distance", pose).is_err() {
+            return None;
+        }
+        let shape_aabb = shape.compute_aabb(pose);
+        let region = shape_aabb.loosened(max.max(0.0));
+        let mut best: Option<f64> = None;
+        let mut consider = |entry: &Entry| {
+            if let Some(d) = pair_distance(entry, shape, pose, &shape_aabb, max) {
+                if d <= max && best.map_or(true, |b| d < b) {
+                    best = Some(d);
+                }
+            }
+        };
+        for &slot in &self.unbounded {
+            if let Some(e) = self.entry(slot) {
+                consider(e);
+            }
+        }
+        for slot in self.bvh.intersect_aabb(&region) {
+            if let Some(e) = self.entry(slot) {
+                consider(e);
+            }
+        }
+        best
+    }
+
+    /// World AABB of an obstacle (`None` for unknown ids and half-spaces).
+    pub fn aabb(&self, id: ObstacleId) -> Option<Aabb> {
+        let slot = *self.index.get(&id)?;
+        self.entry(slot)?.aabb
+    }
+
+    fn entry(&self, slot: u32) -> Option<&Entry> {
+        self.slots.get(slot as usize)?.as_ref()
+    }
+
+    fn slot(&self, id: ObstacleId) -> Result<u32> {
+        self.index.get(&id).copied().ok_or_else(|| unknown(id))
+    }
+}
+
+fn unknown(id: ObstacleId) -> FabricError {
+    FabricError::Value { what: "obstacle id".into(), message: format!("no obstacle with id {}", id.0) }
+}
+
+/// Rotation taking parry's cylinder axis (y) onto our cylinder axis (z): +90° about x.
+fn y_to_z() -> UnitQuaternion<f64> {
+    UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2)
+}
+
+/// Distance between the query shape and one obstacle (see [`Scene::shape_distance`]).
+fn pair_distance(
+    entry: &Entry,
+    shape: &dyn parry3d_f64::shape::Shape,
+    pose: &Isometry3<f64>,
+    shape_aabb: &Aabb,
+    max: f64,
+) -> Option<f64> {
+    let opose = &entry.obstacle.pose;
+    let parry_pair = |g: &dyn parry3d_f64::shape::Shape, gpose: &Isometry3<f64>| -> f64 {
+        match query::distance(pose, shape, gpose, g) {
+            Ok(d) if d > 0.0 => d,
+            Ok(_) => match query::contact(pose, shape, gpose, g, 0.0) {
+                Ok(Some(c)) => c.dist.min(0.0),
+                _ => 0.0,
+            },
+            Err(_) => {
+                let other = g.compute_aabb(gpose);
+                let gap = Vector3::from_fn(|i, _| {
+                    (other.mins[i] - shape_aabb.maxs[i]).max(shape_aabb.mins[i] - other.maxs[i]).max(0.0)
+                });
+                gap.norm()
+            }
+        }
+    };
+    Some(match &entry.obstacle.shape {
+        Shape::Sphere { radius } => parry_pair(&Ball::new(*radius), opose),
+        Shape::Cuboid { half_extents } => parry_pair(&Cuboid::new(*half_extents), opose),
+        Shape::Cylinder { half_height, radius } => {
+            let gpose = opose * Isometry3::from_parts(Translation3::identity(), y_to_z());
+            parry_pair(&Cylinder::new(*half_height, *radius), &gpose)
+        }
+        Shape::Capsule { half_height, radius } => parry_pair(&Capsule::new_z(*half_height, *radius), opose),
+        Shape::HalfSpace => parry_pair(&HalfSpace::new(Vector3::z_axis()), opose),
+        Shape::TriMesh(m) => parry_pair(m.as_ref(), opose),
+        Shape::PointCloud(pc) => {
+            // Points near the shape, in the cloud frame; signed distance of each to the shape.
+            let local_pose = opose.inv_mul(pose);
+            let region = shape.compute_aabb(&local_pose).loosened(max.max(0.0) + pc.radius());
+            let mut best: Option<f64> = None;
+            for i in pc.points_in(&region) {
+                let Some(pt) = pc.points().get(i) else { continue };
+                let proj = shape.project_point(&local_pose, pt, false);
+                let r = (pt - proj.point).norm();
+                let d = if proj.is_inside { -r } else { r } - pc.radius();
+                if best.map_or(true, |b| d < b) {
+                    best = Some(d);
+                }
+            }
+            return best;
+        }
+    })
+}

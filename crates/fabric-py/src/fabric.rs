@@ -1,0 +1,378 @@
+//! `gfcs._core.Fabric`: the geometric fabric of a robot in a scene (GF Sec. VII-A), its acceleration
+//! q̈ = f(q, q̇; q_g) (GFCS eq. 1), rollouts (eq. 1–3), command sequences (eq. 4–8) and batched candidate
+//! evaluation (Alg. 1), the heavy calls with the GIL released.
+//!
+//! The fabric holds its scene by value (a copy taken at construction or by `set_scene`); obstacles can be
+//! moved between calls with `update_obstacle` without rebuilding the fabric.
+
+use std::sync::{Arc, Mutex, PoisonError, RwLock};
+
+use fabric_core::fabric::{Diagnostics, EeTargets, Fabric, FabricWorkspace};
+use fabric_core::rollout::{self as core_rollout, SequenceOptions};
+use fabric_core::scene::{ObstacleId, Scene};
+use fabric_core::FabricError;
+use numpy::PyArrayDyn;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+
+use crate::config::PyFabricConfig;
+use crate::convert::{self, output, typed_output};
+use crate::errors::{detached, error, guarded};
+use crate::robot::PyRobot;
+use crate::rollout::{rollout_options, PyRollout, PySequenceRollout};
+use crate::scene::PyScene;
+
+/// Geometric fabric for one robot in one scene.
+///
+/// `Fabric(robot, scene=None, config=None)`: `config` is a `FabricConfig`, a nested dict, a path to a
+/// TOML/YAML/JSON file, or None (defaults). q, q̇, commands have shape (dof,), rad (or m), rad/s.
+#[pyclass(frozen, skip_from_py_object, name = "Fabric", module = "gfcs._core")]
+pub struct PyFabric {
+    fabric: Arc<Fabric>,
+    robot: Py<PyRobot>,
+    scene: RwLock<Arc<Scene>>,
+    last: Mutex<Option<Diagnostics>>,
+}
+
+impl PyFabric {
+    /// The current scene (shared, immutable snapshot).
+    fn scene_snapshot(&self) -> Arc<Scene> {
+        self.scene.read().unwrap_or_else(PoisonError::into_inner).clone()
+    }
+
+    fn dof(&self) -> usize {
+        self.fabric.robot().dof()
+    }
+
+    /// Sequence options from keyword arguments (None keeps the core defaults).
+    #[allow(clippy::too_many_arguments)]
+    fn sequence_options(
+        n_commands: usize,
+        dt: Option<f64>,
+        t_max: Option<f64>,
+        tol: Option<f64>,
+        waypoint_tol: Option<f64>,
+        penalty: Option<f64>,
+        collision_penalty: Option<f64>,
+        integrator: &str,
+        record: bool,
+    ) -> PyResult<SequenceOptions> {
+        let d = SequenceOptions::default();
+        let opts = SequenceOptions {
+            rollout: rollout_options(dt, t_max, tol, integrator, record)?,
+            n_commands,
+            waypoint_tol: waypoint_tol.unwrap_or(d.waypoint_tol),
+            penalty: penalty.unwrap_or(d.penalty),
+            collision_penalty: collision_penalty.unwrap_or(d.collision_penalty),
+        };
+        opts.validate().map_err(error)?;
+        Ok(opts)
+    }
+
+    /// q̇₀: zeros when None.
+    fn velocity_or_zeros(&self, qd: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
+        match qd {
+            Some(v) if !v.is_none() => convert::vector(v, what, self.dof()),
+            _ => Ok(vec![0.0; self.dof()]),
+        }
+    }
+}
+
+/// End-effector targets from a pose (4 × 4 or (position, quaternion xyzw)).
+fn ee_targets(obj: &Bound<'_, PyAny>) -> PyResult<EeTargets> {
+    let pose = convert::pose(obj, "ee_target")?;
+    let r = pose.rotation.to_rotation_matrix();
+    let m = r.matrix();
+    Ok(EeTargets {
+        position: pose.translation.vector,
+        axes: [m.column(0).into_owned(), m.column(1).into_owned(), m.column(2).into_owned()],
+    })
+}
+
+/// Diagnostics as a dict of floats (and `leaves` as int).
+fn diagnostics_dict<'py>(py: Python<'py>, d: &Diagnostics) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    let fields: [(&str, f64); 14] = [
+        ("energy", d.energy),
+        ("exec_energy", d.exec_energy),
+        ("potential", d.potential),
+        ("min_clearance", d.min_clearance),
+        ("min_self_clearance", d.min_self_clearance),
+        ("min_joint_margin", d.min_joint_margin),
+        ("alpha_le", d.alpha_le),
+        ("alpha_ex0", d.alpha_ex0),
+        ("alpha_expsi", d.alpha_expsi),
+        ("eta", d.eta),
+        ("s_beta", d.s_beta),
+        ("beta", d.beta),
+        ("alpha_boost", d.alpha_boost),
+        ("alpha_reg", d.alpha_reg),
+    ];
+    for (k, v) in fields {
+        out.set_item(k, v)?;
+    }
+    out.set_item("leaves", d.leaves)?;
+    Ok(out)
+}
+
+#[pymethods]
+impl PyFabric {
+    #[new]
+    #[pyo3(signature = (robot, scene=None, config=None))]
+    fn py_new(
+        py: Python<'_>,
+        robot: Bound<'_, PyRobot>,
+        scene: Option<PyRef<'_, PyScene>>,
+        config: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let config = PyFabricConfig::from_any(py, config)?;
+        let model = robot.get().inner.clone();
+        let fabric = guarded(py, || Fabric::new(model, config))?;
+        let scene = scene.map(|s| s.inner.clone()).unwrap_or_default();
+        Ok(PyFabric {
+            fabric: Arc::new(fabric),
+            robot: robot.unbind(),
+            scene: RwLock::new(Arc::new(scene)),
+            last: Mutex::new(None),
+        })
+    }
+
+    /// The robot model.
+    #[getter]
+    fn robot(&self, py: Python<'_>) -> Py<PyRobot> {
+        self.robot.clone_ref(py)
+    }
+
+    /// The configuration.
+    #[getter]
+    fn config(&self) -> PyFabricConfig {
+        PyFabricConfig { inner: self.fabric.config().clone() }
+    }
+
+    /// Number of robot coordinates.
+    #[getter]
+    #[pyo3(name = "dof")]
+    fn py_dof(&self) -> usize {
+        self.dof()
+    }
+
+    /// A copy of the scene the fabric evaluates in.
+    #[getter]
+    fn scene(&self) -> PyScene {
+        PyScene { inner: (*self.scene_snapshot()).clone() }
+    }
+
+    /// Replace the scene (copied).
+    fn set_scene(&self, scene: PyRef<'_, PyScene>) {
+        let new = Arc::new(scene.inner.clone());
+        *self.scene.write().unwrap_or_else(PoisonError::into_inner) = new;
+    }
+
+    /// Move the obstacle `id` of the fabric's scene to `pose` and/or set its `velocity` (3,) m/s.
+    #[pyo3(signature = (id, pose=None, velocity=None))]
+    fn update_obstacle(
+        &self,
+        py: Python<'_>,
+        id: u64,
+        pose: Option<&Bound<'_, PyAny>>,
+        velocity: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let pose = pose.filter(|p| !p.is_none()).map(|p| convert::pose(p, "pose")).transpose()?;
+        let velocity = velocity.filter(|v| !v.is_none()).map(|v| convert::vector3(v, "velocity")).transpose()?;
+        // The lock is taken and released inside the closure: no Python code runs while it is held.
+        guarded(py, || {
+            let mut guard = self.scene.write().unwrap_or_else(PoisonError::into_inner);
+            let scene = Arc::make_mut(&mut guard);
+            let id = ObstacleId(id);
+            if let Some(p) = pose {
+                scene.set_pose(id, p)?;
+            }
+            if let Some(v) = velocity {
+                scene.set_velocity(id, v)?;
+            }
+            Ok(())
+        })
+    }
+
+    /// q̈ (dof,) rad/s² at (q, q̇) attracted to the joint-space command (GFCS eq. 1). `ee_target` (a pose,
+    /// 4 × 4 or (position, quaternion xyzw)) overrides the end-effector attractor targets, which default
+    /// to the end-effector pose at `command`. The diagnostics of this evaluation are kept
+    /// (`diagnostics()`).
+    #[pyo3(signature = (q, qd, command, ee_target=None))]
+    fn acceleration<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+        command: &Bound<'py, PyAny>,
+        ee_target: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let n = self.dof();
+        let q = convert::vector(q, "q", n)?;
+        let qd = convert::vector(qd, "qd", n)?;
+        let command = convert::vector(command, "command", n)?;
+        let targets = ee_target.filter(|t| !t.is_none()).map(ee_targets).transpose()?;
+        let fabric = &self.fabric;
+        let scene = self.scene_snapshot();
+        let (qdd, diag) = guarded(py, || {
+            let mut ws = FabricWorkspace::new(fabric);
+            let mut qdd = vec![0.0; n];
+            match &targets {
+                Some(t) => fabric.acceleration_with_targets(&scene, &q, &qd, &command, t, &mut ws, &mut qdd)?,
+                None => fabric.acceleration(&scene, &q, &qd, &command, &mut ws, &mut qdd)?,
+            }
+            Ok((qdd, fabric.diagnostics(&ws)))
+        })?;
+        *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Some(diag);
+        output(py, qdd, &[n])
+    }
+
+    /// Diagnostics of the last `acceleration` call (dict: energy, exec_energy, potential, min_clearance,
+    /// min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
+    /// alpha_boost, alpha_reg, leaves), or None before the first call.
+    fn diagnostics<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let last = *self.last.lock().unwrap_or_else(PoisonError::into_inner);
+        last.map(|d| diagnostics_dict(py, &d)).transpose()
+    }
+
+    /// rollout_t (GFCS eq. 1–3): integrate from (q0, qd0) toward `command` until ‖q − command‖ < tol or
+    /// t_max. `qd0` None = rest. `integrator`: "euler" (semi-implicit, the papers') or "rk4". Defaults:
+    /// dt 0.01 s, t_max 7 s, tol 0.01. GIL released.
+    #[pyo3(signature = (q0, qd0, command, dt=None, t_max=None, tol=None, integrator="euler", record=true))]
+    #[allow(clippy::too_many_arguments)]
+    fn rollout(
+        &self,
+        py: Python<'_>,
+        q0: &Bound<'_, PyAny>,
+        qd0: Option<&Bound<'_, PyAny>>,
+        command: &Bound<'_, PyAny>,
+        dt: Option<f64>,
+        t_max: Option<f64>,
+        tol: Option<f64>,
+        integrator: &str,
+        record: bool,
+    ) -> PyResult<PyRollout> {
+        let n = self.dof();
+        let q0 = convert::vector(q0, "q0", n)?;
+        let qd0 = self.velocity_or_zeros(qd0, "qd0")?;
+        let command = convert::vector(command, "command", n)?;
+        let opts = rollout_options(dt, t_max, tol, integrator, record)?;
+        let fabric = self.fabric.clone();
+        let scene = self.scene_snapshot();
+        let result = detached(py, move || {
+            let mut ws = FabricWorkspace::new(&fabric);
+            core_rollout::rollout(&fabric, &scene, &q0, &qd0, &command, &opts, &mut ws)
+        })?;
+        Ok(PyRollout::new(n, result))
+    }
+
+    /// One command sequence (GFCS eq. 4–8): `commands` (n, dof) free commands (n may be 0), then `goal`
+    /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol (default 0.1); the goal at
+    /// tol. Cost = Σ tᵢ* + penalty (default 100 s) if the goal is not reached + collision_penalty (default
+    /// 100 s) on collision. GIL released.
+    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, integrator="euler", record=true))]
+    #[allow(clippy::too_many_arguments)]
+    fn rollout_sequence(
+        &self,
+        py: Python<'_>,
+        q0: &Bound<'_, PyAny>,
+        qd0: Option<&Bound<'_, PyAny>>,
+        commands: &Bound<'_, PyAny>,
+        goal: &Bound<'_, PyAny>,
+        dt: Option<f64>,
+        t_max: Option<f64>,
+        tol: Option<f64>,
+        waypoint_tol: Option<f64>,
+        penalty: Option<f64>,
+        collision_penalty: Option<f64>,
+        integrator: &str,
+        record: bool,
+    ) -> PyResult<PySequenceRollout> {
+        let n = self.dof();
+        let q0 = convert::vector(q0, "q0", n)?;
+        let qd0 = self.velocity_or_zeros(qd0, "qd0")?;
+        let (commands, n_commands) = convert::rows(commands, "commands", n)?;
+        let goal = convert::vector(goal, "goal", n)?;
+        let opts = Self::sequence_options(
+            n_commands, dt, t_max, tol, waypoint_tol, penalty, collision_penalty, integrator, record,
+        )?;
+        let fabric = self.fabric.clone();
+        let scene = self.scene_snapshot();
+        let result = detached(py, move || {
+            let mut ws = FabricWorkspace::new(&fabric);
+            core_rollout::rollout_sequence(&fabric, &scene, &q0, &qd0, &commands, &goal, &opts, &mut ws)
+        })?;
+        Ok(PySequenceRollout::new(n, result))
+    }
+
+    /// Evaluate N candidate command sequences in parallel (GFCS eq. 4, Alg. 1): `candidates` (N, n·dof),
+    /// each row n free commands, then `goal`. Returns `(costs (N,), reached (N,) bool, min_clearance (N,))`,
+    /// plus a list of N `SequenceRollout` (with trajectories) when `return_trajectories`. Results are in
+    /// candidate order and do not depend on `threads` (None: all cores). GIL released.
+    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, integrator="euler", threads=None, return_trajectories=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        q0: &Bound<'py, PyAny>,
+        qd0: Option<&Bound<'py, PyAny>>,
+        goal: &Bound<'py, PyAny>,
+        candidates: &Bound<'py, PyAny>,
+        dt: Option<f64>,
+        t_max: Option<f64>,
+        tol: Option<f64>,
+        waypoint_tol: Option<f64>,
+        penalty: Option<f64>,
+        collision_penalty: Option<f64>,
+        integrator: &str,
+        threads: Option<usize>,
+        return_trajectories: bool,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let n = self.dof();
+        let q0 = convert::vector(q0, "q0", n)?;
+        let qd0 = self.velocity_or_zeros(qd0, "qd0")?;
+        let goal = convert::vector(goal, "goal", n)?;
+        let cand = convert::array(candidates, "candidates")?;
+        let (rows, n_commands) = match cand.shape.as_slice() {
+            [r, c] if n > 0 && c % n == 0 => (*r, c / n),
+            _ => {
+                return Err(convert::shape_error("candidates", &format!("(N, n*{n}) with n >= 0"), &cand.shape))
+            }
+        };
+        convert::finite("candidates", &cand.data)?;
+        if threads == Some(0) {
+            return Err(error(FabricError::Value { what: "threads".into(), message: "must be >= 1".into() }));
+        }
+        let opts = Self::sequence_options(
+            n_commands, dt, t_max, tol, waypoint_tol, penalty, collision_penalty, integrator, return_trajectories,
+        )?;
+        let fabric = self.fabric.clone();
+        let scene = self.scene_snapshot();
+        let data = cand.data;
+        let results = detached(py, move || {
+            core_rollout::evaluate_batch(&fabric, &scene, &q0, &qd0, &goal, &data, &opts, threads)
+        })?;
+        let costs = output(py, results.iter().map(|r| r.cost).collect(), &[rows])?;
+        let reached = typed_output(py, results.iter().map(|r| r.reached).collect(), &[rows])?;
+        let clearance = output(py, results.iter().map(|r| r.min_clearance).collect(), &[rows])?;
+        if return_trajectories {
+            let list: Vec<PySequenceRollout> = results.into_iter().map(|r| PySequenceRollout::new(n, r)).collect();
+            PyTuple::new(py, [costs.into_any(), reached.into_any(), clearance.into_any(), list.into_pyobject(py)?.into_any()])
+        } else {
+            PyTuple::new(py, [costs.into_any(), reached.into_any(), clearance.into_any()])
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        let mode = match self.fabric.config().mode {
+            fabric_core::fabric::Mode::Bent => "bent",
+            fabric_core::fabric::Mode::Unbent => "unbent",
+        };
+        format!(
+            "Fabric(robot='{}', dof={}, obstacles={}, mode='{mode}')",
+            self.robot.get().inner.name(),
+            self.dof(),
+            self.scene_snapshot().len(),
+        )
+    }
+}

@@ -1,0 +1,264 @@
+//! Result classes of rollouts (`Rollout`, GFCS eq. 1–3) and command sequences (`SequenceRollout`,
+//! GFCS eq. 4–8), and the parsing of rollout options from Python keyword arguments.
+
+use fabric_core::rollout::{Integrator, RolloutOptions, RolloutResult, SequenceResult, StopReason, Trajectory};
+use fabric_core::FabricError;
+use numpy::PyArrayDyn;
+use pyo3::prelude::*;
+
+use crate::convert::output;
+use crate::errors::error;
+
+/// Python name of a stop reason: "reached", "timeout" or "non_finite".
+pub fn reason_name(r: StopReason) -> &'static str {
+    match r {
+        StopReason::Reached => "reached",
+        StopReason::Timeout => "timeout",
+        StopReason::NonFinite => "non_finite",
+    }
+}
+
+/// "euler" (semi-implicit Euler, the papers' scheme) or "rk4".
+pub fn parse_integrator(name: &str) -> PyResult<Integrator> {
+    match name.to_ascii_lowercase().as_str() {
+        "euler" | "semi_implicit_euler" => Ok(Integrator::SemiImplicitEuler),
+        "rk4" => Ok(Integrator::Rk4),
+        other => Err(error(FabricError::Value {
+            what: "integrator".to_string(),
+            message: format!("'{other}' is not one of 'euler', 'rk4'"),
+        })),
+    }
+}
+
+/// Rollout options from keyword arguments; `None` keeps the core default (dt 0.01 s, t_max 7 s,
+/// tol 0.01). Ranges are checked by the core (`InvalidValueError` naming the field).
+pub fn rollout_options(
+    dt: Option<f64>,
+    t_max: Option<f64>,
+    tol: Option<f64>,
+    integrator: &str,
+    record: bool,
+) -> PyResult<RolloutOptions> {
+    let d = RolloutOptions::default();
+    let opts = RolloutOptions {
+        dt: dt.unwrap_or(d.dt),
+        t_max: t_max.unwrap_or(d.t_max),
+        tol: tol.unwrap_or(d.tol),
+        integrator: parse_integrator(integrator)?,
+        record,
+    };
+    opts.validate().map_err(error)?;
+    Ok(opts)
+}
+
+/// A recorded trajectory as numpy arrays.
+#[derive(Clone)]
+struct Recorded {
+    dof: usize,
+    t: Vec<f64>,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+}
+
+impl Recorded {
+    fn new(dof: usize, tr: Option<Trajectory>) -> Self {
+        match tr {
+            Some(tr) => Recorded { dof, t: tr.t, q: tr.q, qd: tr.qd, qdd: tr.qdd },
+            None => Recorded { dof, t: vec![], q: vec![], qd: vec![], qdd: vec![] },
+        }
+    }
+
+    fn rows<'py>(&self, py: Python<'py>, data: &[f64]) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        output(py, data.to_vec(), &[self.t.len(), self.dof])
+    }
+}
+
+/// One rollout toward one command (GFCS eq. 1–3). Trajectory arrays are empty ((0,), (0, dof)) when the
+/// rollout was not recorded.
+#[pyclass(frozen, skip_from_py_object, name = "Rollout", module = "gfcs._core")]
+#[derive(Clone)]
+pub struct PyRollout {
+    rec: Recorded,
+    result: RolloutResult,
+}
+
+impl PyRollout {
+    /// Wrap a core result (its trajectory is moved out).
+    pub fn new(dof: usize, mut result: RolloutResult) -> Self {
+        let rec = Recorded::new(dof, result.trajectory.take());
+        PyRollout { rec, result }
+    }
+}
+
+#[pymethods]
+impl PyRollout {
+    /// Times (T,), s.
+    #[getter]
+    fn t<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        output(py, self.rec.t.clone(), &[self.rec.t.len()])
+    }
+    /// Configurations (T, dof).
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.rec.rows(py, &self.rec.q)
+    }
+    /// Velocities (T, dof).
+    #[getter]
+    fn qd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.rec.rows(py, &self.rec.qd)
+    }
+    /// Accelerations f(q, q̇) (T, dof) applied from each row to the next.
+    #[getter]
+    fn qdd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.rec.rows(py, &self.rec.qdd)
+    }
+    /// t* = min(t, t_max), s (eq. 2): the first time ‖q − command‖ < tol, t_max if never.
+    #[getter]
+    fn t_star(&self) -> f64 {
+        self.result.t_star
+    }
+    /// Time of the final state, s.
+    #[getter]
+    fn t_end(&self) -> f64 {
+        self.result.t_end
+    }
+    /// Integration steps taken.
+    #[getter]
+    fn steps(&self) -> usize {
+        self.result.steps
+    }
+    /// "reached", "timeout" or "non_finite".
+    #[getter]
+    fn reason(&self) -> &'static str {
+        reason_name(self.result.reason)
+    }
+    /// The command was reached within tol (eq. 3).
+    #[getter]
+    fn reached(&self) -> bool {
+        self.result.reason == StopReason::Reached
+    }
+    /// Minimum clearance (m) between robot spheres and obstacles over the rollout; negative = collision,
+    /// inf when no sphere came within the obstacle influence radius.
+    #[getter]
+    fn min_clearance(&self) -> f64 {
+        self.result.min_clearance
+    }
+    /// Final configuration (dof,).
+    #[getter]
+    fn q_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        output(py, self.result.q.clone(), &[self.result.q.len()])
+    }
+    /// Final velocity (dof,).
+    #[getter]
+    fn qd_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        output(py, self.result.qd.clone(), &[self.result.qd.len()])
+    }
+    fn __len__(&self) -> usize {
+        self.rec.t.len()
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Rollout(reason='{}', t_star={}, steps={}, min_clearance={}, rows={})",
+            self.reason(),
+            self.result.t_star,
+            self.result.steps,
+            self.result.min_clearance,
+            self.rec.t.len()
+        )
+    }
+}
+
+/// One command sequence (one GFCOP candidate, GFCS eq. 4–8): n free commands then the goal. The
+/// trajectory is the concatenation of the n + 1 rollouts (empty when not recorded).
+#[pyclass(frozen, skip_from_py_object, name = "SequenceRollout", module = "gfcs._core")]
+#[derive(Clone)]
+pub struct PySequenceRollout {
+    rec: Recorded,
+    result: SequenceResult,
+}
+
+impl PySequenceRollout {
+    /// Wrap a core result (its trajectory is moved out).
+    pub fn new(dof: usize, mut result: SequenceResult) -> Self {
+        let rec = Recorded::new(dof, result.trajectory.take());
+        PySequenceRollout { rec, result }
+    }
+}
+
+#[pymethods]
+impl PySequenceRollout {
+    /// Times (T,), s, strictly increasing across the commands.
+    #[getter]
+    fn t<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        output(py, self.rec.t.clone(), &[self.rec.t.len()])
+    }
+    /// Configurations (T, dof).
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.rec.rows(py, &self.rec.q)
+    }
+    /// Velocities (T, dof).
+    #[getter]
+    fn qd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.rec.rows(py, &self.rec.qd)
+    }
+    /// Accelerations (T, dof).
+    #[getter]
+    fn qdd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.rec.rows(py, &self.rec.qdd)
+    }
+    /// Cost Σ tᵢ* + p·1[goal not reached] + collision_penalty·1[min_clearance < 0], s (eq. 4, 8).
+    #[getter]
+    fn cost(&self) -> f64 {
+        self.result.cost
+    }
+    /// tᵢ* of every command, (n + 1,), s (eq. 5).
+    #[getter]
+    fn t_stars<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        output(py, self.result.t_stars.clone(), &[self.result.t_stars.len()])
+    }
+    /// Stop reason of every command ("reached", "timeout", "non_finite"), length n + 1.
+    #[getter]
+    fn reasons(&self) -> Vec<&'static str> {
+        self.result.reasons.iter().map(|r| reason_name(*r)).collect()
+    }
+    /// The final rollout reached the goal (eq. 8).
+    #[getter]
+    fn reached(&self) -> bool {
+        self.result.reached
+    }
+    /// Reached the goal without collision (min_clearance >= 0).
+    #[getter]
+    fn success(&self) -> bool {
+        self.result.success()
+    }
+    /// Minimum clearance (m) over every step of every rollout; negative = collision.
+    #[getter]
+    fn min_clearance(&self) -> f64 {
+        self.result.min_clearance
+    }
+    /// Final configuration (dof,).
+    #[getter]
+    fn q_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        output(py, self.result.q.clone(), &[self.result.q.len()])
+    }
+    /// Final velocity (dof,).
+    #[getter]
+    fn qd_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        output(py, self.result.qd.clone(), &[self.result.qd.len()])
+    }
+    fn __len__(&self) -> usize {
+        self.rec.t.len()
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "SequenceRollout(cost={}, reached={}, min_clearance={}, t_stars={:?}, rows={})",
+            self.result.cost,
+            self.result.reached,
+            self.result.min_clearance,
+            self.result.t_stars,
+            self.rec.t.len()
+        )
+    }
+}

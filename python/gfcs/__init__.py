@@ -1,0 +1,102 @@
+"""gfcs: geometric fabrics and Geometric Fabric Command Sequences.
+
+The compiled core (``gfcs._core``, Rust) holds the robot model, the scene, the fabric and the rollouts;
+this package re-exports it and adds the Python layers (problems, optimisation, metrics, learning, viz).
+
+Quick start::
+
+    import gfcs
+    robot = gfcs.Robot.panda()
+    scene = gfcs.Scene()
+    scene.add_sphere([0.5, 0.0, 0.4], 0.1)
+    fabric = gfcs.Fabric(robot, scene)
+    result = fabric.rollout(q0, qd0, q_goal)          # GFCS eq. 1-3
+
+Conventions: SI units (m, rad, s); arrays float64; signed distance positive outside; quaternions [x, y, z, w].
+
+The Python submodules (``problems``, ``optimize``, ``metrics``, ``learning``, ``viz``, ``plots``,
+``experiments``, ``cli``) are imported on first attribute access, so that a missing optional dependency
+(torch, rerun) never breaks ``import gfcs``.
+"""
+
+from __future__ import annotations
+
+import importlib as _importlib
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import Any as _Any
+
+from gfcs import errors
+from gfcs._core import (
+    Fabric,
+    FabricConfig,
+    Robot,
+    Rollout,
+    Scene,
+    SequenceRollout,
+    __version__,
+    load_motion_plan_request,
+    panda_urdf,
+    particle_acceleration,
+    particle_defaults,
+    particle_rollout,
+)
+from gfcs.errors import (
+    ConfigError,
+    FormatError,
+    GfcsError,
+    InvalidValueError,
+    IoError,
+    LinkError,
+    MeshError,
+    NonFiniteError,
+    ShapeError,
+    UrdfError,
+)
+
+if _TYPE_CHECKING:  # pragma: no cover
+    from gfcs import metrics, optimize, problems  # noqa: F401
+
+#: Python submodules loaded lazily by :func:`__getattr__`.
+_LAZY_SUBMODULES = frozenset(
+    {"problems", "optimize", "metrics", "learning", "viz", "plots", "experiments", "cli"}
+)
+
+__all__ = [
+    "Robot",
+    "Scene",
+    "Fabric",
+    "FabricConfig",
+    "Rollout",
+    "SequenceRollout",
+    "load_motion_plan_request",
+    "panda_urdf",
+    "errors",
+    "GfcsError",
+    "UrdfError",
+    "LinkError",
+    "MeshError",
+    "ShapeError",
+    "NonFiniteError",
+    "FormatError",
+    "InvalidValueError",
+    "ConfigError",
+    "IoError",
+    "particle_acceleration",
+    "particle_defaults",
+    "particle_rollout",
+    "__version__",
+]
+
+
+def __getattr__(name: str) -> _Any:
+    """Import the submodule ``gfcs.<name>`` on first access (PEP 562)."""
+    if name in _LAZY_SUBMODULES:
+        module = _importlib.import_module(f"gfcs.{name}")
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'gfcs' has no attribute '{name}'")
+
+
+def __dir__() -> list[str]:
+    """Public names and the lazily imported submodules."""
+    return sorted(set(__all__) | _LAZY_SUBMODULES)

@@ -1,0 +1,475 @@
+"""The ``gfcs`` command line (entry point ``gfcs = gfcs.cli:main``).
+
+Subcommands::
+
+    gfcs solve      solve one problem (a MotionBenchMaker scene + request, or a generated one)
+    gfcs bench      run GFCS and the GF baseline over a problem suite; tables like GFCS Table I
+    gfcs generate   write procedurally generated problems as MotionBenchMaker files
+    gfcs train      self-supervised EBM training (GFCS Alg. 2)       [gfcs.learning, extra "learn"]
+    gfcs view       open a rerun recording                           [gfcs.viz, extra "viz"]
+    gfcs experiment the GF paper's experiments (Sec. VI particles)   [gfcs.experiments]
+
+Hooks for other packages: each entry of :data:`EXTERNAL_COMMANDS` names a module and a registration
+function ``register(subparsers) -> argparse.ArgumentParser``; that function adds its own subparser (under
+the command's name) and sets ``func`` with ``parser.set_defaults(func=handler)``, ``handler(args) -> int``
+(the exit code). The module is imported only when its command is the one being run, so ``gfcs --help`` and
+``gfcs solve`` never import torch or rerun; if the import fails, the command prints one line naming the
+missing dependency and exits 2.
+
+Errors: a :class:`gfcs.GfcsError` (or a missing file / invalid value from user input) prints one line
+``gfcs: error: ...`` on stderr and exits 2, never a traceback (set ``GFCS_DEBUG=1`` to see it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple
+
+__all__ = [
+    "main",
+    "build_parser",
+    "EXTERNAL_COMMANDS",
+    "run_bench",
+    "bench_problem",
+    "load_problems",
+    "DEFAULT_DEMO_CLASS",
+]
+
+#: Subcommands provided by other modules: name -> (module, registration function, help, pip extra).
+EXTERNAL_COMMANDS: Dict[str, Tuple[Tuple[str, ...], str, str, Optional[str]]] = {
+    "train": (("gfcs.learning.cli",), "register",
+              "self-supervised EBM training of the warm-start sampler (GFCS Alg. 2)", "learn"),
+    "view": (("gfcs.viz",), "register_cli", "open a rerun recording (.rrd) in the viewer", "viz"),
+    "experiment": (("gfcs.experiments", "gfcs.experiments.particles"), "register_cli",
+                   "the GF paper's experiments (Sec. VI particle systems)", None),
+}
+
+#: Class of the built-in problem ``gfcs solve`` uses without --scene.
+DEFAULT_DEMO_CLASS = "bookshelf_small"
+
+EXIT_USER_ERROR = 2
+
+
+# ------------------------------------------------------------------------------------ shared options
+def _add_robot_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("robot (default: the shipped Panda)")
+    g.add_argument("--robot", metavar="URDF", help="robot URDF file")
+    g.add_argument("--srdf", metavar="SRDF", help="SRDF whose disabled collisions prune self-collision pairs")
+    g.add_argument("--spheres", metavar="JSON", help="collision sphere file (replaces URDF spheres)")
+    g.add_argument("--ee-link", metavar="LINK", help="end-effector link (default: deepest active link)")
+    g.add_argument("--mesh-dir", metavar="DIR", help="directory resolving package:// mesh paths")
+
+
+def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str] = None) -> None:
+    g = p.add_argument_group("solver (GFCS Alg. 1)")
+    if methods_nargs:
+        g.add_argument("--method", nargs=methods_nargs, choices=["gfcs", "gf"], default=["gfcs", "gf"],
+                       help="methods to run (default: gfcs gf)")
+    else:
+        g.add_argument("--method", choices=["gfcs", "gf"], default="gfcs",
+                       help="gfcs: optimise commands with CMA-ES; gf: local fabric only (default gfcs)")
+    g.add_argument("--batches", type=int, default=5, help="CMA-ES batches (default 5)")
+    g.add_argument("--population", type=int, default=32, help="candidates per batch (default 32)")
+    g.add_argument("--commands", type=int, default=1, help="free commands n before the goal (default 1)")
+    g.add_argument("--seed", type=int, default=0, help="optimiser seed (default 0)")
+    g.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores)")
+    g.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON)")
+    g.add_argument("--sampler", metavar="MODEL.pt",
+                   help="warm-start sampler: a model trained by `gfcs train` (needs torch)")
+    r = p.add_argument_group("rollout (GFCS eq. 1-8)")
+    r.add_argument("--dt", type=float, default=0.01, help="integration step, s (default 0.01)")
+    r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
+    r.add_argument("--tol", type=float, default=None, help="goal tolerance, rad (default: see gfcs.optimize)")
+    r.add_argument("--waypoint-tol", type=float, default=None, help="tolerance of intermediate commands, rad")
+    r.add_argument("--integrator", choices=["euler", "rk4"], default="euler", help="integrator (default euler)")
+
+
+def _settings(args: argparse.Namespace) -> Any:
+    from gfcs.optimize import RolloutSettings
+
+    s = RolloutSettings(dt=args.dt, t_max=args.t_max, integrator=args.integrator)
+    if args.tol is not None:
+        s.tol = args.tol
+    if args.waypoint_tol is not None:
+        s.waypoint_tol = args.waypoint_tol
+    return s
+
+
+def _robot(args: argparse.Namespace) -> Any:
+    import gfcs
+
+    if args.robot is None:
+        if args.srdf or args.spheres or args.ee_link or args.mesh_dir:
+            raise ValueError("--srdf/--spheres/--ee-link/--mesh-dir need --robot URDF")
+        return gfcs.Robot.panda()
+    return gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
+                                srdf=args.srdf, spheres=args.spheres)
+
+
+def _sampler(args: argparse.Namespace) -> Any:
+    if not args.sampler:
+        return None
+    try:
+        from gfcs.learning.sampler import EBMSampler
+    except ImportError as e:
+        raise _MissingExtra(f"--sampler needs the 'learn' extra (pip install 'gfcs[learn]'): {e}") from e
+    return EBMSampler(args.sampler)
+
+
+class _MissingExtra(Exception):
+    """An optional dependency needed by the requested command is not installed."""
+
+
+# --------------------------------------------------------------------------------------------- solve
+def _fmt(v: float, unit: str = "", digits: int = 3) -> str:
+    return "NA" if v is None or not math.isfinite(v) else f"{v:.{digits}g}{unit}"
+
+
+def summary_text(result: Any, problem: Any) -> str:
+    """A short human summary of a :class:`gfcs.results.SolveResult`."""
+    m = result.metrics
+    lines = [
+        f"problem   {problem.name} ({problem.cls or 'unclassified'}), {problem.robot.name} "
+        f"{problem.robot.dof} dof, {len(problem.scene)} obstacles",
+    ]
+    if result.method == "gfcs":
+        st = result.settings
+        lines.append(f"method    gfcs: {st.get('batches')} batches x {st.get('population')} candidates, "
+                     f"{result.n_commands} free command(s), seed {result.seed}")
+    else:
+        lines.append("method    gf: local geometric fabric toward the goal")
+    t_stars = " + ".join(f"{t:.2f}" for t in result.t_stars)
+    lines.append(f"result    {'SUCCESS' if result.success else 'FAILURE'}: cost {_fmt(result.cost, ' s')} "
+                 f"(t* = {t_stars} s), goal error {_fmt(m['final_error'], ' rad')}, "
+                 f"reached {result.reached}")
+    lines.append(f"quality   EE length {_fmt(m['ee_length'], ' m')}, C-space length "
+                 f"{_fmt(m['cspace_length'], ' rad')}, EE-LDJ {_fmt(m['ee_ldj'])}, C-space-LDJ "
+                 f"{_fmt(m['cspace_ldj'])}, min clearance {_fmt(m['min_clearance'], ' m')}")
+    timing = f"time      {result.solve_time:.2f} s"
+    if result.method == "gfcs" and len(result.batch_times):
+        costs = " ".join(f"{c:.3g}" for c in result.batch_best_costs)
+        timing += f" optimisation (batch 1: {result.batch_times[0]:.2f} s); best cost per batch: {costs}"
+    lines.append(timing)
+    return "\n".join(lines)
+
+
+def _solve_problem(args: argparse.Namespace) -> Any:
+    from gfcs import generators, problems
+
+    robot = _robot(args)
+    if args.scene or args.request:
+        if not (args.scene and args.request):
+            raise ValueError("--scene and --request go together")
+        return problems.load_mbm(args.scene, args.request, robot=robot)
+    return generators.generate(args.problem_class, 1, seed=args.problem_seed, robot=robot)[0]
+
+
+def _write_json(text: str, target: str) -> None:
+    if target == "-":
+        sys.stdout.write(text + "\n")
+    else:
+        Path(target).write_text(text + "\n")
+
+
+def _record(problem: Any, results: Any, path: str) -> None:
+    try:
+        from gfcs import viz
+    except ImportError as e:
+        raise _MissingExtra(f"--rrd needs the 'viz' extra (pip install 'gfcs[viz]'): {e}") from e
+    viz.record(problem, results, path)
+
+
+def cmd_solve(args: argparse.Namespace) -> int:
+    from gfcs import optimize
+
+    problem = _solve_problem(args)
+    result = optimize.solve(
+        problem, method=args.method, batches=args.batches, population=args.population,
+        n_commands=args.commands, seed=args.seed, sampler=_sampler(args), fabric_config=args.config,
+        threads=args.threads, progress=args.progress, settings=_settings(args),
+    )
+    text = summary_text(result, problem)
+    if args.json:
+        _write_json(result.to_json(include_trajectory=not args.no_trajectory), args.json)
+    print(text, file=sys.stderr if args.json == "-" else sys.stdout)
+    if args.rrd:
+        _record(problem, result, args.rrd)
+    return 0 if result.success else 1
+
+
+def _register_solve(sub: Any) -> None:
+    p = sub.add_parser(
+        "solve", help="solve one motion problem with GFCS (or the GF baseline)",
+        description="Solve one problem: a MotionBenchMaker scene + request (--scene/--request), or a "
+                    "built-in generated problem (default). Prints a short summary; exit code 0 on "
+                    "success, 1 when the problem was not solved, 2 on a user error.",
+    )
+    src = p.add_argument_group("problem (default: a generated problem)")
+    src.add_argument("--scene", metavar="S.yaml", help="MoveIt planning scene (MotionBenchMaker sceneNNNN.yaml)")
+    src.add_argument("--request", metavar="R.yaml", help="MoveIt motion plan request (requestNNNN.yaml)")
+    src.add_argument("--class", dest="problem_class", default=DEFAULT_DEMO_CLASS,
+                     help=f"class of the generated problem (default {DEFAULT_DEMO_CLASS})")
+    src.add_argument("--problem-seed", type=int, default=0, help="seed of the generated problem (default 0)")
+    _add_robot_options(p)
+    _add_solver_options(p)
+    out = p.add_argument_group("output")
+    out.add_argument("--json", metavar="OUT.json", help="write the result as JSON ('-': stdout, summary to stderr)")
+    out.add_argument("--no-trajectory", action="store_true", help="leave the trajectory out of the JSON")
+    out.add_argument("--rrd", metavar="OUT.rrd", help="write a rerun recording (needs the viz extra)")
+    out.add_argument("--progress", action="store_true", help="progress bar over the batches")
+    p.set_defaults(func=cmd_solve)
+
+
+# --------------------------------------------------------------------------------------------- bench
+def load_problems(args: argparse.Namespace, robot: Any) -> List[Any]:
+    """The suite of ``gfcs bench``: a MotionBenchMaker folder, or generated problems."""
+    from gfcs import generators, problems
+
+    if args.problems:
+        return problems.load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot)
+    classes = args.classes or list(problems.CLASSES)
+    n = args.limit if args.limit is not None else 10
+    suite: List[Any] = []
+    for c in classes:
+        suite.extend(generators.generate(c, n, seed=args.problem_seed, robot=robot))
+    return suite
+
+
+def bench_problem(problem: Any, methods: Sequence[str], batches: int, population: int, seed: int,
+                  n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
+                  threads: Optional[int] = None, settings: Any = None) -> Tuple[List[Dict[str, Any]], List[Any]]:
+    """Rows (:func:`gfcs.results.bench_row`) and results of the methods on one problem.
+
+    GFCS yields two rows, "Ours (1 b)" (the best sequence after the first batch, replayed for its metrics,
+    time = first batch) and "Ours (B b)" (after all B batches), as the paper's Table I; GF yields "GF".
+    """
+    from gfcs import optimize
+    from gfcs.results import bench_row
+
+    rows: List[Dict[str, Any]] = []
+    results: List[Any] = []
+    for method in methods:
+        res = optimize.solve(problem, method=method, batches=batches, population=population,
+                             n_commands=n_commands, seed=seed, sampler=sampler,
+                             fabric_config=fabric_config, threads=threads, settings=settings)
+        results.append(res)
+        if method == "gf":
+            rows.append(bench_row(problem.name, problem.cls, "GF", "gf", 0, seed, res.solve_time,
+                                  res.cost, res.metrics))
+            continue
+        if batches > 1:
+            first = optimize.replay(res, problem.scene,
+                                    commands=res.batch_best_commands[0].reshape(res.n_commands, -1))
+            rows.append(bench_row(problem.name, problem.cls, "Ours (1 b)", "gfcs", 1, seed,
+                                  float(res.batch_times[0]), first.cost, first.metrics))
+        rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b)", "gfcs", batches, seed,
+                              res.solve_time, res.cost, res.metrics))
+    return rows, results
+
+
+def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5, population: int = 32,
+              seed: int = 0, n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
+              threads: Optional[int] = None, settings: Any = None, jsonl: Optional[str] = None,
+              rrd_dir: Optional[str] = None, progress: bool = True) -> List[Dict[str, Any]]:
+    """Benchmark ``methods`` on ``problems``; rows are appended to ``jsonl`` as they are produced.
+
+    Returns:
+        All rows (see :mod:`gfcs.results` for the row format).
+    """
+    from tqdm.auto import tqdm
+
+    from gfcs.results import _enc
+
+    rows: List[Dict[str, Any]] = []
+    out = open(jsonl, "w") if jsonl else None
+    if rrd_dir:
+        Path(rrd_dir).mkdir(parents=True, exist_ok=True)
+    try:
+        bar = tqdm(problems, desc="bench", unit="problem", disable=not progress)
+        for problem in bar:
+            bar.set_postfix_str(problem.name)
+            new, results = bench_problem(problem, methods, batches, population, seed, n_commands, sampler,
+                                         fabric_config, threads, settings)
+            rows.extend(new)
+            if out is not None:
+                for r in new:
+                    out.write(json.dumps(_enc(r), allow_nan=False) + "\n")
+                out.flush()
+            if rrd_dir:
+                _record(problem, results, str(Path(rrd_dir) / (problem.name.replace("/", "_") + ".rrd")))
+    finally:
+        if out is not None:
+            out.close()
+    return rows
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from gfcs.results import format_table, summarize
+
+    robot = _robot(args)
+    suite = load_problems(args, robot)
+    rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
+                     n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
+                     threads=args.threads, settings=_settings(args), jsonl=args.json, rrd_dir=args.rrd_dir,
+                     progress=not args.no_progress)
+    summary = summarize(rows)
+    print(format_table(summary, markdown=False))
+    if args.markdown:
+        Path(args.markdown).write_text(format_table(summary, markdown=True))
+    return 0
+
+
+def _register_bench(sub: Any) -> None:
+    p = sub.add_parser(
+        "bench", help="benchmark GFCS and GF on a problem suite (GFCS Table I)",
+        description="Run the methods over a MotionBenchMaker folder (--problems) or over generated "
+                    "problems (default: --limit problems per class, 10 unless given), write one JSON row "
+                    "per problem and method (--json), and print per-class tables in the layout of GFCS "
+                    "Table I (mean ± std over successful problems).",
+    )
+    src = p.add_argument_group("problems")
+    src.add_argument("--problems", metavar="DIR", help="MotionBenchMaker folder (class folders or one class)")
+    src.add_argument("--classes", nargs="+", metavar="CLASS", help="only these classes")
+    src.add_argument("--limit", type=int, help="problems per class (generated suite: default 10)")
+    src.add_argument("--problem-seed", type=int, default=0, help="seed of a generated suite (default 0)")
+    _add_robot_options(p)
+    _add_solver_options(p, methods_nargs="+")
+    out = p.add_argument_group("output")
+    out.add_argument("--json", metavar="RESULTS.jsonl", help="write the rows as JSON lines")
+    out.add_argument("--markdown", metavar="TABLE.md", help="write the tables as markdown")
+    out.add_argument("--rrd-dir", metavar="DIR", help="write one rerun recording per problem (viz extra)")
+    out.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_bench)
+
+
+# ------------------------------------------------------------------------------------------ generate
+def cmd_generate(args: argparse.Namespace) -> int:
+    from gfcs import generators, problems
+
+    robot = _robot(args)
+    classes = args.classes or list(problems.CLASSES)
+    total = 0
+    for c in classes:
+        suite = generators.generate(c, args.n, seed=args.seed, robot=robot)
+        generators.write_problems(suite, args.out)
+        total += len(suite)
+    print(f"wrote {total} problems ({', '.join(problems.canonical_class(c) for c in classes)}) to {args.out}")
+    return 0
+
+
+def _register_generate(sub: Any) -> None:
+    p = sub.add_parser(
+        "generate", help="write generated problems as MotionBenchMaker files",
+        description="Generate seeded problems (see gfcs.generators) and write them as "
+                    "<out>/<class>/sceneNNNN.yaml and requestNNNN.yaml.",
+    )
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--classes", nargs="+", metavar="CLASS", help="classes (default: all)")
+    p.add_argument("--n", type=int, default=10, help="problems per class (default 10)")
+    p.add_argument("--seed", type=int, default=0, help="generator seed (default 0)")
+    _add_robot_options(p)
+    p.set_defaults(func=cmd_generate)
+
+
+# -------------------------------------------------------------------------------- external commands
+def _register_external(sub: Any, name: str, load: bool) -> None:
+    """Register an external subcommand: the real parser when ``load``, else a lightweight stand-in."""
+    modules, func_name, help_text, extra = EXTERNAL_COMMANDS[name]
+    if load:
+        errors = []
+        for module_name in modules:
+            try:
+                module = importlib.import_module(module_name)
+            except ImportError as e:
+                errors.append(f"{module_name}: {e}")
+                continue
+            register = getattr(module, func_name, None)
+            if register is not None:
+                register(sub)
+                return
+            errors.append(f"{module_name} has no {func_name}()")
+        hint = f" (install the extra: pip install 'gfcs[{extra}]')" if extra else ""
+        message = f"'gfcs {name}' is unavailable{hint}: {'; '.join(errors)}"
+
+        def unavailable(args: argparse.Namespace) -> int:
+            raise _MissingExtra(message)
+
+        p = sub.add_parser(name, help=help_text, add_help=False)
+        p.add_argument("rest", nargs=argparse.REMAINDER)
+        p.set_defaults(func=unavailable)
+    else:
+        p = sub.add_parser(name, help=help_text, add_help=False)
+        p.add_argument("rest", nargs=argparse.REMAINDER)
+
+
+def build_parser(argv: Optional[Sequence[str]] = None) -> argparse.ArgumentParser:
+    """The ``gfcs`` parser. External commands are imported only when ``argv`` selects them."""
+    parser = argparse.ArgumentParser(
+        prog="gfcs",
+        description="Geometric fabrics and Geometric Fabric Command Sequences: global and reactive "
+                    "motion generation.",
+    )
+    try:
+        from gfcs import __version__
+
+        parser.add_argument("--version", action="version", version=f"gfcs {__version__}")
+    except ImportError:  # pragma: no cover - extension not built
+        pass
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    _register_solve(sub)
+    _register_bench(sub)
+    _register_generate(sub)
+    selected = next((a for a in (argv or []) if not a.startswith("-")), None)
+    for name in EXTERNAL_COMMANDS:
+        _register_external(sub, name, load=(name == selected))
+    return parser
+
+
+def _user_error_types() -> Tuple[type, ...]:
+    types: List[type] = [OSError, ValueError, KeyError, _MissingExtra]
+    try:
+        from gfcs.errors import GfcsError
+
+        types.insert(0, GfcsError)
+    except ImportError:  # pragma: no cover
+        pass
+    return tuple(types)
+
+
+def _message(e: BaseException) -> str:
+    if isinstance(e, KeyError) and len(e.args) == 1:
+        return str(e.args[0])
+    if isinstance(e, OSError) and e.filename is not None and e.strerror:
+        return f"{e.filename}: {e.strerror}"
+    return str(e) or type(e).__name__
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run ``gfcs`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    errors = _user_error_types()
+    try:
+        parser = build_parser(argv)
+        args = parser.parse_args(argv)
+        code = args.func(args)
+        return int(code or 0)
+    except errors as e:
+        if os.environ.get("GFCS_DEBUG"):
+            raise
+        print(f"gfcs: error: {_message(e)}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except KeyboardInterrupt:
+        print("gfcs: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

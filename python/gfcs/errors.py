@@ -1,0 +1,48 @@
+"""The gfcs exception hierarchy.
+
+The classes are defined in the compiled extension ``gfcs._core`` (so that the Rust core raises exactly these)
+and re-exported here. Every message names its culprit: the file, link, joint, field or argument.
+
+==========================  =====================================  ===========================================
+class                       bases                                  raised for
+==========================  =====================================  ===========================================
+``GfcsError``               ``Exception``                          base class; also internal errors (a Rust
+                                                                   panic surfaces as ``GfcsError("internal
+                                                                   error: ...")``)
+``UrdfError``               ``GfcsError``                          malformed URDF, unsupported joint type
+``LinkError``               ``GfcsError``, ``KeyError``            unknown link or joint name
+``MeshError``               ``GfcsError``, ``OSError``             missing or unreadable mesh file
+``ShapeError``              ``GfcsError``, ``ValueError``          array of the wrong shape
+``NonFiniteError``          ``GfcsError``, ``ValueError``          NaN or infinite input
+``FormatError``             ``GfcsError``, ``ValueError``          malformed field in a YAML/SRDF/JSON/TOML file
+``InvalidValueError``       ``GfcsError``, ``ValueError``          value out of range (radius, time step, gain)
+``ConfigError``             alias of ``InvalidValueError``
+``IoError``                 ``GfcsError``, ``OSError``             I/O failure on a path
+==========================  =====================================  ===========================================
+"""
+
+from gfcs._core import (
+    ConfigError,
+    FormatError,
+    GfcsError,
+    InvalidValueError,
+    IoError,
+    LinkError,
+    MeshError,
+    NonFiniteError,
+    ShapeError,
+    UrdfError,
+)
+
+__all__ = [
+    "GfcsError",
+    "UrdfError",
+    "LinkError",
+    "MeshError",
+    "ShapeError",
+    "NonFiniteError",
+    "FormatError",
+    "InvalidValueError",
+    "ConfigError",
+    "IoError",
+]

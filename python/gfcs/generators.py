@@ -1,0 +1,588 @@
+"""Procedural, seeded motion problems in the style of MotionBenchMaker (GFCS Sec. V, Fig. 2).
+
+``generate(cls, n, seed)`` builds ``n`` problems of one class: a randomised scene of boxes and cylinders
+(tables, shelves, an open box, a cage, cans and blocks), a start and a goal configuration found by
+inverse kinematics to sampled end-effector targets. Every start and goal is inside the joint limits
+(with a small inset) and collision-free under the robot's sphere model: for every collision sphere,
+signed distance − radius ≥ ``margin`` against the scene, and ≥ 0 between self-collision pairs.
+
+Frames: the robot base is the world origin, z up. Each structure (shelf, table, ...) has a local frame
+whose x axis points away from the robot (depth), y is lateral and z up; its front face is at local x = 0.
+The structure sits at azimuth φ around the base with yaw ψ = φ + δ (|δ| ≤ 5°).
+
+Classes (:data:`gfcs.problems.CLASSES`):
+
+* ``bookshelf_small`` (single shelf): two 1.2 × 1.0 m boards 0.30 m apart, two sides, three cans; the
+  front face 0.5-0.7 m from the base, the bottom board at z ∈ [−0.08, 0.67] m (the ranges of the
+  MotionBenchMaker files). Goal: the gripper inside the shelf, pointing into it.
+* ``bookshelf_tall``: 4-5 levels, 0.35-0.45 m deep. ``bookshelf_thin``: 3-4 thin levels, 0.22-0.28 m
+  deep. Goal: inside a compartment, pointing into it.
+* ``box``: an open-top box on a table; goal: inside the box, pointing down.
+* ``cage``: a cage of bars on a table (bars on three sides, a single cross bar in front, a roof); goal:
+  inside the cage, entering from the front.
+* ``table_pick``: a table with blocks and cans; goal: above an object, pointing down (pre-grasp).
+* ``table_under_pick``: a higher table; start: the gripper under the table; goal: as ``table_pick``.
+
+Starts are the Panda "ready" configuration (the MotionBenchMaker start) except for ``table_under_pick``.
+Problem ``i`` of ``generate(cls, n, seed)`` depends only on (cls, seed, i), so a longer list extends a
+shorter one. Generated problems keep their primitives in ``problem.meta["primitives"]`` and can be written
+as MotionBenchMaker files with :func:`write_problems` (read back by :func:`gfcs.problems.load_mbm_dir`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from gfcs import metrics as _metrics
+from gfcs.problems import CLASSES, Problem, canonical_class
+
+__all__ = [
+    "Primitive",
+    "Target",
+    "READY",
+    "PANDA_TCP",
+    "PANDA_REACH",
+    "generate",
+    "build_scene",
+    "inverse_kinematics",
+    "is_collision_free",
+    "scene_yaml",
+    "request_yaml",
+    "write_problems",
+]
+
+#: The Panda "ready" configuration [rad] (the start state of the MotionBenchMaker Panda problems).
+READY = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+#: Tool centre point of the Panda hand in the ``panda_hand`` frame [m] (between the finger pads).
+PANDA_TCP = np.array([0.0, 0.0, 0.1034])
+
+_CLASS_INDEX = {c: i for i, c in enumerate(CLASSES)}
+
+
+@dataclass(frozen=True)
+class Primitive:
+    """One obstacle primitive in MoveIt conventions.
+
+    Attributes:
+        name: object id.
+        kind: ``"box"`` (dims = full edge lengths (3,)), ``"cylinder"`` (dims = (height, radius), axis =
+            local z) or ``"sphere"`` (dims = (radius,)) [m].
+        position: (3,) centre in the world frame [m].
+        quaternion: (4,) orientation [x, y, z, w].
+    """
+
+    name: str
+    kind: str
+    dims: Tuple[float, ...]
+    position: Tuple[float, float, float]
+    quaternion: Tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class Target:
+    """An end-effector target for inverse kinematics.
+
+    Attributes:
+        position: (3,) world position of the tool centre point [m].
+        approach: (3,) unit world direction the gripper should point along (hand z axis), or None.
+        cone_deg: accepted angle between the hand z axis and ``approach`` [deg].
+    """
+
+    position: np.ndarray
+    approach: Optional[np.ndarray] = None
+    cone_deg: float = 25.0
+
+
+class _Frame:
+    """A structure frame: origin (3,) and yaw ψ about world z; places primitives given in local coords."""
+
+    def __init__(self, origin: np.ndarray, yaw: float):
+        self.origin = np.asarray(origin, dtype=np.float64)
+        self.yaw = float(yaw)
+        c, s = math.cos(yaw), math.sin(yaw)
+        self.rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        self.quat = (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+        self.items: List[Primitive] = []
+
+    def point(self, local: Sequence[float]) -> np.ndarray:
+        return self.origin + self.rot @ np.asarray(local, dtype=np.float64)
+
+    def direction(self, local: Sequence[float]) -> np.ndarray:
+        d = self.rot @ np.asarray(local, dtype=np.float64)
+        return d / np.linalg.norm(d)
+
+    def box(self, name: str, size: Sequence[float], center: Sequence[float]) -> None:
+        self.items.append(Primitive(name, "box", tuple(float(v) for v in size),
+                                    tuple(self.point(center).tolist()), self.quat))
+
+    def cylinder(self, name: str, height: float, radius: float, center: Sequence[float]) -> None:
+        self.items.append(Primitive(name, "cylinder", (float(height), float(radius)),
+                                    tuple(self.point(center).tolist()), self.quat))
+
+
+def _place_frame(rng: np.random.Generator, front: Tuple[float, float], z: Tuple[float, float],
+                 azimuth: Tuple[float, float] = (-math.pi / 2, math.pi / 2)) -> _Frame:
+    phi = rng.uniform(*azimuth)
+    d = rng.uniform(*front)
+    yaw = phi + rng.uniform(-math.radians(5), math.radians(5))
+    return _Frame(np.array([d * math.cos(phi), d * math.sin(phi), rng.uniform(*z)]), yaw)
+
+
+@dataclass
+class _Layout:
+    """A randomised scene with its target samplers (start None: the ready configuration)."""
+
+    primitives: List[Primitive]
+    goal: Callable[[np.random.Generator], Target]
+    start: Optional[Callable[[np.random.Generator], Target]] = None
+
+
+# ------------------------------------------------------------------------------------ scene layouts
+def _shelf(rng: np.random.Generator, f: _Frame, depth: float, width: float, thickness: float,
+           levels: int, spacing: float, can: Tuple[float, float], cans_per_level: Tuple[int, int]
+           ) -> List[float]:
+    """Boards (centres at local z = k·spacing), two sides and cans; returns the board-top heights."""
+    tops = []
+    for k in range(levels):
+        zc = k * spacing
+        f.box(f"shelf_{k}", (depth, width, thickness), (depth / 2, 0.0, zc))
+        tops.append(zc + thickness / 2)
+    height = (levels - 1) * spacing + thickness
+    for side, y in (("left", -width / 2), ("right", width / 2)):
+        f.box(f"side_{side}", (depth, 0.04, height), (depth / 2, y, (levels - 1) * spacing / 2))
+    can_h, can_r = can
+    for k in range(levels - 1):
+        for j in range(int(rng.integers(cans_per_level[0], cans_per_level[1] + 1))):
+            x = rng.uniform(0.1, depth - 0.06)
+            y = rng.uniform(-width / 2 + 0.08, width / 2 - 0.08)
+            f.cylinder(f"can_{k}_{j}", can_h, can_r, (x, y, tops[k] + can_h / 2))
+    return tops
+
+
+def _compartment_goal(f: _Frame, depth: float, width: float, tops: List[float], spacing: float,
+                      thickness: float) -> Callable[[np.random.Generator], Target]:
+    """Targets inside a reachable compartment (centre height in [−0.05, 0.85] m), pointing into it."""
+    reachable = [k for k in range(len(tops) - 1)
+                 if -0.05 <= f.point((0, 0, tops[k] + (spacing - thickness) / 2))[2] <= 0.85]
+    levels = reachable or list(range(len(tops) - 1))
+
+    def sample(rng: np.random.Generator) -> Target:
+        k = levels[int(rng.integers(len(levels)))]
+        gap = spacing - thickness
+        x = rng.uniform(0.03, max(0.04, min(depth - 0.12, 0.3)))
+        y = rng.uniform(-width / 2 + 0.18, width / 2 - 0.18)
+        z = tops[k] + rng.uniform(min(0.07, gap / 2), max(min(0.07, gap / 2), min(0.15, gap - 0.09)))
+        return Target(f.point((x, y, z)), f.direction((1.0, 0.0, 0.0)), 25.0)
+
+    return sample
+
+
+def _bookshelf_small(rng: np.random.Generator) -> _Layout:
+    f = _place_frame(rng, front=(0.5, 0.7), z=(-0.08, 0.67))
+    depth, width, spacing, t = 1.2, 1.0, 0.30, 0.04
+    tops = [t / 2, spacing + t / 2]
+    f.box("shelf_bottom", (depth, width, t), (depth / 2, 0.0, 0.0))
+    f.box("shelf_top", (depth, width, t), (depth / 2, 0.0, spacing))
+    for side, y in (("left", -width / 2), ("right", width / 2)):
+        f.box(f"side_{side}", (depth, 0.04, spacing + t), (depth / 2, y, spacing / 2))
+    for j, x in enumerate((0.5, 0.3, 0.1)):
+        f.cylinder(f"Can{j + 1}", 0.14, 0.03, (x, rng.uniform(-0.45, 0.45), 0.08))
+    return _Layout(f.items, _compartment_goal(f, depth, width, tops, spacing, t))
+
+
+def _bookshelf_tall(rng: np.random.Generator) -> _Layout:
+    f = _place_frame(rng, front=(0.55, 0.75), z=(-0.45, -0.25))
+    depth, width = rng.uniform(0.35, 0.45), rng.uniform(0.8, 1.0)
+    spacing, levels, t = rng.uniform(0.30, 0.36), int(rng.integers(4, 6)), 0.03
+    tops = _shelf(rng, f, depth, width, t, levels, spacing, (0.14, 0.03), (0, 2))
+    return _Layout(f.items, _compartment_goal(f, depth, width, tops, spacing, t))
+
+
+def _bookshelf_thin(rng: np.random.Generator) -> _Layout:
+    f = _place_frame(rng, front=(0.5, 0.7), z=(-0.3, 0.0))
+    depth, width = rng.uniform(0.22, 0.28), rng.uniform(0.6, 0.8)
+    spacing, levels, t = rng.uniform(0.28, 0.34), int(rng.integers(3, 5)), 0.02
+    tops = _shelf(rng, f, depth, width, t, levels, spacing, (0.10, 0.025), (0, 2))
+    return _Layout(f.items, _compartment_goal(f, depth, width, tops, spacing, t))
+
+
+def _table(f: _Frame, depth: float, width: float, thickness: float = 0.04, legs: float = 0.7) -> None:
+    """A table whose top surface is at local z = 0, front edge at local x = 0."""
+    f.box("table_top", (depth, width, thickness), (depth / 2, 0.0, -thickness / 2))
+    for i, (x, y) in enumerate(((0.03, -width / 2 + 0.03), (0.03, width / 2 - 0.03),
+                                (depth - 0.03, -width / 2 + 0.03), (depth - 0.03, width / 2 - 0.03))):
+        f.box(f"table_leg_{i}", (0.04, 0.04, legs), (x, y, -thickness - legs / 2))
+
+
+def _table_objects(rng: np.random.Generator, f: _Frame, depth: float, width: float, count: int,
+                   reach: float) -> List[Tuple[np.ndarray, float]]:
+    """Blocks and cans on the table; returns (local top-centre, height) of each."""
+    placed: List[Tuple[np.ndarray, float]] = []
+    for j in range(200):
+        if len(placed) == count:
+            break
+        x = rng.uniform(0.1, min(depth - 0.1, reach))
+        y = rng.uniform(-width / 2 + 0.1, width / 2 - 0.1)
+        if any(np.hypot(x - p[0][0], y - p[0][1]) < 0.15 for p in placed):
+            continue
+        h = rng.uniform(0.1, 0.2)
+        if rng.uniform() < 0.5:
+            f.cylinder(f"can_{len(placed)}", h, rng.uniform(0.03, 0.04), (x, y, h / 2))
+        else:
+            f.box(f"block_{len(placed)}", (rng.uniform(0.04, 0.08), rng.uniform(0.04, 0.08), h), (x, y, h / 2))
+        placed.append((np.array([x, y, h]), h))
+    return placed
+
+
+def _pick_goal(f: _Frame, objects: List[Tuple[np.ndarray, float]]) -> Callable[[np.random.Generator], Target]:
+    def sample(rng: np.random.Generator) -> Target:
+        top, _ = objects[int(rng.integers(len(objects)))]
+        return Target(f.point(top + np.array([0.0, 0.0, rng.uniform(0.03, 0.06)])), np.array([0.0, 0.0, -1.0]), 20.0)
+
+    return sample
+
+
+def _table_pick(rng: np.random.Generator) -> _Layout:
+    f = _place_frame(rng, front=(0.3, 0.45), z=(-0.15, 0.15))
+    depth, width = rng.uniform(0.6, 0.8), rng.uniform(1.0, 1.4)
+    _table(f, depth, width)
+    objects = _table_objects(rng, f, depth, width, int(rng.integers(3, 6)), 0.4)
+    return _Layout(f.items, _pick_goal(f, objects))
+
+
+def _table_under_pick(rng: np.random.Generator) -> _Layout:
+    f = _place_frame(rng, front=(0.3, 0.4), z=(0.3, 0.45), azimuth=(-math.pi / 3, math.pi / 3))
+    depth, width = rng.uniform(0.6, 0.8), rng.uniform(1.2, 1.5)
+    _table(f, depth, width)
+    objects = _table_objects(rng, f, depth, width, int(rng.integers(2, 5)), 0.35)
+
+    def start(rng: np.random.Generator) -> Target:
+        local = (rng.uniform(0.1, 0.3), rng.uniform(-0.3, 0.3), -rng.uniform(0.22, 0.32))
+        return Target(f.point(local), f.direction((1.0, 0.0, 0.0)), 45.0)
+
+    return _Layout(f.items, _pick_goal(f, objects), start)
+
+
+def _box(rng: np.random.Generator) -> _Layout:
+    f = _place_frame(rng, front=(0.3, 0.4), z=(-0.1, 0.15))
+    depth, width = rng.uniform(0.6, 0.8), rng.uniform(1.0, 1.4)
+    _table(f, depth, width)
+    lx, ly, h, w = rng.uniform(0.35, 0.45), rng.uniform(0.35, 0.45), rng.uniform(0.18, 0.28), 0.02
+    cx, cy = rng.uniform(0.05, 0.2) + lx / 2, rng.uniform(-0.15, 0.15)
+    f.box("box_floor", (lx, ly, w), (cx, cy, w / 2))
+    f.box("box_front", (w, ly, h), (cx - lx / 2 + w / 2, cy, h / 2))
+    f.box("box_back", (w, ly, h), (cx + lx / 2 - w / 2, cy, h / 2))
+    f.box("box_left", (lx, w, h), (cx, cy - ly / 2 + w / 2, h / 2))
+    f.box("box_right", (lx, w, h), (cx, cy + ly / 2 - w / 2, h / 2))
+
+    def goal(rng: np.random.Generator) -> Target:
+        local = (cx + rng.uniform(-1, 1) * (lx / 2 - 0.13), cy + rng.uniform(-1, 1) * (ly / 2 - 0.13),
+                 w + rng.uniform(0.06, 0.1))
+        return Target(f.point(local), np.array([0.0, 0.0, -1.0]), 20.0)
+
+    return _Layout(f.items, goal)
+
+
+def _cage(rng: np.random.Generator) -> _Layout:
+    f = _place_frame(rng, front=(0.3, 0.4), z=(-0.1, 0.15))
+    depth, width = rng.uniform(0.6, 0.8), rng.uniform(1.0, 1.4)
+    _table(f, depth, width)
+    sx, sy, h, r = rng.uniform(0.45, 0.55), rng.uniform(0.45, 0.55), rng.uniform(0.35, 0.45), 0.012
+    x0, cy = rng.uniform(0.05, 0.12), rng.uniform(-0.1, 0.1)
+    f.box("cage_roof", (sx, sy, 0.02), (x0 + sx / 2, cy, h + 0.01))
+    for i, (x, y) in enumerate(((x0, cy - sy / 2), (x0, cy + sy / 2), (x0 + sx, cy - sy / 2), (x0 + sx, cy + sy / 2))):
+        f.cylinder(f"cage_post_{i}", h, 0.015, (x, y, h / 2))
+    bars = 0
+    for k in range(1, int(sy / 0.12)):
+        f.cylinder(f"cage_bar_{bars}", h, r, (x0 + sx, cy - sy / 2 + k * sy / int(sy / 0.12), h / 2))
+        bars += 1
+    for side in (-1, 1):
+        for k in range(1, int(sx / 0.12)):
+            f.cylinder(f"cage_bar_{bars}", h, r, (x0 + k * sx / int(sx / 0.12), cy + side * sy / 2, h / 2))
+            bars += 1
+    f.box("cage_front_bar", (0.02, sy, 0.02), (x0, cy, h * rng.uniform(0.6, 0.75)))
+
+    def goal(rng: np.random.Generator) -> Target:
+        local = (x0 + sx * rng.uniform(0.35, 0.6), cy + rng.uniform(-0.08, 0.08), rng.uniform(0.07, 0.12))
+        return Target(f.point(local), f.direction((1.0, 0.0, 0.0)), 30.0)
+
+    return _Layout(f.items, goal)
+
+
+_LAYOUTS: Dict[str, Callable[[np.random.Generator], _Layout]] = {
+    "table_under_pick": _table_under_pick,
+    "box": _box,
+    "bookshelf_tall": _bookshelf_tall,
+    "cage": _cage,
+    "bookshelf_thin": _bookshelf_thin,
+    "bookshelf_small": _bookshelf_small,
+    "table_pick": _table_pick,
+}
+
+
+# ------------------------------------------------------------------------------------------- scenes
+def build_scene(primitives: Sequence[Primitive]) -> Any:
+    """A ``gfcs.Scene`` holding ``primitives`` (MoveIt conventions: full box sizes, cylinder axis z)."""
+    import gfcs
+
+    scene = gfcs.Scene()
+    for p in primitives:
+        pose = (list(p.position), list(p.quaternion))
+        if p.kind == "box":
+            scene.add_box(list(p.dims), pose=pose, name=p.name)
+        elif p.kind == "cylinder":
+            scene.add_cylinder(p.dims[0], p.dims[1], pose=pose, name=p.name)
+        elif p.kind == "sphere":
+            scene.add_sphere(list(p.position), p.dims[0], name=p.name)
+        else:
+            raise ValueError(f"primitive '{p.name}': unknown kind '{p.kind}' (box, cylinder, sphere)")
+    return scene
+
+
+def scene_yaml(primitives: Sequence[Primitive], name: str = "") -> str:
+    """MoveIt PlanningScene YAML (the MotionBenchMaker ``sceneNNNN.yaml`` layout) of ``primitives``."""
+    import yaml
+
+    objects = [
+        {
+            "id": p.name,
+            "primitives": [{"type": p.kind, "dimensions": [float(v) for v in p.dims]}],
+            "primitive_poses": [{"position": [float(v) for v in p.position],
+                                 "orientation": [float(v) for v in p.quaternion]}],
+        }
+        for p in primitives
+    ]
+    doc = {"name": name, "robot_model_name": "panda", "world": {"collision_objects": objects}}
+    return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+
+
+def request_yaml(joint_names: Sequence[str], q0: Sequence[float], goal: Sequence[float],
+                 group: str = "panda_arm") -> str:
+    """MoveIt MotionPlanRequest YAML (``requestNNNN.yaml`` layout): start joint state, joint goal."""
+    import yaml
+
+    doc = {
+        "start_state": {"joint_state": {"name": list(joint_names), "position": [float(v) for v in q0]}},
+        "goal_constraints": [{"joint_constraints": [
+            {"joint_name": j, "position": float(v)} for j, v in zip(joint_names, goal)]}],
+        "group_name": group,
+    }
+    return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+
+
+def write_problems(problems: Sequence[Problem], directory: Any) -> List[Path]:
+    """Write generated problems as MotionBenchMaker files: ``<directory>/<cls>/sceneNNNN.yaml`` and
+    ``requestNNNN.yaml`` (NNNN = 0001, 0002, ... per class, in list order).
+
+    Returns:
+        The class folders written. Raises ValueError for a problem without ``meta["primitives"]``.
+    """
+    root = Path(directory)
+    counts: Dict[str, int] = {}
+    folders: List[Path] = []
+    for p in problems:
+        prims = p.meta.get("primitives")
+        if prims is None:
+            raise ValueError(f"problem '{p.name}' has no meta['primitives'] (not generated?)")
+        cls = p.cls or "generated"
+        counts[cls] = counts.get(cls, 0) + 1
+        folder = root / cls
+        if folder not in folders:
+            folder.mkdir(parents=True, exist_ok=True)
+            folders.append(folder)
+        number = f"{counts[cls]:04d}"
+        prim_objs = [Primitive(**d) if isinstance(d, dict) else d for d in prims]
+        (folder / f"scene{number}.yaml").write_text(scene_yaml(prim_objs, p.name))
+        (folder / f"request{number}.yaml").write_text(request_yaml(p.robot.joint_names, p.q0, p.goal))
+    return folders
+
+
+# ------------------------------------------------------------------------------- inverse kinematics
+def is_collision_free(robot: Any, scene: Any, q: Any, margin: float = 0.01) -> bool:
+    """Sphere-model check: every sphere ≥ ``margin`` from the obstacles, self pairs ≥ 0 apart.
+
+    Args:
+        q: (dof,) configuration.
+        margin: required obstacle clearance [m].
+    """
+    qa = np.asarray(q, dtype=np.float64)[None, :]
+    return bool(_metrics.obstacle_clearance(robot, scene, qa)[0] >= margin
+                and _metrics.self_clearance(robot, qa)[0] >= 0.0)
+
+
+def inverse_kinematics(
+    robot: Any,
+    target: Target,
+    rng: np.random.Generator,
+    *,
+    link: Any = None,
+    point: Sequence[float] = PANDA_TCP,
+    axis: Sequence[float] = (0.0, 0.0, 1.0),
+    q_seed: Optional[np.ndarray] = None,
+    restarts: int = 20,
+    iterations: int = 150,
+    position_tol: float = 2e-3,
+    inset: float = 0.05,
+    accept: Optional[Callable[[np.ndarray], bool]] = None,
+) -> Optional[np.ndarray]:
+    """Damped-least-squares IK with random restarts for a point (and optionally an axis) of a link.
+
+    Minimises ‖x_t − x(q)‖ for the point ``point`` fixed on ``link`` (default: the end-effector link),
+    and, when ``target.approach`` is set, ‖a_t − R(q)·axis‖ with weight 0.5: Δq = Jᵀ(JJᵀ + λ²I)⁻¹e,
+    λ = 0.05, step norm ≤ 0.3 rad, q kept in [lower + inset, upper − inset]. The first attempt starts from
+    ``q_seed`` (when given), the others uniformly inside the limits.
+
+    Args:
+        robot: a :class:`gfcs.Robot` (``link_poses``, ``point_jacobian``, ``axis_jacobian``).
+        target: position [m] and optional approach direction with its cone.
+        rng: generator for the restarts.
+        link: link name or index (default ``robot.ee_link``).
+        point: (3,) point in the link frame [m] (default: the Panda TCP).
+        axis: (3,) link-frame axis aligned with ``target.approach``.
+        accept: extra test of a converged solution (e.g. collision-free); rejected solutions restart.
+
+    Returns:
+        (dof,) configuration, or None when no restart converged and passed ``accept``.
+    """
+    idx = robot.link_index(link if link is not None else robot.ee_link) if not isinstance(link, int) else link
+    lo = np.asarray(robot.lower, dtype=np.float64) + inset
+    up = np.asarray(robot.upper, dtype=np.float64) - inset
+    pt = np.asarray(point, dtype=np.float64)
+    ax = np.asarray(axis, dtype=np.float64)
+    xt = np.asarray(target.position, dtype=np.float64)
+    at = None if target.approach is None else np.asarray(target.approach, dtype=np.float64)
+    cos_cone = math.cos(math.radians(target.cone_deg))
+    w_axis, lam2 = 0.5, 0.05**2
+    for attempt in range(int(restarts)):
+        q = np.clip(q_seed if (attempt == 0 and q_seed is not None) else rng.uniform(lo, up), lo, up)
+        for _ in range(int(iterations)):
+            pose = np.asarray(robot.link_poses(q))[idx]
+            x = pose[:3, :3] @ pt + pose[:3, 3]
+            err = xt - x
+            rows = [np.asarray(robot.point_jacobian(q, idx, pt))]
+            errs = [err]
+            a = pose[:3, :3] @ ax
+            if at is not None:
+                rows.append(w_axis * np.asarray(robot.axis_jacobian(q, idx, ax)))
+                errs.append(w_axis * (at - a))
+            if np.linalg.norm(err) < position_tol and (at is None or float(a @ at) >= cos_cone):
+                if accept is None or accept(q):
+                    return q
+                break
+            jac, e = np.vstack(rows), np.concatenate(errs)
+            dq = jac.T @ np.linalg.solve(jac @ jac.T + lam2 * np.eye(jac.shape[0]), e)
+            norm = np.linalg.norm(dq)
+            if norm > 0.3:
+                dq *= 0.3 / norm
+            q = np.clip(q + dq, lo, up)
+    return None
+
+
+# ---------------------------------------------------------------------------------------- generator
+def _ready(robot: Any) -> np.ndarray:
+    """The Panda ready configuration for a 7-joint Panda, else the middle of the joint ranges."""
+    lo, up = np.asarray(robot.lower), np.asarray(robot.upper)
+    if robot.dof == READY.shape[0] and all(j.startswith("panda_joint") for j in robot.joint_names):
+        return np.clip(READY, lo, up)
+    return (lo + up) / 2
+
+
+def _reachable_target(sample: Callable[[np.random.Generator], Target], rng: np.random.Generator,
+                      reach: Optional[Tuple[Sequence[float], float]], tries: int = 50) -> Optional[Target]:
+    """A target within ``reach`` = (centre (3,), radius) (any target when None); None after ``tries``."""
+    for _ in range(tries):
+        t = sample(rng)
+        if reach is None or np.linalg.norm(t.position - np.asarray(reach[0])) <= reach[1]:
+            return t
+    return None
+
+
+#: Workspace sphere of the Panda used to discard unreachable targets before IK: centre at the shoulder
+#: (joint 2 axis, 0.333 m above the base) [m], radius [m] (the stretched arm reaches about 0.99 m).
+PANDA_REACH = ((0.0, 0.0, 0.333), 0.9)
+
+
+def generate(
+    cls: str,
+    n: int,
+    seed: int = 0,
+    robot: Any = None,
+    margin: float = 0.01,
+    min_distance: float = 0.5,
+    max_scenes: int = 30,
+    reach: Optional[Tuple[Sequence[float], float]] = PANDA_REACH,
+) -> List[Problem]:
+    """``n`` seeded problems of class ``cls`` (see the module docstring for the classes).
+
+    Args:
+        cls: a class of :data:`gfcs.problems.CLASSES` or an alias (``"table_under"``, ``"single_shelf"``).
+        n: number of problems (≥ 0).
+        seed: problem i depends only on (cls, seed, i).
+        robot: default :meth:`gfcs.Robot.panda` (the TCP offset assumes a Panda hand).
+        margin: obstacle clearance required of start and goal [m] (sphere model).
+        min_distance: minimum ‖goal − start‖ [rad].
+        max_scenes: scene re-draws allowed per problem before giving up.
+        reach: (centre (3,), radius) [m]: targets outside this sphere are redrawn before IK (None: keep
+            all); the default fits the Panda.
+
+    Raises:
+        ValueError: unknown class, negative n.
+        RuntimeError: no valid problem after ``max_scenes`` scenes (names the class, seed and index).
+    """
+    import gfcs
+
+    name = canonical_class(cls)
+    if int(n) < 0:
+        raise ValueError(f"n must be ≥ 0, got {n}")
+    robot = gfcs.Robot.panda() if robot is None else robot
+    ready = _ready(robot)
+    layout_fn = _LAYOUTS[name]
+    problems = []
+    for i in range(int(n)):
+        rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(_CLASS_INDEX[name], i)))
+        problem = None
+        for _ in range(int(max_scenes)):
+            layout = layout_fn(rng)
+            scene = build_scene(layout.primitives)
+            free = lambda q, scene=scene: is_collision_free(robot, scene, q, margin)  # noqa: E731
+            if layout.start is None:
+                q0 = ready if free(ready) else None
+            else:
+                q0 = None
+                for _ in range(5):
+                    target = _reachable_target(layout.start, rng, reach)
+                    q0 = None if target is None else inverse_kinematics(robot, target, rng, q_seed=ready,
+                                                                        accept=free)
+                    if q0 is not None:
+                        break
+            if q0 is None:
+                continue
+            for _ in range(8):
+                target = _reachable_target(layout.goal, rng, reach)
+                if target is None:
+                    break
+                goal = inverse_kinematics(
+                    robot, target, rng, q_seed=ready,
+                    accept=lambda q: free(q) and np.linalg.norm(q - q0) >= min_distance,
+                )
+                if goal is not None:
+                    problem = Problem(
+                        name=f"{name}/gen{int(seed)}_{i:04d}", robot=robot, scene=scene, q0=q0, goal=goal,
+                        cls=name,
+                        meta={"generator": name, "seed": int(seed), "index": i,
+                              "primitives": [dataclasses.asdict(p) for p in layout.primitives]},
+                    )
+                    break
+            if problem is not None:
+                break
+        if problem is None:
+            raise RuntimeError(f"generate('{name}', seed={seed}): no valid start/goal for problem {i} "
+                               f"after {max_scenes} scenes")
+        problems.append(problem)
+    return problems

@@ -1,0 +1,479 @@
+"""Algorithm 2 of GFCS (Sec. IV-C): self-supervised learning of GFCS command sequences.
+
+For ``n = 1 … passes · N_prob`` (the problems in order, ``passes`` times; paper: two passes):
+
+1. ``D^pos ← SolveGFCOP(problem | f_sampler)`` through ``solve_fn`` (default :func:`gfcs.optimize.solve`);
+2. insert the top-``m`` solutions into ``D^buffer`` and keep its length (:class:`SolutionBuffer`: top 4,
+   at most 200, FIFO);
+3. every ``n_train`` problems (paper: 25): negatives ``D^neg`` by SGLD (eq. 10-11) from uniform
+   particles in the context of every buffer entry (``N_neg`` each), then train ``E_θ`` with eq. 9
+   (Adam); the sampler becomes SGLD on the trained ``E_θ`` (:class:`EBMSampler`).
+
+Choices the paper leaves open (all in :class:`TrainConfig`):
+
+* Alg. 2 draws ``D^neg`` after every problem but uses it only when training, so negatives are drawn only
+  at training time (same result, ``n_train`` times less work). With ``neg_refresh = k > 0`` they are
+  drawn again every ``k`` epochs from the model being trained (harder negatives, as in implicit
+  behavioural cloning); ``neg_refresh = 0`` draws them once per training, as Alg. 2 does literally.
+* Besides the ``n_neg`` SGLD negatives, ``n_uniform_neg`` negatives per positive are drawn uniformly in
+  the joint limits (default 8; 0 gives Alg. 2 exactly). With SGLD negatives alone, the synthetic
+  problems of the tests showed the classic EBM failure after longer training: wells around the
+  positives so narrow that SGLD particles no longer find them, and the samples drift back to uniform
+  (mean distance 0.92 against 1.0 for uniform samples); the uniform negatives keep pushing up spurious
+  low-energy regions anywhere in the box (0.26–0.29 over 60–240 epochs).
+* Before the first training the sampler is uniform within the joint limits (``sampler=None`` to
+  ``solve_fn``), since an untrained ``E_θ`` carries no information.
+* ``max_cost`` optionally keeps penalised (failed, eq. 8) candidates out of the buffer.
+* The autoencoder of the distance code (``latent_dim``) is fitted once, before the loop, on the codes of
+  all training problems (their environments are known up front).
+
+Reproducibility: every random draw is a function of ``(seed, step)``: solve ``seed`` of step ``s`` and
+the training generator come from ``numpy.random.SeedSequence([seed, s, …])``, and networks are
+initialised under a seeded, forked torch RNG (the global RNGs are neither used nor changed). The RNG
+state of a run is therefore ``(seed, step)``, both stored in the checkpoint. A checkpoint (model,
+optimiser with its Adam moments, buffer, encoder with its autoencoder, config, step, history) is written after every ``checkpoint_every`` problems and after every
+training, so a resumed run ends with the same weights as an uninterrupted one (same device and thread
+count, since floating-point reductions depend on them).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import torch
+
+from ._validate import ConfigError, check_positive, check_positive_int
+from .buffer import SolutionBuffer
+from .ebm import DistanceAutoencoder, EnergyModel, info_nce_loss
+from .encoding import EncoderConfig, SceneEncoder, to_unit
+from .sampler import EBMSampler, default_device, robot_info
+from .sgld import SGLDConfig, sgld
+
+__all__ = ["TrainConfig", "TrainResult", "train", "train_energy_model", "CHECKPOINT_FORMAT",
+           "default_solve_fn", "load_checkpoint"]
+
+#: ``format`` tag of a training checkpoint.
+CHECKPOINT_FORMAT = "gfcs-ebm-checkpoint"
+_CHECKPOINT_VERSION = 1
+
+#: Fields of :class:`TrainConfig` a resumed run may change (they do not alter what was done so far).
+RESUME_OVERRIDABLE = frozenset({"passes", "device", "checkpoint_every"})
+
+#: ``solve_fn(problem, sampler, seed) -> result`` with ``result.top`` a list of (candidate, cost).
+SolveFn = Callable[[Any, Any, int], Any]
+
+
+@dataclass
+class TrainConfig:
+    """Settings of Algorithm 2; defaults are the paper's figures (GFCS Sec. V) where it gives them.
+
+    Attributes:
+        passes: passes over the training problems (paper: 2).
+        n_train: train every ``n_train`` solved problems (paper: 25).
+        buffer_size: maximum buffer length (paper: 200).
+        top_m: solutions per problem inserted into the buffer (paper: 4).
+        n_neg: SGLD negatives per positive (``N_neg`` of eq. 9).
+        n_uniform_neg: additional uniform negatives per positive (0: SGLD negatives only, as Alg. 2).
+        hidden, activation: ``E_θ`` architecture (paper: 3 × 800, ReLU).
+        lr, weight_decay: Adam settings.
+        epochs: passes over the buffer per training; batch_size: positives per Adam step.
+        neg_refresh: redraw the negatives every this many epochs (0: once per training).
+        sgld: SGLD settings for negatives and for the sampler.
+        encoder: lattice settings (paper spacing 0.15 m).
+        latent_dim: autoencoder code length, or ``None`` to feed ``d̂_E`` directly.
+        ae_hidden, ae_epochs: autoencoder architecture and training length.
+        n_commands: free commands ``n`` of the GFCOP (paper: sequences of length two, so 1).
+        solve: keyword arguments of the default ``solve_fn`` (``gfcs.optimize.solve``), e.g.
+            ``{"method": "gfcs", "batches": 5, "population": 32}``.
+        max_cost: drop candidates with a larger cost (s) from the buffer; ``None`` keeps all.
+        seed: master seed.
+        device: torch device name, or ``None`` for CUDA when available else CPU.
+        checkpoint_every: write a checkpoint every this many problems (and after every training).
+        shuffle: visit the problems in a seeded random order per pass instead of in order.
+    """
+
+    passes: int = 2
+    n_train: int = 25
+    buffer_size: int = 200
+    top_m: int = 4
+    n_neg: int = 16
+    n_uniform_neg: int = 8
+    hidden: Tuple[int, ...] = (800, 800, 800)
+    activation: str = "relu"
+    lr: float = 1e-3
+    weight_decay: float = 0.0
+    epochs: int = 100
+    batch_size: int = 64
+    neg_refresh: int = 10
+    sgld: SGLDConfig = field(default_factory=SGLDConfig)
+    encoder: EncoderConfig = field(default_factory=EncoderConfig)
+    latent_dim: Optional[int] = None
+    ae_hidden: Tuple[int, ...] = (512,)
+    ae_epochs: int = 300
+    n_commands: int = 1
+    solve: Dict[str, Any] = field(default_factory=lambda: {"method": "gfcs", "batches": 5, "population": 32})
+    max_cost: Optional[float] = None
+    seed: int = 0
+    device: Optional[str] = None
+    checkpoint_every: int = 1
+    shuffle: bool = False
+
+    def validate(self) -> "TrainConfig":
+        """Raise ``ConfigError`` naming the first bad field; returns ``self``."""
+        for name in ("passes", "n_train", "buffer_size", "top_m", "n_neg", "epochs", "batch_size",
+                     "ae_epochs", "n_commands", "checkpoint_every"):
+            check_positive_int(name, getattr(self, name))
+        check_positive_int("neg_refresh", self.neg_refresh, minimum=0)
+        check_positive_int("n_uniform_neg", self.n_uniform_neg, minimum=0)
+        check_positive_int("seed", self.seed, minimum=0)
+        check_positive("lr", self.lr)
+        if not self.weight_decay >= 0.0:
+            raise ConfigError(f"invalid weight_decay: expected >= 0, got {self.weight_decay!r}")
+        if self.latent_dim is not None:
+            check_positive_int("latent_dim", self.latent_dim)
+        self.sgld.validate()
+        SceneEncoder(self.encoder)  # validates the lattice settings
+        if not isinstance(self.solve, dict):
+            raise ConfigError(f"invalid solve: expected a dict of keyword arguments, got {self.solve!r}")
+        return self
+
+    def to_dict(self) -> Dict[str, Any]:
+        """Plain nested dict (lists instead of tuples) for checkpoints and JSON."""
+        d = asdict(self)
+        d["hidden"] = list(self.hidden)
+        d["ae_hidden"] = list(self.ae_hidden)
+        d["sgld"] = self.sgld.to_dict()
+        d["encoder"] = self.encoder.to_dict()
+        d["solve"] = dict(self.solve)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "TrainConfig":
+        """Inverse of :meth:`to_dict`; unknown keys raise ``ConfigError``."""
+        unknown = set(d) - set(cls.__dataclass_fields__)
+        if unknown:
+            raise ConfigError(f"train config: unknown fields {sorted(unknown)}")
+        d = dict(d)
+        if "sgld" in d and isinstance(d["sgld"], dict):
+            d["sgld"] = SGLDConfig.from_dict(d["sgld"])
+        if "encoder" in d and isinstance(d["encoder"], dict):
+            d["encoder"] = EncoderConfig.from_dict(d["encoder"])
+        for key in ("hidden", "ae_hidden"):
+            if key in d:
+                d[key] = tuple(int(v) for v in d[key])
+        return cls(**d).validate()
+
+
+@dataclass
+class TrainResult:
+    """Outcome of :func:`train`.
+
+    Attributes:
+        sampler: :class:`EBMSampler` on the final ``E_θ``.
+        buffer: the solution buffer at the end.
+        history: one dict per event: ``{"event": "solve", "step", "problem", "best_cost", "inserted"}``
+            or ``{"event": "train", "step", "losses": [per-epoch mean InfoNCE], "seconds"}``.
+        steps_done: problems solved so far (including those before a resume).
+        trainings: number of trainings done.
+    """
+
+    sampler: EBMSampler
+    buffer: SolutionBuffer
+    history: List[Dict[str, Any]]
+    steps_done: int
+    trainings: int
+
+
+@contextlib.contextmanager
+def _seeded_torch(seed: int) -> Iterator[None]:
+    """Run a block (network initialisation) under a seeded torch CPU RNG, restoring the global state."""
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        yield
+
+
+def _derived_seed(*keys: int, bits: int = 63) -> int:
+    """A ``bits``-bit non-negative seed that depends only on ``keys`` (``numpy.random.SeedSequence``)."""
+    state = np.random.SeedSequence([int(k) for k in keys]).generate_state(2, dtype=np.uint32)
+    return ((int(state[0]) << 32) | int(state[1])) & ((1 << bits) - 1)
+
+
+def train_energy_model(
+    model: EnergyModel,
+    optimizer: torch.optim.Optimizer,
+    contexts: torch.Tensor,
+    targets: torch.Tensor,
+    *,
+    epochs: int,
+    batch_size: int,
+    n_neg: int,
+    sgld_config: SGLDConfig,
+    n_uniform_neg: int = 0,
+    neg_refresh: int,
+    generator: torch.Generator,
+) -> List[float]:
+    """Train ``E_θ`` on positives with SGLD negatives by the InfoNCE loss of GFCS eq. 9.
+
+    ``contexts``: ``(N, C)``; ``targets``: ``(N, D)`` positives in the unit box (see
+    :func:`gfcs.learning.encoding.to_unit`); both on the model's device. Negatives: ``n_neg`` SGLD particles
+    per positive in its context (Alg. 2) plus ``n_uniform_neg`` uniform samples of the unit box, redrawn
+    every ``neg_refresh`` epochs (0: once). Each epoch visits
+    the positives in a random order (``generator``) in minibatches of ``batch_size``. Returns the mean loss
+    of every epoch.
+    """
+    n = contexts.shape[0]
+    if n == 0 or targets.shape[0] != n:
+        raise ConfigError(f"train_energy_model: need N >= 1 matching contexts and targets, got "
+                          f"{tuple(contexts.shape)} and {tuple(targets.shape)}")
+    losses: List[float] = []
+    negatives = None
+    for epoch in range(epochs):
+        if negatives is None or (neg_refresh > 0 and epoch % neg_refresh == 0):
+            model.eval()
+            negatives, _ = sgld(model, contexts, n_neg, sgld_config, generator)
+            if n_uniform_neg > 0:
+                uniform = torch.rand((n, n_uniform_neg, targets.shape[1]), generator=generator,
+                                     device=generator.device, dtype=targets.dtype).to(targets.device)
+                negatives = torch.cat([negatives, uniform * 2.0 - 1.0], dim=1)
+        model.train()
+        perm = torch.randperm(n, generator=generator, device=generator.device).to(contexts.device)
+        total = 0.0
+        for start in range(0, n, batch_size):
+            idx = perm[start:start + batch_size]
+            feats = model.context_features(contexts[idx])
+            e_pos = model.energy_from_features(feats, targets[idx][:, None, :])[:, 0]
+            e_neg = model.energy_from_features(feats, negatives[idx])
+            loss = info_nce_loss(e_pos, e_neg)
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            total += float(loss.detach()) * idx.shape[0]
+        losses.append(total / n)
+    model.eval()
+    return losses
+
+
+def default_solve_fn(config: TrainConfig) -> SolveFn:
+    """``solve_fn`` calling :func:`gfcs.optimize.solve` with ``config.solve`` and ``config.n_commands``."""
+    from gfcs.optimize import solve
+
+    kwargs = dict(config.solve)
+    kwargs.setdefault("n_commands", config.n_commands)
+
+    def solve_fn(problem: Any, sampler: Any, seed: int) -> Any:
+        return solve(problem, sampler=sampler, seed=seed, **kwargs)
+
+    return solve_fn
+
+
+def load_checkpoint(path: Union[str, Path]) -> Dict[str, Any]:
+    """Read and check a training checkpoint written by :func:`train`."""
+    from gfcs.errors import FormatError, IoError
+
+    try:
+        data = torch.load(str(path), map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise IoError(f"{path}: no such checkpoint") from None
+    except Exception as exc:  # torch raises several types for corrupt or foreign files
+        raise FormatError(f"{path}: not a gfcs training checkpoint ({exc})") from None
+    if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
+        fmt = data.get("format") if isinstance(data, dict) else type(data).__name__
+        raise FormatError(f"{path}: field 'format': expected '{CHECKPOINT_FORMAT}', got {fmt!r}")
+    if data.get("version") != _CHECKPOINT_VERSION:
+        raise FormatError(f"{path}: field 'version': expected {_CHECKPOINT_VERSION}, got {data.get('version')!r}")
+    return data
+
+
+def _resolve_config(config: Optional[TrainConfig], ckpt: Optional[Dict[str, Any]]) -> TrainConfig:
+    if ckpt is None:
+        return (config or TrainConfig()).validate()
+    saved = TrainConfig.from_dict(ckpt["config"])
+    if config is None:
+        return saved
+    given, old = config.validate().to_dict(), saved.to_dict()
+    differ = sorted(k for k in old if k not in RESUME_OVERRIDABLE and given[k] != old[k])
+    if differ:
+        raise ConfigError(f"resume: config fields {differ} differ from the checkpoint's "
+                          f"(only {sorted(RESUME_OVERRIDABLE)} may change)")
+    return config
+
+
+def _atomic_save(obj: Dict[str, Any], path: Union[str, Path]) -> None:
+    """``torch.save`` to ``<path>.tmp`` then rename, so an interrupted write never corrupts ``path``."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    torch.save(obj, str(tmp))
+    os.replace(tmp, path)
+
+
+def _problem_limits(problems: Sequence[Any]) -> Tuple[np.ndarray, np.ndarray, int]:
+    robot = problems[0].robot
+    lower = np.asarray(robot.lower, dtype=np.float64)
+    upper = np.asarray(robot.upper, dtype=np.float64)
+    for i, p in enumerate(problems):
+        lo, hi = np.asarray(p.robot.lower, dtype=np.float64), np.asarray(p.robot.upper, dtype=np.float64)
+        if lo.shape != lower.shape or not (np.allclose(lo, lower) and np.allclose(hi, upper)):
+            raise ConfigError(f"problems[{i}] ({getattr(p, 'name', i)}): robot joint limits differ from "
+                              "problems[0]'s; learning needs one robot (GFCS Sec. IV-B)")
+    return lower, upper, int(lower.shape[0])
+
+
+def _problem_name(problem: Any, index: int) -> str:
+    return str(getattr(problem, "name", None) or f"problem{index}")
+
+
+def _visit_order(n: int, passes: int, seed: int, shuffle: bool) -> np.ndarray:
+    orders = [np.random.default_rng(_derived_seed(seed, 0xC0DE, p)).permutation(n) if shuffle else np.arange(n)
+              for p in range(passes)]
+    return np.concatenate(orders)
+
+
+def train(
+    problems: Sequence[Any],
+    out: Optional[Union[str, Path]] = None,
+    config: Optional[TrainConfig] = None,
+    solve_fn: Optional[SolveFn] = None,
+    resume: Optional[Union[str, Path]] = None,
+    checkpoint: Optional[Union[str, Path]] = None,
+    progress: bool = True,
+    stop_after: Optional[int] = None,
+) -> TrainResult:
+    """Run Algorithm 2 on ``problems`` and return the trained sampler.
+
+    Args:
+        problems: :class:`gfcs.problems.Problem` list (fields ``name, robot, scene, q0, qd0, goal``), all
+            on one robot.
+        out: model file (:meth:`EBMSampler.save` format), rewritten after every training and at the end,
+            or ``None``.
+        config: :class:`TrainConfig` (defaults: the paper's figures). With ``resume`` it may be ``None``
+            (the checkpoint's config is used) or differ only in :data:`RESUME_OVERRIDABLE`.
+        solve_fn: ``solve_fn(problem, sampler, seed) -> result`` whose ``result.top`` lists
+            ``(candidate (n_commands · dof,), cost)``, best first; ``sampler`` is ``None`` (uniform) or an
+            :class:`EBMSampler`. Default: :func:`default_solve_fn`.
+        resume: checkpoint to continue from.
+        checkpoint: checkpoint path to write (default ``<out stem>.ckpt.pt`` next to ``out``; none when
+            both are ``None``).
+        progress: show a tqdm bar.
+        stop_after: stop after this many problems in total (counting those before a resume), for
+            splitting a run; ``None`` runs all ``passes · len(problems)``.
+    """
+    if len(problems) == 0:
+        raise ConfigError("train: no problems given")
+    ckpt = load_checkpoint(resume) if resume is not None else None
+    cfg = _resolve_config(config, ckpt)
+    device = default_device(cfg.device)
+    names = [_problem_name(p, i) for i, p in enumerate(problems)]
+    if ckpt is not None and list(ckpt["problem_names"]) != names:
+        raise ConfigError(f"resume: the problem set differs from the one in {resume}")
+    lower, upper, dof = _problem_limits(problems)
+    t_lower, t_upper = np.tile(lower, cfg.n_commands), np.tile(upper, cfg.n_commands)
+    solve_fn = solve_fn or default_solve_fn(cfg)
+    if checkpoint is None and out is not None:
+        checkpoint = Path(out).with_suffix(".ckpt.pt")
+
+    # Encode every problem once (GFCS Sec. IV-B); fit the autoencoder when asked.
+    encoder = SceneEncoder(cfg.encoder)
+    distances = np.stack([encoder.distances(encoder.scene_points(p.scene)) for p in problems])
+    if ckpt is not None:
+        encoder = SceneEncoder.from_state_dict(ckpt["encoder"])
+    elif cfg.latent_dim is not None:
+        with _seeded_torch(_derived_seed(cfg.seed, 0xAE)):
+            ae = DistanceAutoencoder(encoder.n_reference, cfg.latent_dim, cfg.ae_hidden).to(device)
+        ae.fit(distances, epochs=cfg.ae_epochs, seed=_derived_seed(cfg.seed, 0xAE, 1))
+        encoder = SceneEncoder(cfg.encoder, ae)
+    codes = distances if encoder.autoencoder is None else encoder.autoencoder.to(device).encode_numpy(distances)
+    contexts = np.stack([
+        encoder.context(p.q0, p.qd0, p.goal, codes[i], lower, upper, getattr(p.robot, "velocity_limits", None))
+        for i, p in enumerate(problems)
+    ])
+
+    with _seeded_torch(_derived_seed(cfg.seed, 0xE3)):
+        model = EnergyModel(contexts.shape[1], dof * cfg.n_commands, cfg.hidden, cfg.activation)
+    model.set_context_normalisation(torch.as_tensor(contexts, dtype=torch.float32))
+    model.to(device)
+    optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    buffer = SolutionBuffer(cfg.buffer_size, cfg.top_m)
+    history: List[Dict[str, Any]] = []
+    start, trainings = 0, 0
+    if ckpt is not None:
+        model.load_state_dict(ckpt["model"]["state"])
+        optimizer.load_state_dict(ckpt["optimizer"])
+        buffer = SolutionBuffer.from_state_dict(ckpt["buffer"])
+        history = list(ckpt["history"])
+        start, trainings = int(ckpt["step"]), int(ckpt["trainings"])
+
+    robot = robot_info(problems[0].robot)
+
+    def make_sampler() -> EBMSampler:
+        return EBMSampler(model, encoder, t_lower, t_upper, dof, cfg.sgld, device, robot=robot)
+
+    sampler: Optional[EBMSampler] = make_sampler() if trainings > 0 else None
+    order = _visit_order(len(problems), cfg.passes, cfg.seed, cfg.shuffle)
+    total = len(order) if stop_after is None else min(len(order), int(stop_after))
+
+    def save_checkpoint(step: int) -> None:
+        if checkpoint is None:
+            return
+        state = buffer.state_dict()
+        state.update({k: torch.from_numpy(np.asarray(state[k])) for k in ("contexts", "targets", "costs")})
+        _atomic_save({
+            "format": CHECKPOINT_FORMAT, "version": _CHECKPOINT_VERSION, "config": cfg.to_dict(),
+            "step": step, "trainings": trainings, "problem_names": names,
+            "model": {"meta": model.meta(), "state": {k: v.detach().cpu() for k, v in model.state_dict().items()}},
+            "optimizer": optimizer.state_dict(), "buffer": state, "encoder": encoder.state_dict(),
+            "history": history, "rng": {"scheme": "numpy.random.SeedSequence([seed, step, ...])",
+                                        "seed": cfg.seed, "next_step": step},
+        }, checkpoint)
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=total, initial=min(start, total), disable=not progress, desc="gfcs train", unit="problem")
+    try:
+        for step in range(start, total):
+            idx = int(order[step])
+            result = solve_fn(problems[idx], sampler, _derived_seed(cfg.seed, step, bits=31))
+            top = list(result.top)
+            cands = np.array([np.asarray(c, dtype=np.float64) for c, _ in top]).reshape(len(top), -1)
+            costs = np.array([float(c) for _, c in top], dtype=np.float64)
+            if cands.shape[0] and cands.shape[1] != dof * cfg.n_commands:
+                raise ConfigError(f"solve_fn returned candidates of length {cands.shape[1]}, expected "
+                                  f"{dof * cfg.n_commands} (n_commands={cfg.n_commands}, dof={dof})")
+            inserted = buffer.insert(names[idx], contexts[idx], cands, costs, cfg.max_cost)
+            best = float(costs.min()) if costs.size else float("nan")
+            history.append({"event": "solve", "step": step, "problem": names[idx], "best_cost": best,
+                            "inserted": inserted})
+            trained = False
+            if (step + 1) % cfg.n_train == 0 and len(buffer) > 0:
+                t0 = time.perf_counter()
+                gen = torch.Generator(device=device).manual_seed(_derived_seed(cfg.seed, step, 0x7A))
+                ctx_t = torch.as_tensor(buffer.contexts(), dtype=torch.float32, device=device)
+                tgt_t = torch.as_tensor(to_unit(buffer.targets(), t_lower, t_upper), dtype=torch.float32,
+                                        device=device)
+                losses = train_energy_model(model, optimizer, ctx_t, tgt_t, epochs=cfg.epochs,
+                                            batch_size=cfg.batch_size, n_neg=cfg.n_neg, sgld_config=cfg.sgld,
+                                            n_uniform_neg=cfg.n_uniform_neg, neg_refresh=cfg.neg_refresh,
+                                            generator=gen)
+                trainings += 1
+                history.append({"event": "train", "step": step, "losses": losses,
+                                "seconds": time.perf_counter() - t0})
+                sampler = make_sampler()
+                if out is not None:
+                    _atomic_save(sampler.to_dict(), out)
+                trained = True
+                bar.set_postfix(buffer=len(buffer), loss=f"{losses[-1]:.3f}")
+            if trained or (step + 1) % cfg.checkpoint_every == 0 or step + 1 == total:
+                save_checkpoint(step + 1)
+            bar.update(1)
+    finally:
+        bar.close()
+
+    final = sampler if sampler is not None else make_sampler()
+    if out is not None:
+        _atomic_save(final.to_dict(), out)
+    return TrainResult(final, buffer, history, max(start, total), trainings)

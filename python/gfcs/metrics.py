@@ -1,0 +1,293 @@
+"""Trajectory quality metrics of the GFCS evaluation (GFCS Sec. V, Table I).
+
+Pure numpy. Every function documents its array shapes; units are SI (m, rad, s).
+
+* ``path_length``: Σ‖x_{k+1} − x_k‖ of a sampled path. Applied to joint positions (T, dof) it is the
+  "C-space length" [rad] of Table I; applied to end-effector positions (T, 3) the "EE length" [m].
+* ``log_dimensionless_jerk``: the smoothness measure of Hogan & Sternad (2009) used for "EE-LDJ" and
+  "C-space-LDJ" (closer to zero is smoother).
+* clearance of the robot's collision-sphere model against obstacles and against itself, joint-limit check,
+  and ``trajectory_metrics``, which gathers everything Table I reports for one trajectory plus the success
+  criterion (goal reached, no collision, joint limits respected).
+
+The functions that need a robot or a scene (``obstacle_clearance``, ``self_clearance``,
+``trajectory_metrics``) only use the documented methods of :class:`gfcs.Robot` and :class:`gfcs.Scene`
+(``sphere_centers``, ``sphere_radii``, ``self_collision_pairs``, ``ee_position``, ``lower``, ``upper``,
+``signed_distance``, ``len``), so this module does not import the compiled extension.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Dict, Optional
+
+import numpy as np
+
+__all__ = [
+    "path_length",
+    "dimensionless_jerk",
+    "log_dimensionless_jerk",
+    "within_limits",
+    "obstacle_clearance",
+    "self_clearance",
+    "uniform_resample",
+    "trajectory_metrics",
+    "DEFAULT_SUCCESS_TOL",
+    "DEFAULT_LIMIT_TOL",
+]
+
+#: Default tolerance [rad] on ‖q_T − q_goal‖ for a trajectory to count as reaching its goal: the default
+#: rollout tolerance ε of GFCS eq. 3 (``RolloutOptions::tol`` in the core, :mod:`gfcs.optimize`).
+DEFAULT_SUCCESS_TOL = 0.01
+#: Default slack [rad] on the joint limits when checking a trajectory (round-off of the integrator).
+DEFAULT_LIMIT_TOL = 1e-6
+
+
+def _as_path(x: Any, name: str) -> np.ndarray:
+    """``x`` as a float64 array of shape (T, k); a 1-D input (T,) becomes (T, 1)."""
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2:
+        raise ValueError(f"{name}: expected shape (T,) or (T, k), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains NaN or infinite values")
+    return a
+
+
+def path_length(x: Any) -> float:
+    """Length Σ_k ‖x_{k+1} − x_k‖₂ of the polyline through the samples ``x``.
+
+    Args:
+        x: (T, k) samples of a path (or (T,) for a scalar path). Joint positions give the C-space length
+            [rad], end-effector positions (T, 3) the EE length [m] of GFCS Table I.
+
+    Returns:
+        The length (0.0 for fewer than two samples).
+    """
+    a = _as_path(x, "x")
+    if a.shape[0] < 2:
+        return 0.0
+    return float(np.sum(np.linalg.norm(np.diff(a, axis=0), axis=1)))
+
+
+def dimensionless_jerk(x: Any, dt: float) -> float:
+    """Dimensionless jerk DJ = (t₂ − t₁)³ / v_peak² · ∫ ‖x⃛(t)‖² dt of a path sampled every ``dt``.
+
+    This is the peak-speed normalisation of Hogan & Sternad (2009) ("Sensitivity of smoothness measures to
+    movement duration, amplitude, and arrests", J. Motor Behavior 41(6)), the form used by the LDJ of
+    Balasubramanian et al. (2012, 2015). It is dimensionless: ∫‖x⃛‖²dt has units L²/s⁵, times s³,
+    divided by v_peak² (L²/s²). (Writing (t₂ − t₁)⁵ with v_peak² would leave units of s², i.e. the value
+    would depend on the time unit; (t₂ − t₁)⁵ goes with the amplitude A² instead of v_peak².)
+
+    Discretisation: x⃛ from third forward differences (x_{k+3} − 3x_{k+2} + 3x_{k+1} − x_k)/dt³ (T − 3
+    values; value k approximates x⃛ at t_{k+1.5} and stands for the step [t_{k+1}, t_{k+2}]), the
+    integral as dt · (Σ_k ‖x⃛_k‖² + ‖x⃛_first‖² + ‖x⃛_last‖²), the two end steps [t₀, t₁] and [t_{T−2},
+    t_{T−1}] taking the nearest value, so that the whole interval is covered (plain Σ·dt would leave an
+    O(dt) bias: the jerk is often largest at the ends), v_peak = max_k ‖ẋ_k‖ with ẋ from central
+    differences (``numpy.gradient``), t₂ − t₁ = (T − 1)·dt.
+
+    Args:
+        x: (T, k) positions (or (T,)) sampled uniformly at ``dt`` seconds.
+        dt: sample period [s], > 0.
+
+    Returns:
+        DJ ≥ 0, or NaN when it is undefined (fewer than 4 samples, or no motion: v_peak = 0).
+    """
+    a = _as_path(x, "x")
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"dt must be a positive finite number of seconds, got {dt!r}")
+    n = a.shape[0]
+    if n < 4:
+        return math.nan
+    v = np.gradient(a, dt, axis=0)
+    v_peak = float(np.max(np.linalg.norm(v, axis=1)))
+    if v_peak <= 0.0:
+        return math.nan
+    jerk = (a[3:] - 3.0 * a[2:-1] + 3.0 * a[1:-2] - a[:-3]) / dt**3
+    j2 = np.sum(jerk * jerk, axis=1)
+    integral = float((np.sum(j2) + j2[0] + j2[-1]) * dt)
+    duration = (n - 1) * dt
+    return duration**3 / v_peak**2 * integral
+
+
+def log_dimensionless_jerk(x: Any, dt: float) -> float:
+    """Log dimensionless jerk LDJ = −ln(DJ) (see :func:`dimensionless_jerk`); closer to 0 is smoother.
+
+    A minimum-jerk point-to-point motion has DJ = 720 / 1.875² = 204.8, LDJ = −ln 204.8 ≈ −5.322, the
+    largest value a single point-to-point movement can reach; more sub-movements make it more negative.
+
+    Args:
+        x: (T, k) positions (or (T,)) sampled uniformly at ``dt`` seconds.
+        dt: sample period [s], > 0.
+
+    Returns:
+        LDJ, NaN when DJ is undefined (see :func:`dimensionless_jerk`), +inf when the jerk vanishes
+        identically (DJ = 0, e.g. constant velocity).
+    """
+    dj = dimensionless_jerk(x, dt)
+    if math.isnan(dj):
+        return math.nan
+    if dj <= 0.0:
+        return math.inf
+    return -math.log(dj)
+
+
+def within_limits(q: Any, lower: Any, upper: Any, tol: float = DEFAULT_LIMIT_TOL) -> bool:
+    """True when every sample of ``q`` lies in [lower − tol, upper + tol].
+
+    Args:
+        q: (T, dof) or (dof,) joint positions [rad or m].
+        lower, upper: (dof,) joint limits.
+        tol: slack, ≥ 0.
+    """
+    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    lo = np.asarray(lower, dtype=np.float64)
+    up = np.asarray(upper, dtype=np.float64)
+    if lo.shape != (qa.shape[1],) or up.shape != (qa.shape[1],):
+        raise ValueError(
+            f"lower/upper: expected shape ({qa.shape[1]},), got {lo.shape} and {up.shape}"
+        )
+    return bool(np.all(qa >= lo - tol) and np.all(qa <= up + tol))
+
+
+def obstacle_clearance(robot: Any, scene: Any, q: Any) -> np.ndarray:
+    """Per-sample clearance of the robot's collision spheres to the obstacles.
+
+    clearance_k = min_i ( d(c_i(q_k)) − r_i ), with d the scene's signed distance (positive outside) and
+    c_i, r_i the centres and radii of the robot's collision spheres. Negative means penetration.
+
+    Args:
+        robot: a :class:`gfcs.Robot`.
+        scene: a :class:`gfcs.Scene`.
+        q: (T, dof) joint positions.
+
+    Returns:
+        (T,) clearances [m]; +inf for every sample when the scene is empty or the robot has no spheres.
+    """
+    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    if len(scene) == 0 or radii.size == 0 or qa.shape[0] == 0:
+        return np.full(qa.shape[0], math.inf)
+    centers = np.asarray(robot.sphere_centers(qa), dtype=np.float64).reshape(qa.shape[0], -1, 3)
+    d = np.asarray(scene.signed_distance(centers.reshape(-1, 3)), dtype=np.float64)
+    d = d.reshape(qa.shape[0], radii.size) - radii[None, :]
+    return d.min(axis=1)
+
+
+def self_clearance(robot: Any, q: Any) -> np.ndarray:
+    """Per-sample clearance between the robot's self-collision sphere pairs.
+
+    clearance_k = min_{(a,b) ∈ pairs} ‖c_a(q_k) − c_b(q_k)‖ − r_a − r_b over ``robot.self_collision_pairs``.
+
+    Args:
+        robot: a :class:`gfcs.Robot`.
+        q: (T, dof) joint positions.
+
+    Returns:
+        (T,) clearances [m]; +inf when the robot has no self-collision pairs.
+    """
+    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    pairs = np.asarray(robot.self_collision_pairs, dtype=np.int64).reshape(-1, 2)
+    if pairs.shape[0] == 0 or qa.shape[0] == 0:
+        return np.full(qa.shape[0], math.inf)
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    centers = np.asarray(robot.sphere_centers(qa), dtype=np.float64).reshape(qa.shape[0], -1, 3)
+    gaps = np.linalg.norm(centers[:, pairs[:, 0]] - centers[:, pairs[:, 1]], axis=2)
+    gaps -= radii[pairs[:, 0]] + radii[pairs[:, 1]]
+    return gaps.min(axis=1)
+
+
+def uniform_resample(t: Any, x: Any) -> "tuple[np.ndarray, float]":
+    """Resample a path onto a uniform time grid by linear interpolation (for the LDJ).
+
+    Rollout trajectories are uniform already (fixed step); this only matters for data from elsewhere.
+
+    Args:
+        t: (T,) strictly increasing times [s].
+        x: (T, k) samples.
+
+    Returns:
+        (x_uniform (T, k), dt): samples at t₀ + k·dt with dt = (t_end − t₀)/(T − 1). Returned unchanged
+        when ``t`` is already uniform to 1e-9 relative.
+    """
+    ta = np.asarray(t, dtype=np.float64).reshape(-1)
+    xa = _as_path(x, "x")
+    if ta.shape[0] != xa.shape[0]:
+        raise ValueError(f"t: expected shape ({xa.shape[0]},), got {ta.shape}")
+    if ta.shape[0] < 2:
+        return xa, math.nan
+    steps = np.diff(ta)
+    if np.any(steps <= 0.0):
+        raise ValueError("t must be strictly increasing")
+    dt = float(ta[-1] - ta[0]) / (ta.shape[0] - 1)
+    if np.max(np.abs(steps - dt)) <= 1e-9 * max(dt, 1e-300) + 1e-15:
+        return xa, dt
+    grid = ta[0] + dt * np.arange(ta.shape[0])
+    grid[-1] = ta[-1]
+    out = np.column_stack([np.interp(grid, ta, xa[:, j]) for j in range(xa.shape[1])])
+    return out, dt
+
+
+def trajectory_metrics(
+    robot: Any,
+    scene: Any,
+    t: Any,
+    q: Any,
+    goal: Any,
+    tol: float = DEFAULT_SUCCESS_TOL,
+    limit_tol: float = DEFAULT_LIMIT_TOL,
+    ee: Optional[Any] = None,
+) -> Dict[str, Any]:
+    """Everything GFCS Table I reports about one trajectory, plus the success criterion.
+
+    Args:
+        robot: a :class:`gfcs.Robot` (sphere model, limits, end effector).
+        scene: a :class:`gfcs.Scene`.
+        t: (T,) sample times [s].
+        q: (T, dof) joint positions.
+        goal: (dof,) goal configuration q_g.
+        tol: success tolerance on ‖q_T − q_g‖ [rad].
+        limit_tol: slack on the joint limits [rad].
+        ee: optional (T, 3) end-effector positions (computed with ``robot.ee_position`` when omitted).
+
+    Returns:
+        dict with keys ``success`` (bool: final error ≤ tol, min clearance ≥ 0 against obstacles and self,
+        limits respected), ``final_error`` [rad], ``min_clearance`` [m] (obstacles), ``min_self_clearance``
+        [m], ``within_limits`` (bool), ``duration`` [s], ``ee_length`` [m], ``cspace_length`` [rad],
+        ``ee_ldj``, ``cspace_ldj`` (NaN when undefined), ``n_samples``.
+    """
+    qa = _as_path(q, "q")
+    ta = np.asarray(t, dtype=np.float64).reshape(-1)
+    if ta.shape[0] != qa.shape[0]:
+        raise ValueError(f"t: expected shape ({qa.shape[0]},), got {ta.shape}")
+    g = np.asarray(goal, dtype=np.float64).reshape(-1)
+    if g.shape != (qa.shape[1],):
+        raise ValueError(f"goal: expected shape ({qa.shape[1]},), got {g.shape}")
+    if qa.shape[0] == 0:
+        raise ValueError("q: expected at least one sample, got shape (0, dof)")
+    ee_a = (
+        np.asarray(robot.ee_position(qa), dtype=np.float64).reshape(qa.shape[0], 3)
+        if ee is None
+        else _as_path(ee, "ee")
+    )
+    final_error = float(np.linalg.norm(qa[-1] - g))
+    clear = float(np.min(obstacle_clearance(robot, scene, qa)))
+    self_clear = float(np.min(self_clearance(robot, qa)))
+    limits_ok = within_limits(qa, robot.lower, robot.upper, limit_tol)
+    q_u, dt = uniform_resample(ta, qa)
+    ee_u, _ = uniform_resample(ta, ee_a)
+    ok_dt = math.isfinite(dt) and dt > 0.0
+    return {
+        "success": bool(final_error <= tol and clear >= 0.0 and self_clear >= 0.0 and limits_ok),
+        "final_error": final_error,
+        "min_clearance": clear,
+        "min_self_clearance": self_clear,
+        "within_limits": limits_ok,
+        "duration": float(ta[-1] - ta[0]),
+        "ee_length": path_length(ee_a),
+        "cspace_length": path_length(qa),
+        "ee_ldj": log_dimensionless_jerk(ee_u, dt) if ok_dt else math.nan,
+        "cspace_ldj": log_dimensionless_jerk(q_u, dt) if ok_dt else math.nan,
+        "n_samples": int(qa.shape[0]),
+    }

@@ -1,0 +1,555 @@
+"""Global motion generation by optimising fabric command sequences (GFCS Sec. IV-A, Algorithm 1).
+
+Two layers:
+
+* :func:`solve_gfcop`: Algorithm 1 ("SolveGFCOP with warm-started CMA-ES") for any batched cost
+  function over a box. The first batch is the sampler's candidates (the warm start), every later batch is
+  drawn from CMA-ES; every candidate and cost is kept, the best so far is reported after every batch
+  (anytime, with a per-batch callback), and the top-m candidates are returned.
+* :func:`solve`: the robot-level API. The decision variable is y = [q_g¹ᵀ … q_gⁿᵀ]ᵀ (n free commands,
+  GFCS eq. 4); the cost of a batch of candidates is computed in Rust, in parallel, by
+  ``gfcs.Fabric.evaluate`` (eq. 4-8: Σ tᵢ* + p·1[goal not reached]); the best sequence is then rolled out
+  once more to record its trajectory and metrics. ``method="gf"`` is the local baseline (the goal is the
+  only command, no optimisation). :func:`replay` re-runs a solved command sequence in a changed scene
+  without re-optimising (reactivity, GFCS Sec. V).
+
+Warm start (Alg. 1, first line): CMA-ES runs in normalised coordinates u = (y − lower)/(upper − lower) ∈
+[0, 1]^dim with pycma's ``BoundTransform`` box handling. The sampler's candidates are passed to
+``CMAEvolutionStrategy.inject(..., force=True)`` as genotypes (``boundary_handler.inverse``), so the first
+``ask()`` returns exactly those candidates; they are evaluated and ``tell()`` updates the distribution from
+them like from any other batch. The initial mean is the mean of the warm-start candidates and the initial
+step size is ``sigma0`` (a fraction of each joint range).
+
+Random numbers: pycma's ``seed`` option would reseed numpy's *global* generator. Instead its normal
+variates come from a private ``numpy.random.Generator`` passed through pycma's ``randn`` option (``seed``
+is set to NaN: "do nothing"), and the sampler gets a second, independent generator; both derive from
+``seed`` through ``numpy.random.SeedSequence``. A solve is therefore reproducible from its seed and never
+touches ``numpy.random``'s global state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List, Optional, Protocol, Sequence, Tuple, Union
+
+import numpy as np
+
+from gfcs import metrics as _metrics
+from gfcs.results import SolveResult, Trajectory
+
+__all__ = [
+    "Sampler",
+    "UniformSampler",
+    "BatchInfo",
+    "OptimResult",
+    "RolloutSettings",
+    "solve_gfcop",
+    "solve",
+    "replay",
+    "make_fabric",
+    "rollout_commands",
+]
+
+
+# ----------------------------------------------------------------------------------------- samplers
+class Sampler(Protocol):
+    """Sampler protocol of Algorithm 1 (``f_sampler``): candidates to warm-start CMA-ES.
+
+    ``sample(problem, n, rng)`` returns an (n, n_free·dof) float array of command sequences
+    y = [q_g¹ᵀ … q_gⁿᵀ]ᵀ inside the joint limits of ``problem.robot``; ``rng`` is a
+    ``numpy.random.Generator`` owned by the caller (use it for every random draw so that solves are
+    reproducible).
+    """
+
+    def sample(self, problem: Any, n: int, rng: np.random.Generator) -> np.ndarray:  # pragma: no cover
+        ...
+
+
+@dataclass
+class UniformSampler:
+    """Uniform samples within the joint limits, U(q_low, q_up) per command (the "No learning" sampler).
+
+    Attributes:
+        n_commands: number n of free commands per candidate (output width n·dof).
+    """
+
+    n_commands: int = 1
+
+    def sample(self, problem: Any, n: int, rng: np.random.Generator) -> np.ndarray:
+        """(n, n_commands·dof) uniform candidates."""
+        lo = np.tile(np.asarray(problem.robot.lower, dtype=np.float64), self.n_commands)
+        up = np.tile(np.asarray(problem.robot.upper, dtype=np.float64), self.n_commands)
+        return rng.uniform(lo, up, size=(int(n), lo.shape[0]))
+
+
+# ------------------------------------------------------------------------------- generic Algorithm 1
+@dataclass
+class BatchInfo:
+    """What the per-batch callback of :func:`solve_gfcop` receives.
+
+    Attributes:
+        index: batch index j (0-based).
+        candidates: (N, dim) candidates of this batch.
+        costs: (N,) their costs (NaN reported by the cost function become +inf).
+        best_x: (dim,) best candidate so far (all batches).
+        best_cost: its cost.
+        batch_time: wall time of this batch [s] (ask, evaluate, tell).
+        elapsed: wall time since the start of the optimisation [s] (sum of batch times).
+    """
+
+    index: int
+    candidates: np.ndarray
+    costs: np.ndarray
+    best_x: np.ndarray
+    best_cost: float
+    batch_time: float
+    elapsed: float
+
+
+@dataclass
+class OptimResult:
+    """Result of :func:`solve_gfcop`.
+
+    Attributes:
+        best_x: (dim,) lowest-cost candidate; best_cost: its cost.
+        top_x: (m, dim) the m lowest-cost candidates, sorted by cost (ties: evaluation order);
+        top_costs: (m,) their costs.
+        all_x: (K, dim) every evaluated candidate, in evaluation order; all_costs: (K,);
+        all_batches: (K,) batch index of each.
+        batch_best_costs: (B,) best cost so far after each batch (non-increasing).
+        batch_best_x: (B, dim) best candidate so far after each batch.
+        batch_times: (B,) wall time of each batch [s].
+    """
+
+    best_x: np.ndarray
+    best_cost: float
+    top_x: np.ndarray
+    top_costs: np.ndarray
+    all_x: np.ndarray
+    all_costs: np.ndarray
+    all_batches: np.ndarray
+    batch_best_costs: np.ndarray
+    batch_best_x: np.ndarray
+    batch_times: np.ndarray
+
+    @property
+    def n_evaluations(self) -> int:
+        """Number of evaluated candidates K."""
+        return int(self.all_costs.shape[0])
+
+
+InitialCandidates = Union[None, np.ndarray, Callable[[int, np.random.Generator], np.ndarray]]
+
+
+def _box(lower: Any, upper: Any, dim: int) -> Tuple[np.ndarray, np.ndarray]:
+    lo = np.asarray(lower, dtype=np.float64).reshape(-1)
+    up = np.asarray(upper, dtype=np.float64).reshape(-1)
+    if lo.shape == (1,):
+        lo = np.full(dim, lo[0])
+    if up.shape == (1,):
+        up = np.full(dim, up[0])
+    if lo.shape != (dim,) or up.shape != (dim,):
+        raise ValueError(f"lower/upper: expected shape ({dim},), got {lo.shape} and {up.shape}")
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(up))):
+        raise ValueError("lower/upper contain NaN or infinite values")
+    if not np.all(up > lo):
+        bad = int(np.argmax(~(up > lo)))
+        raise ValueError(f"upper must exceed lower in every coordinate (coordinate {bad}: "
+                         f"lower={lo[bad]}, upper={up[bad]})")
+    return lo, up
+
+
+def _initial_batch(sampler: InitialCandidates, n: int, dim: int, rng: np.random.Generator,
+                   lo: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """The warm-start batch (n, dim): from the sampler, topped up uniformly, clipped into the box."""
+    if sampler is None:
+        y = rng.uniform(lo, up, size=(n, dim))
+    else:
+        y = np.asarray(sampler(n, rng) if callable(sampler) else sampler, dtype=np.float64)
+        if y.ndim == 1 and y.shape[0] == dim:
+            y = y[None, :]
+        if y.ndim != 2 or y.shape[1] != dim:
+            raise ValueError(f"sampler: expected candidates of shape ({n}, {dim}), got {y.shape}")
+        if not np.all(np.isfinite(y)):
+            raise ValueError("sampler: candidates contain NaN or infinite values")
+        y = y[:n]
+        if y.shape[0] < n:
+            y = np.vstack([y, rng.uniform(lo, up, size=(n - y.shape[0], dim))])
+    return np.clip(y, lo, up)
+
+
+def solve_gfcop(
+    cost_fn: Callable[[np.ndarray], Any],
+    dim: int,
+    lower: Any,
+    upper: Any,
+    sampler: InitialCandidates = None,
+    batches: int = 5,
+    population: int = 32,
+    sigma0: float = 0.25,
+    seed: int = 0,
+    top_m: int = 4,
+    callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
+) -> OptimResult:
+    """Algorithm 1 (SolveGFCOP) with warm-started CMA-ES over the box [lower, upper].
+
+    Args:
+        cost_fn: batched cost, (N, dim) candidates -> (N,) costs (lower is better; NaN counts as +inf).
+            For GFCS it evaluates eq. 4 for every candidate command sequence in parallel.
+        dim: number of decision variables (n·dof for n free commands).
+        lower, upper: (dim,) box bounds (or scalars), lower < upper, finite.
+        sampler: the warm start ``f_sampler``: None (uniform in the box), a callable ``(n, rng) ->
+            (n, dim)``, or an array (k, dim) of candidates (the first ``population`` are used; fewer are
+            topped up uniformly). Candidates are clipped into the box.
+        batches: number of batches N_iters ≥ 1 (the first is the sampler's).
+        population: candidates per batch N_samp ≥ 2 (CMA-ES ``popsize``).
+        sigma0: initial CMA-ES step size as a fraction of each coordinate's range (0 < sigma0).
+        seed: non-negative integer seed of the sampler and CMA-ES generators.
+        top_m: number m of best candidates returned (≥ 1; fewer if fewer were evaluated).
+        callback: called after every batch with a :class:`BatchInfo`; returning True stops early
+            (anytime use).
+
+    Returns:
+        :class:`OptimResult` with all candidates, the top-m and the per-batch best costs and times.
+    """
+    import cma  # local import: keeps `import gfcs` light
+
+    dim = int(dim)
+    if dim < 1:
+        raise ValueError(f"dim must be ≥ 1, got {dim}")
+    if int(batches) < 1:
+        raise ValueError(f"batches must be ≥ 1, got {batches}")
+    if int(population) < 2:
+        raise ValueError(f"population must be ≥ 2, got {population}")
+    if int(top_m) < 1:
+        raise ValueError(f"top_m must be ≥ 1, got {top_m}")
+    if not (math.isfinite(sigma0) and sigma0 > 0):
+        raise ValueError(f"sigma0 must be a positive number, got {sigma0}")
+    if int(seed) < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed}")
+    lo, up = _box(lower, upper, dim)
+    span = up - lo
+    sampler_rng, cma_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(2))
+
+    y0 = _initial_batch(sampler, int(population), dim, sampler_rng, lo, up)
+    u0 = (y0 - lo) / span
+    options = {
+        "bounds": [0.0, 1.0],
+        "popsize": int(population),
+        "seed": math.nan,  # do not touch numpy's global RNG; randn below is our own generator
+        "randn": lambda *shape: cma_rng.standard_normal(shape),
+        "verbose": -9,
+    }
+    es = cma.CMAEvolutionStrategy(np.clip(u0.mean(axis=0), 0.0, 1.0).tolist(), float(sigma0), options)
+
+    all_x: List[np.ndarray] = []
+    all_c: List[np.ndarray] = []
+    all_b: List[np.ndarray] = []
+    best_costs: List[float] = []
+    best_xs: List[np.ndarray] = []
+    times: List[float] = []
+    best_x, best_cost = y0[0].copy(), math.inf
+    elapsed = 0.0
+    for j in range(int(batches)):
+        start = time.perf_counter()
+        if j == 0:
+            es.inject([es.boundary_handler.inverse(u) for u in u0], force=True)
+        asked = es.ask()
+        y = y0 if j == 0 else np.clip(lo + np.asarray(asked) * span, lo, up)
+        costs = np.asarray(cost_fn(y), dtype=np.float64).reshape(-1)
+        if costs.shape != (y.shape[0],):
+            raise ValueError(f"cost_fn: expected {y.shape[0]} costs, got shape {costs.shape}")
+        costs = np.where(np.isnan(costs), math.inf, costs)
+        finite = costs[np.isfinite(costs)]
+        worst = float(finite.max()) if finite.size else 0.0
+        # CMA-ES ranks candidates; infinite costs rank last, one step behind the worst finite one
+        es.tell(asked, np.where(np.isfinite(costs), costs, worst + 1.0 + abs(worst)).tolist())
+        batch_time = time.perf_counter() - start
+        elapsed += batch_time
+
+        k = int(np.argmin(costs))
+        if costs[k] < best_cost:
+            best_cost, best_x = float(costs[k]), y[k].copy()
+        all_x.append(y.copy())
+        all_c.append(costs)
+        all_b.append(np.full(y.shape[0], j))
+        best_costs.append(best_cost)
+        best_xs.append(best_x.copy())
+        times.append(batch_time)
+        if callback is not None:
+            stop = callback(BatchInfo(j, y.copy(), costs.copy(), best_x.copy(), best_cost, batch_time, elapsed))
+            if stop:
+                break
+
+    xs, cs, bs = np.vstack(all_x), np.concatenate(all_c), np.concatenate(all_b)
+    order = np.argsort(cs, kind="stable")[: int(top_m)]
+    return OptimResult(
+        best_x=best_x,
+        best_cost=best_cost,
+        top_x=xs[order],
+        top_costs=cs[order],
+        all_x=xs,
+        all_costs=cs,
+        all_batches=bs,
+        batch_best_costs=np.asarray(best_costs),
+        batch_best_x=np.vstack(best_xs),
+        batch_times=np.asarray(times),
+    )
+
+
+# ---------------------------------------------------------------------------------- robot-level API
+@dataclass
+class RolloutSettings:
+    """Rollout parameters of GFCS eq. 1-8 (defaults: the paper's, Sec. V).
+
+    Attributes:
+        dt: integration step [s] (Euler at 100 Hz in the paper).
+        t_max: time budget per command [s] (7 s in the paper).
+        tol: ε of eq. 3 for the final goal [rad].
+        waypoint_tol: ε for the intermediate commands [rad] (looser: a command only steers).
+        penalty: p of eq. 4/8 added when the goal is not reached [s].
+        collision_penalty: added when the sphere model collides (min clearance < 0) [s]. An extension of
+            eq. 4 (the paper's cost has no collision term): success requires a collision-free motion, so
+            colliding candidates must rank behind collision-free ones.
+        integrator: ``"euler"`` (semi-implicit Euler, the paper's) or ``"rk4"``.
+
+    The defaults equal the core's (``RolloutOptions`` / ``SequenceOptions`` in ``fabric-core``).
+    """
+
+    dt: float = 0.01
+    t_max: float = 7.0
+    tol: float = _metrics.DEFAULT_SUCCESS_TOL
+    waypoint_tol: float = 0.1
+    penalty: float = 100.0
+    collision_penalty: float = 100.0
+    integrator: str = "euler"
+
+    def as_kwargs(self) -> Dict[str, Any]:
+        """Keyword arguments for ``gfcs.Fabric.rollout_sequence`` / ``evaluate``."""
+        return {
+            "dt": self.dt,
+            "t_max": self.t_max,
+            "tol": self.tol,
+            "waypoint_tol": self.waypoint_tol,
+            "penalty": self.penalty,
+            "collision_penalty": self.collision_penalty,
+            "integrator": self.integrator,
+        }
+
+
+def make_fabric(problem: Any, fabric_config: Any = None, scene: Any = None) -> Any:
+    """A ``gfcs.Fabric`` for ``problem`` (or for ``problem.robot`` in another ``scene``).
+
+    Args:
+        problem: a :class:`gfcs.problems.Problem`.
+        fabric_config: None (defaults), a ``gfcs.FabricConfig``, a dict, or a path to a TOML/YAML/JSON file.
+        scene: replaces ``problem.scene`` when given.
+    """
+    import gfcs
+
+    config = str(fabric_config) if isinstance(fabric_config, os.PathLike) else fabric_config
+    return gfcs.Fabric(problem.robot, problem.scene if scene is None else scene, config)
+
+
+def rollout_commands(
+    fabric: Any, q0: Any, qd0: Any, goal: Any, commands: Any, settings: RolloutSettings
+) -> Tuple[Trajectory, float, bool, np.ndarray]:
+    """Roll out a command sequence q_g¹..q_gⁿ then the goal (GFCS eq. 5-7) and record it.
+
+    Args:
+        fabric: a ``gfcs.Fabric``.
+        q0, qd0, goal: (dof,) start state and goal.
+        commands: (n, dof) free commands (n may be 0: the GF baseline).
+        settings: :class:`RolloutSettings`.
+
+    Returns:
+        (trajectory, cost of eq. 4, goal reached, t_stars (n + 1,)).
+    """
+    dof = int(np.asarray(goal).shape[0])
+    cmds = np.asarray(commands, dtype=np.float64).reshape(-1, dof)
+    seq = fabric.rollout_sequence(q0, qd0, cmds, goal, **settings.as_kwargs())
+    traj = Trajectory(seq.t, seq.q, seq.qd)
+    return traj, float(seq.cost), bool(seq.reached), np.asarray(seq.t_stars, dtype=np.float64)
+
+
+def _settings_dict(settings: RolloutSettings, **extra: Any) -> Dict[str, Any]:
+    d = dataclasses.asdict(settings)
+    d.update(extra)
+    return d
+
+
+def solve(
+    problem: Any,
+    method: str = "gfcs",
+    batches: int = 5,
+    population: int = 32,
+    n_commands: int = 1,
+    seed: int = 0,
+    sampler: Optional[Sampler] = None,
+    fabric_config: Any = None,
+    threads: Optional[int] = None,
+    progress: bool = False,
+    *,
+    settings: Optional[RolloutSettings] = None,
+    top_m: int = 4,
+    sigma0: float = 0.25,
+    callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
+) -> SolveResult:
+    """Solve a motion problem with GFCS (Alg. 1) or with the local fabric alone (``method="gf"``).
+
+    Args:
+        problem: a :class:`gfcs.problems.Problem` (robot, scene, q0, qd0, goal).
+        method: ``"gfcs"``: optimise n free commands with CMA-ES, cost eq. 4 evaluated in Rust;
+            ``"gf"``: roll the fabric out toward the goal only (no optimisation).
+        batches: CMA-ES batches (the paper reports 1 and 5).
+        population: candidates per batch.
+        n_commands: number n of free commands (the paper: 1, i.e. sequences of length two).
+        seed: seed of the sampler and CMA-ES (see the module docstring).
+        sampler: warm-start sampler (protocol :class:`Sampler`), default :class:`UniformSampler`.
+        fabric_config: fabric gains (None, ``gfcs.FabricConfig``, dict, or file path).
+        threads: worker threads for the batch evaluation (None: all cores).
+        progress: show a tqdm progress bar over the batches.
+        settings: :class:`RolloutSettings` (dt, t_max, tolerances, penalty).
+        top_m: number of best candidates kept in ``result.top`` (Alg. 1 output).
+        sigma0: initial CMA-ES step as a fraction of the joint ranges.
+        callback: called after every batch with a :class:`BatchInfo`; True stops early.
+
+    Returns:
+        :class:`gfcs.results.SolveResult` (trajectory of the best sequence, metrics, per-batch data).
+    """
+    settings = settings or RolloutSettings()
+    if method not in ("gfcs", "gf"):
+        raise ValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
+    robot, scene = problem.robot, problem.scene
+    dof = int(robot.dof)
+    q0 = np.asarray(problem.q0, dtype=np.float64)
+    qd0 = np.asarray(problem.qd0, dtype=np.float64)
+    goal = np.asarray(problem.goal, dtype=np.float64)
+    fabric = make_fabric(problem, fabric_config)
+    common = dict(problem=str(problem.name), cls=str(getattr(problem, "cls", "")), seed=int(seed),
+                  q0=q0, qd0=qd0, goal=goal, fabric_config=fabric.config.to_dict(), robot=robot)
+
+    if method == "gf":
+        start = time.perf_counter()
+        traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, np.zeros((0, dof)), settings)
+        elapsed = time.perf_counter() - start
+        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, tol=settings.tol)
+        return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached,
+                           t_stars=t_stars, trajectory=traj, success=bool(met["success"]), metrics=met,
+                           n_evaluations=1, solve_time=elapsed, settings=_settings_dict(settings),
+                           **common)
+
+    n_commands = int(n_commands)
+    if n_commands < 1:
+        raise ValueError(f"n_commands must be ≥ 1 for method 'gfcs', got {n_commands}")
+    sampler = sampler if sampler is not None else UniformSampler(n_commands)
+    dim = n_commands * dof
+    lower = np.tile(np.asarray(robot.lower, dtype=np.float64), n_commands)
+    upper = np.tile(np.asarray(robot.upper, dtype=np.float64), n_commands)
+    eval_kwargs = settings.as_kwargs()
+
+    def cost_fn(y: np.ndarray) -> np.ndarray:
+        costs, _reached, _clearance = fabric.evaluate(q0, qd0, goal, y, threads=threads, **eval_kwargs)
+        return np.asarray(costs, dtype=np.float64)
+
+    def warm_start(n: int, rng: np.random.Generator) -> np.ndarray:
+        y = np.asarray(sampler.sample(problem, n, rng), dtype=np.float64)
+        if y.ndim != 2 or y.shape[1] != dim:
+            raise ValueError(f"sampler {type(sampler).__name__}: expected shape ({n}, {dim}) "
+                             f"({n_commands} commands × {dof} joints), got {y.shape}")
+        return y
+
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=int(batches), desc=f"{problem.name}", unit="batch", leave=False)
+
+    def on_batch(info: BatchInfo) -> Optional[bool]:
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(best=f"{info.best_cost:.3g}")
+        return callback(info) if callback is not None else None
+
+    try:
+        opt = solve_gfcop(cost_fn, dim, lower, upper, sampler=warm_start, batches=batches,
+                          population=population, sigma0=sigma0, seed=seed, top_m=top_m,
+                          callback=on_batch)
+    finally:
+        if bar is not None:
+            bar.close()
+
+    commands = opt.best_x.reshape(n_commands, dof)
+    traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, commands, settings)
+    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, tol=settings.tol)
+    return SolveResult(
+        method="gfcs",
+        commands=commands,
+        cost=cost,
+        reached=reached,
+        t_stars=t_stars,
+        trajectory=traj,
+        success=bool(met["success"]),
+        metrics=met,
+        top=[(x.copy(), float(c)) for x, c in zip(opt.top_x, opt.top_costs)],
+        batch_times=opt.batch_times,
+        batch_best_costs=opt.batch_best_costs,
+        batch_best_commands=opt.batch_best_x,
+        n_evaluations=opt.n_evaluations,
+        solve_time=float(np.sum(opt.batch_times)),
+        settings=_settings_dict(settings, batches=int(batches), population=int(population),
+                                n_commands=n_commands, sigma0=float(sigma0), top_m=int(top_m),
+                                sampler=type(sampler).__name__),
+        **common,
+    )
+
+
+def replay(
+    result: SolveResult,
+    scene: Any,
+    robot: Any = None,
+    fabric_config: Any = None,
+    settings: Optional[RolloutSettings] = None,
+    commands: Optional[Any] = None,
+) -> SolveResult:
+    """Replay a solved command sequence in another scene without re-optimising (GFCS Sec. V, Fig. 4).
+
+    The fabric's local avoidance reacts to obstacles the optimisation never saw; the commands stay fixed.
+
+    Args:
+        result: a :class:`SolveResult` (from :func:`solve` or :meth:`SolveResult.from_json`).
+        scene: the new ``gfcs.Scene`` (e.g. the original plus new obstacles).
+        robot: the robot; default ``result.robot`` (set by :func:`solve`; results loaded from JSON
+            need it passed explicitly).
+        fabric_config: default: the configuration stored in ``result``.
+        settings: default: the rollout settings stored in ``result``.
+        commands: (n, dof) commands to replay instead of ``result.commands`` (e.g. a row of
+            ``result.batch_best_commands`` to get the first-batch solution).
+
+    Returns:
+        A copy of ``result`` whose trajectory, cost, reached flag, t_stars, metrics and success are those
+        of the replay (optimisation data unchanged).
+    """
+    robot = robot if robot is not None else result.robot
+    if robot is None:
+        raise ValueError("replay: this result carries no robot (loaded from JSON?): pass robot=")
+    if settings is None:
+        names = {f.name for f in dataclasses.fields(RolloutSettings)}
+        settings = RolloutSettings(**{k: v for k, v in result.settings.items() if k in names})
+    if fabric_config is None:
+        fabric_config = result.fabric_config
+    import gfcs
+
+    if isinstance(fabric_config, os.PathLike):
+        fabric_config = str(fabric_config)
+    fabric = gfcs.Fabric(robot, scene, fabric_config)
+    dof = result.dof
+    cmds = np.asarray(result.commands if commands is None else commands, dtype=np.float64).reshape(-1, dof)
+    traj, cost, reached, t_stars = rollout_commands(fabric, result.q0, result.qd0, result.goal, cmds, settings)
+    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, tol=settings.tol)
+    return dataclasses.replace(result, commands=cmds, trajectory=traj, cost=cost, reached=reached,
+                               t_stars=t_stars, metrics=met, success=bool(met["success"]), robot=robot)

@@ -1,0 +1,284 @@
+"""Motion problems: start, goal, robot and scene (GFCS Sec. V), and MotionBenchMaker loading.
+
+A :class:`Problem` is one GFCOP instance: robot, scene E, start q₀ (and q̇₀, zero by default) and goal q_g
+(GFCS eq. 1-8). Problems come from MotionBenchMaker files (MoveIt ``sceneNNNN.yaml`` planning scenes and
+``requestNNNN.yaml`` motion plan requests, one folder per class) or from the procedural generators of
+:mod:`gfcs.generators`.
+
+Problem classes use the MotionBenchMaker folder names (:data:`CLASSES`); :func:`canonical_class`
+also accepts the names used in the GFCS paper's Table I (e.g. ``"table_under"``, ``"single_shelf"``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, Iterable, List, Optional, Sequence, Union
+
+import numpy as np
+
+__all__ = [
+    "Problem",
+    "CLASSES",
+    "CLASS_ALIASES",
+    "canonical_class",
+    "load_mbm",
+    "load_mbm_dir",
+    "mbm_panda",
+    "shared_dir",
+]
+
+#: Problem classes, MotionBenchMaker folder names, in the order of GFCS Table I (then table_pick).
+CLASSES = (
+    "table_under_pick",
+    "box",
+    "bookshelf_tall",
+    "cage",
+    "bookshelf_thin",
+    "bookshelf_small",
+    "table_pick",
+)
+#: Other accepted spellings (GFCS Table I titles) -> class name.
+CLASS_ALIASES = {
+    "table_under": "table_under_pick",
+    "tall_shelf": "bookshelf_tall",
+    "thin_shelf": "bookshelf_thin",
+    "single_shelf": "bookshelf_small",
+    "small_shelf": "bookshelf_small",
+}
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def canonical_class(name: str) -> str:
+    """The class name of ``name`` (a class or an alias, case-insensitive; ``-``/space read as ``_``).
+
+    Raises:
+        ValueError: unknown class (the message lists the known ones).
+    """
+    key = re.sub(r"[\s\-]+", "_", str(name).strip().lower())
+    key = CLASS_ALIASES.get(key, key)
+    if key not in CLASSES:
+        raise ValueError(f"unknown problem class '{name}' (known: {', '.join(CLASSES)}; "
+                         f"aliases: {', '.join(CLASS_ALIASES)})")
+    return key
+
+
+def _vector(value: Any, what: str, dof: int) -> np.ndarray:
+    a = np.asarray(value, dtype=np.float64).reshape(-1) if value is not None else None
+    if a is None or a.shape != (dof,):
+        got = None if value is None else np.shape(value)
+        raise ValueError(f"{what}: expected shape ({dof},), got {got}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{what} contains NaN or infinite values")
+    return a
+
+
+@dataclass
+class Problem:
+    """One motion problem (a GFCOP instance, GFCS eq. 4-8).
+
+    Attributes:
+        name: identifier, e.g. ``"bookshelf_small/0001"``.
+        robot: a :class:`gfcs.Robot`.
+        scene: a :class:`gfcs.Scene` (the environment E).
+        q0: (dof,) start configuration [rad].
+        goal: (dof,) goal configuration q_g [rad].
+        qd0: (dof,) start velocity [rad/s]; None means zeros.
+        cls: problem class (:data:`CLASSES`), "" when unknown.
+        meta: free-form provenance (source files, generator parameters, obstacle primitives).
+    """
+
+    name: str
+    robot: Any
+    scene: Any
+    q0: np.ndarray
+    goal: np.ndarray
+    qd0: Optional[np.ndarray] = None
+    cls: str = ""
+    meta: Dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        dof = int(self.robot.dof)
+        self.q0 = _vector(self.q0, "q0", dof)
+        self.goal = _vector(self.goal, "goal", dof)
+        self.qd0 = np.zeros(dof) if self.qd0 is None else _vector(self.qd0, "qd0", dof)
+
+    @property
+    def dof(self) -> int:
+        """Number of active joints."""
+        return int(self.robot.dof)
+
+    def with_scene(self, scene: Any) -> "Problem":
+        """A copy of this problem in another scene (e.g. with new obstacles, GFCS Sec. V reactivity)."""
+        return dataclasses.replace(self, scene=scene, meta=dict(self.meta))
+
+
+# ------------------------------------------------------------------------------ MotionBenchMaker
+def shared_dir() -> Optional[Path]:
+    """The shared data folder (MotionBenchMaker problems, MBM Panda), or None when absent.
+
+    ``$GFCS_SHARED`` when set, else ``<repository root>/../shared`` (for a source checkout).
+    """
+    env = os.environ.get("GFCS_SHARED")
+    candidates = [Path(env)] if env else [Path(__file__).resolve().parents[2].parent / "shared"]
+    for c in candidates:
+        if c.is_dir():
+            return c
+    return None
+
+
+def _missing_joint_error(message: str) -> Exception:
+    from gfcs.errors import LinkError
+
+    return LinkError(message)
+
+
+def load_mbm(
+    scene_yaml: PathLike,
+    request_yaml: PathLike,
+    robot: Any = None,
+    name: Optional[str] = None,
+    cls: Optional[str] = None,
+) -> Problem:
+    """One MotionBenchMaker problem from its scene and request files.
+
+    Args:
+        scene_yaml: MoveIt PlanningScene YAML (``sceneNNNN.yaml``).
+        request_yaml: MoveIt MotionPlanRequest YAML (``requestNNNN.yaml``): start joint state and a
+            joint-space goal.
+        robot: the robot (default :meth:`gfcs.Robot.panda`); its active joints are looked up by name in
+            the request's start state and goal constraints.
+        name: problem name (default ``"<folder>/<NNNN>"``).
+        cls: problem class (default: the folder name).
+
+    Raises:
+        gfcs.LinkError: a joint of the robot is missing from the request's start state or goal (the
+            message names the joint and the file).
+        gfcs.IoError / gfcs.FormatError: unreadable or malformed files (from the core).
+    """
+    import gfcs
+
+    robot = gfcs.Robot.panda() if robot is None else robot
+    scene_path, request_path = Path(scene_yaml), Path(request_yaml)
+    scene = gfcs.Scene.from_moveit_yaml(str(scene_path))
+    request = gfcs.load_motion_plan_request(str(request_path))
+    values = {}
+    for part in ("start", "goal"):
+        table = request[part]
+        missing = [j for j in robot.joint_names if j not in table]
+        if missing:
+            raise _missing_joint_error(
+                f"{request_path}: joint '{missing[0]}' of robot '{robot.name}' is not in the request's "
+                f"{'start state' if part == 'start' else 'goal constraints'} (it has: "
+                f"{', '.join(sorted(table)) or 'nothing'})"
+            )
+        values[part] = np.array([table[j] for j in robot.joint_names], dtype=np.float64)
+    folder = scene_path.resolve().parent.name
+    number = re.sub(r"\D", "", scene_path.stem) or scene_path.stem
+    return Problem(
+        name=name if name is not None else f"{folder}/{number}",
+        robot=robot,
+        scene=scene,
+        q0=values["start"],
+        goal=values["goal"],
+        cls=cls if cls is not None else folder,
+        meta={"scene_file": str(scene_path), "request_file": str(request_path),
+              "group": request.get("group", "")},
+    )
+
+
+_SCENE_RE = re.compile(r"^scene(\d+)\.ya?ml$")
+
+
+def _class_dirs(directory: Path) -> List[Path]:
+    """``directory`` itself when it holds scene files, else its sub-folders that do (sorted)."""
+    if any(_SCENE_RE.match(p.name) for p in directory.iterdir()):
+        return [directory]
+    return sorted(p for p in directory.iterdir()
+                  if p.is_dir() and any(_SCENE_RE.match(f.name) for f in p.iterdir()))
+
+
+def load_mbm_dir(
+    directory: PathLike,
+    classes: Optional[Sequence[str]] = None,
+    limit: Optional[int] = None,
+    robot: Any = None,
+) -> List[Problem]:
+    """Every problem of a MotionBenchMaker folder, sorted by class then number.
+
+    Args:
+        directory: a class folder (``sceneNNNN.yaml`` / ``requestNNNN.yaml`` pairs) or a folder of class
+            folders (e.g. ``shared/mbm``).
+        classes: keep only these classes (names or aliases, see :func:`canonical_class`; folders with
+            other names are kept only when listed verbatim).
+        limit: at most this many problems per class (the first ones by number).
+        robot: shared by all problems (default :meth:`gfcs.Robot.panda`).
+
+    Raises:
+        FileNotFoundError: ``directory`` does not exist, or a scene has no matching request.
+        ValueError: no problems found (the message says where it looked).
+    """
+    import gfcs
+
+    root = Path(directory)
+    if not root.is_dir():
+        raise FileNotFoundError(f"problem folder not found: {root}")
+    wanted = None
+    if classes:
+        wanted = set()
+        for c in classes:
+            wanted.add(str(c))
+            try:
+                wanted.add(canonical_class(c))
+            except ValueError:
+                pass
+    robot = gfcs.Robot.panda() if robot is None else robot
+    problems: List[Problem] = []
+    for class_dir in _class_dirs(root):
+        if wanted is not None and class_dir.name not in wanted:
+            continue
+        scenes = sorted((int(m.group(1)), p) for p in class_dir.iterdir() if (m := _SCENE_RE.match(p.name)))
+        if limit is not None:
+            scenes = scenes[: max(int(limit), 0)]
+        for number, scene_path in scenes:
+            digits = _SCENE_RE.match(scene_path.name).group(1)  # type: ignore[union-attr]
+            request = next((class_dir / f"request{digits}{ext}" for ext in (".yaml", ".yml")
+                            if (class_dir / f"request{digits}{ext}").is_file()), None)
+            if request is None:
+                raise FileNotFoundError(f"{scene_path}: no matching request{digits}.yaml")
+            problems.append(load_mbm(scene_path, request, robot=robot,
+                                     name=f"{class_dir.name}/{digits}", cls=class_dir.name))
+    if not problems:
+        raise ValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
+                         + (f" for classes {sorted(wanted)}" if wanted else ""))
+    return problems
+
+
+def mbm_panda(path: Optional[PathLike] = None) -> Any:
+    """The Panda model MotionBenchMaker problems were made for (spherized URDF + SRDF, EE panda_hand).
+
+    Args:
+        path: the ``mbm_panda`` folder (``panda_spherized.urdf``, ``panda.srdf``); default
+            ``shared_dir()/robots/mbm_panda``.
+
+    Raises:
+        FileNotFoundError: the folder or its files are missing.
+    """
+    import gfcs
+
+    if path is None:
+        base = shared_dir()
+        if base is None:
+            raise FileNotFoundError("shared data folder not found (set GFCS_SHARED)")
+        folder = base / "robots" / "mbm_panda"
+    else:
+        folder = Path(path)
+    urdf, srdf = folder / "panda_spherized.urdf", folder / "panda.srdf"
+    for f in (urdf, srdf):
+        if not f.is_file():
+            raise FileNotFoundError(f"MBM Panda file not found: {f}")
+    return gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", srdf=str(srdf), mesh_dir=str(folder))

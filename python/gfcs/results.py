@@ -1,0 +1,387 @@
+"""Results of GFCS solves and benchmark rows (GFCS Sec. V, Table I).
+
+* :class:`Trajectory`: a sampled joint trajectory (t, q, q̇).
+* :class:`SolveResult`: everything :func:`gfcs.optimize.solve` produces for one problem, with
+  ``to_json()`` / ``from_json()`` (strict JSON: NaN and ±inf are written as the strings ``"NaN"``,
+  ``"Infinity"``, ``"-Infinity"`` and read back as floats).
+* Benchmark rows: :func:`bench_row` builds one flat dict per (problem, method label) — the line format of
+  ``gfcs bench --json results.jsonl``; :func:`summarize` and :func:`format_table` turn rows into the
+  per-class tables of GFCS Table I (mean ± std over the successful problems).
+
+Row format (keys of :func:`bench_row`), one JSON object per line:
+``problem`` (str), ``class`` (str), ``label`` (e.g. ``"GF"``, ``"Ours (1 b)"``, ``"Ours (5 b)"``),
+``method`` (``"gf"`` | ``"gfcs"``), ``batches`` (int, CMA-ES batches behind the row; 0 for GF),
+``seed`` (int), ``success`` (bool), ``time`` [s] (optimisation wall time up to that batch, or the GF
+rollout time), ``cost`` (GFCS eq. 4), ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``,
+``cspace_ldj``, ``min_clearance`` [m], ``final_error`` [rad].
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+__all__ = [
+    "Trajectory",
+    "SolveResult",
+    "bench_row",
+    "summarize",
+    "format_table",
+    "TABLE_COLUMNS",
+    "read_rows",
+]
+
+_NONFINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
+
+
+def _enc(x: Any) -> Any:
+    """JSON-ready copy of ``x``: numpy -> lists/scalars, non-finite floats -> strings."""
+    if isinstance(x, np.ndarray):
+        return _enc(x.tolist())
+    if isinstance(x, (np.bool_, bool)):
+        return bool(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        v = float(x)
+        if math.isnan(v):
+            return "NaN"
+        if math.isinf(v):
+            return "Infinity" if v > 0 else "-Infinity"
+        return v
+    if isinstance(x, dict):
+        return {str(k): _enc(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_enc(v) for v in x]
+    return x
+
+
+def _dec_float(x: Any) -> float:
+    """A float written by :func:`_enc` (number or one of the non-finite spellings)."""
+    if isinstance(x, str):
+        if x in _NONFINITE:
+            return _NONFINITE[x]
+        raise ValueError(f"expected a number, got {x!r}")
+    if x is None:
+        return math.nan
+    return float(x)
+
+
+def _dec_array(x: Any, ndim: int, width: int = 0) -> np.ndarray:
+    """A float array written by :func:`_enc`; empty inputs get shape (0,) or (0, width)."""
+
+    def walk(v: Any) -> Any:
+        return [walk(e) for e in v] if isinstance(v, list) else _dec_float(v)
+
+    a = np.asarray(walk(x), dtype=np.float64)
+    if a.size == 0:
+        return np.zeros((0, width)) if ndim == 2 else np.zeros(0)
+    if a.ndim != ndim:
+        raise ValueError(f"expected a {ndim}-D array, got shape {a.shape}")
+    return a
+
+
+def _dec_value(x: Any) -> Any:
+    """Metrics values: floats (with non-finite spellings), bools, ints, strings, nested dicts."""
+    if isinstance(x, str) and x in _NONFINITE:
+        return _NONFINITE[x]
+    if isinstance(x, dict):
+        return {k: _dec_value(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_dec_value(v) for v in x]
+    return x
+
+
+@dataclass
+class Trajectory:
+    """A joint trajectory sampled at the integration step.
+
+    Attributes:
+        t: (T,) times [s], increasing, starting at 0.
+        q: (T, dof) joint positions [rad].
+        qd: (T, dof) joint velocities [rad/s].
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, dtype=np.float64).reshape(-1)
+        self.q = np.asarray(self.q, dtype=np.float64)
+        self.qd = np.asarray(self.qd, dtype=np.float64)
+        n = self.t.shape[0]
+        if self.q.ndim != 2 or self.q.shape[0] != n:
+            raise ValueError(f"q: expected shape ({n}, dof), got {self.q.shape}")
+        if self.qd.shape != self.q.shape:
+            raise ValueError(f"qd: expected shape {self.q.shape}, got {self.qd.shape}")
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def to_dict(self) -> Dict[str, Any]:
+        """JSON-ready dict {t, q, qd}."""
+        return {"t": _enc(self.t), "q": _enc(self.q), "qd": _enc(self.qd)}
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any], dof: int) -> "Trajectory":
+        """Inverse of :meth:`to_dict` (``dof`` fixes the shape of empty trajectories)."""
+        return cls(
+            t=_dec_array(d["t"], 1),
+            q=_dec_array(d["q"], 2, dof),
+            qd=_dec_array(d["qd"], 2, dof),
+        )
+
+
+@dataclass
+class SolveResult:
+    """The outcome of one solve (GFCS Alg. 1 followed by a rollout of the best command sequence).
+
+    Attributes:
+        problem: problem name.
+        cls: problem class (e.g. ``"bookshelf_small"``), "" when unknown.
+        method: ``"gfcs"`` (optimised command sequence) or ``"gf"`` (the goal as the only command).
+        seed: the seed of the solve.
+        q0, qd0, goal: (dof,) start configuration [rad], start velocity [rad/s], goal [rad].
+        commands: (n, dof) the free commands q_g^1..q_g^n of GFCS eq. 4 (the goal q_g^{n+1} is implied;
+            n = 0 for ``"gf"``).
+        cost: GFCS eq. 4 cost Σ t_i* + p·1 [s] of ``commands`` (plus the collision penalty when the
+            rollout collides, see :mod:`gfcs.optimize`).
+        reached: the final rollout reached the goal within t_max.
+        t_stars: (n + 1,) time spent on each command [s] (eq. 2).
+        trajectory: the rolled-out joint trajectory of ``commands`` then the goal.
+        success: goal reached within tolerance, no collision (obstacles and self), limits respected.
+        metrics: :func:`gfcs.metrics.trajectory_metrics` of ``trajectory``.
+        top: the best m candidates of the optimisation as (candidate (n·dof,), cost), lowest cost first.
+        batch_times: (B,) wall time of each CMA-ES batch [s] (sampling, evaluation, update).
+        batch_best_costs: (B,) best cost found so far after each batch (non-increasing; anytime).
+        batch_best_commands: (B, n·dof) the best candidate so far after each batch.
+        n_evaluations: number of candidate sequences evaluated.
+        solve_time: wall time of the optimisation [s] (Σ batch_times; the GF rollout time for ``"gf"``).
+        settings: rollout and optimiser settings used (dt, t_max, tol, ...).
+        fabric_config: the fabric configuration as a dict (None: the defaults).
+    """
+
+    problem: str
+    cls: str
+    method: str
+    seed: int
+    q0: np.ndarray
+    qd0: np.ndarray
+    goal: np.ndarray
+    commands: np.ndarray
+    cost: float
+    reached: bool
+    t_stars: np.ndarray
+    trajectory: Trajectory
+    success: bool
+    metrics: Dict[str, Any] = field(default_factory=dict)
+    top: List[Tuple[np.ndarray, float]] = field(default_factory=list)
+    batch_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    batch_best_costs: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    batch_best_commands: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    n_evaluations: int = 0
+    solve_time: float = 0.0
+    settings: Dict[str, Any] = field(default_factory=dict)
+    fabric_config: Optional[Dict[str, Any]] = None
+    #: The robot the result was solved with (in memory only, not serialised); used by
+    #: :func:`gfcs.optimize.replay`.
+    robot: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def dof(self) -> int:
+        """Number of joints."""
+        return int(np.asarray(self.goal).shape[0])
+
+    @property
+    def n_commands(self) -> int:
+        """Number n of free commands."""
+        return int(np.asarray(self.commands).shape[0])
+
+    def to_dict(self, include_trajectory: bool = True) -> Dict[str, Any]:
+        """JSON-ready dict (numpy arrays as nested lists, non-finite floats as strings)."""
+        d: Dict[str, Any] = {
+            "problem": self.problem,
+            "cls": self.cls,
+            "method": self.method,
+            "seed": int(self.seed),
+            "q0": _enc(self.q0),
+            "qd0": _enc(self.qd0),
+            "goal": _enc(self.goal),
+            "commands": _enc(self.commands),
+            "cost": _enc(self.cost),
+            "reached": bool(self.reached),
+            "t_stars": _enc(self.t_stars),
+            "success": bool(self.success),
+            "metrics": _enc(self.metrics),
+            "top": [{"candidate": _enc(c), "cost": _enc(v)} for c, v in self.top],
+            "batch_times": _enc(self.batch_times),
+            "batch_best_costs": _enc(self.batch_best_costs),
+            "batch_best_commands": _enc(self.batch_best_commands),
+            "n_evaluations": int(self.n_evaluations),
+            "solve_time": _enc(self.solve_time),
+            "settings": _enc(self.settings),
+            "fabric_config": _enc(self.fabric_config),
+        }
+        if include_trajectory:
+            d["trajectory"] = self.trajectory.to_dict()
+        return d
+
+    def to_json(self, include_trajectory: bool = True, indent: Optional[int] = None) -> str:
+        """Strict JSON text of :meth:`to_dict`."""
+        return json.dumps(self.to_dict(include_trajectory), indent=indent, allow_nan=False)
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "SolveResult":
+        """Inverse of :meth:`to_dict`. Without a stored trajectory, ``trajectory`` is empty (T = 0)."""
+        goal = _dec_array(d["goal"], 1)
+        dof = goal.shape[0]
+        n_cmd_dim = _dec_array(d["commands"], 2, dof).shape[0] * dof
+        traj = d.get("trajectory")
+        return cls(
+            problem=str(d["problem"]),
+            cls=str(d.get("cls", "")),
+            method=str(d["method"]),
+            seed=int(d["seed"]),
+            q0=_dec_array(d["q0"], 1),
+            qd0=_dec_array(d["qd0"], 1),
+            goal=goal,
+            commands=_dec_array(d["commands"], 2, dof),
+            cost=_dec_float(d["cost"]),
+            reached=bool(d["reached"]),
+            t_stars=_dec_array(d["t_stars"], 1),
+            trajectory=(
+                Trajectory.from_dict(traj, dof)
+                if traj is not None
+                else Trajectory(np.zeros(0), np.zeros((0, dof)), np.zeros((0, dof)))
+            ),
+            success=bool(d["success"]),
+            metrics=_dec_value(d.get("metrics", {})),
+            top=[(_dec_array(e["candidate"], 1), _dec_float(e["cost"])) for e in d.get("top", [])],
+            batch_times=_dec_array(d.get("batch_times", []), 1),
+            batch_best_costs=_dec_array(d.get("batch_best_costs", []), 1),
+            batch_best_commands=_dec_array(d.get("batch_best_commands", []), 2, n_cmd_dim),
+            n_evaluations=int(d.get("n_evaluations", 0)),
+            solve_time=_dec_float(d.get("solve_time", 0.0)),
+            settings=_dec_value(d.get("settings", {})),
+            fabric_config=_dec_value(d.get("fabric_config")),
+        )
+
+    @classmethod
+    def from_json(cls, text: str) -> "SolveResult":
+        """Inverse of :meth:`to_json`."""
+        return cls.from_dict(json.loads(text))
+
+
+# ---------------------------------------------------------------------------------- benchmark rows
+#: Metric columns of GFCS Table I: (row key, column title).
+TABLE_COLUMNS: Tuple[Tuple[str, str], ...] = (
+    ("ee_length", "EE len"),
+    ("cspace_length", "C-space len"),
+    ("time", "Times (s)"),
+    ("ee_ldj", "EE-LDJ"),
+    ("cspace_ldj", "C-space-LDJ"),
+)
+
+
+def bench_row(
+    problem: str,
+    cls: str,
+    label: str,
+    method: str,
+    batches: int,
+    seed: int,
+    time: float,
+    cost: float,
+    metrics: Dict[str, Any],
+) -> Dict[str, Any]:
+    """One benchmark row (see the module docstring for the keys) from trajectory metrics."""
+    return {
+        "problem": problem,
+        "class": cls,
+        "label": label,
+        "method": method,
+        "batches": int(batches),
+        "seed": int(seed),
+        "success": bool(metrics["success"]),
+        "time": float(time),
+        "cost": float(cost),
+        "ee_length": float(metrics["ee_length"]),
+        "cspace_length": float(metrics["cspace_length"]),
+        "ee_ldj": float(metrics["ee_ldj"]),
+        "cspace_ldj": float(metrics["cspace_ldj"]),
+        "min_clearance": float(metrics["min_clearance"]),
+        "final_error": float(metrics["final_error"]),
+    }
+
+
+def summarize(rows: Iterable[Dict[str, Any]]) -> Dict[str, Dict[str, Dict[str, Any]]]:
+    """Per class and label: n, % success, and (mean, std) of each Table I column over successful rows.
+
+    Args:
+        rows: benchmark rows (:func:`bench_row`; rows read back from JSONL may hold the non-finite
+            spellings of :func:`SolveResult.to_json`, which are decoded).
+
+    Returns:
+        ``{class: {label: {"n": int, "success": percent, key: (mean, std) or None, ...}}}`` with classes
+        and labels in first-seen order; a column is None when no successful row has a finite value.
+    """
+    groups: Dict[str, Dict[str, List[Dict[str, Any]]]] = {}
+    for r in rows:
+        groups.setdefault(str(r["class"]), {}).setdefault(str(r["label"]), []).append(r)
+    out: Dict[str, Dict[str, Dict[str, Any]]] = {}
+    for c, by_label in groups.items():
+        out[c] = {}
+        for label, rs in by_label.items():
+            ok = [r for r in rs if bool(r["success"])]
+            entry: Dict[str, Any] = {"n": len(rs), "success": 100.0 * len(ok) / len(rs)}
+            for key, _ in TABLE_COLUMNS:
+                vals = np.array([_dec_float(r[key]) for r in ok], dtype=np.float64)
+                vals = vals[np.isfinite(vals)]
+                entry[key] = (float(vals.mean()), float(vals.std())) if vals.size else None
+            out[c][label] = entry
+    return out
+
+
+def _fmt(stat: Optional[Tuple[float, float]]) -> str:
+    if stat is None:
+        return "NA"
+    mean, std = stat
+    digits = 3 if abs(mean) < 1.0 else 2
+    return f"{mean:.{digits}f} ± {std:.{digits}f}"
+
+
+def format_table(summary: Dict[str, Dict[str, Dict[str, Any]]], markdown: bool = True) -> str:
+    """Tables in the layout of GFCS Table I, one per class.
+
+    Args:
+        summary: the output of :func:`summarize`.
+        markdown: markdown tables (for BENCHMARKS.md) or aligned plain text (for a terminal).
+    """
+    header = ["Method", "% Success", "n"] + [title for _, title in TABLE_COLUMNS]
+    blocks: List[str] = []
+    for c, by_label in summary.items():
+        body = [
+            [label, f"{e['success']:.0f}", str(e["n"])] + [_fmt(e[key]) for key, _ in TABLE_COLUMNS]
+            for label, e in by_label.items()
+        ]
+        if markdown:
+            lines = [f"### {c}", "", "| " + " | ".join(header) + " |",
+                     "|" + "|".join("---" for _ in header) + "|"]
+            lines += ["| " + " | ".join(row) + " |" for row in body]
+        else:
+            widths = [max(len(r[i]) for r in [header] + body) for i in range(len(header))]
+            fmt_row = lambda row: "  ".join(v.ljust(w) for v, w in zip(row, widths))  # noqa: E731
+            lines = [f"{c}", fmt_row(header), fmt_row(["-" * w for w in widths])]
+            lines += [fmt_row(row) for row in body]
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks) + "\n"
+
+
+def read_rows(lines: Sequence[str]) -> List[Dict[str, Any]]:
+    """Parse JSONL benchmark rows (blank lines ignored)."""
+    return [_dec_value(json.loads(s)) for s in lines if s.strip()]

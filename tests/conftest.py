@@ -1,0 +1,50 @@
+"""Shared pytest fixtures for gfcs.
+
+``shared_dir`` locates the development data (MotionBenchMaker problems, the MBM Panda) at
+``<repo root>/../shared``, overridable by the environment variable ``GFCS_SHARED``. When it is absent the
+test is skipped with the reason, except under CI (``CI=true``) where its absence is a failure.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+def shared_path() -> Path:
+    """The shared data directory (it may not exist)."""
+    override = os.environ.get("GFCS_SHARED")
+    return Path(override) if override else REPO_ROOT.parent / "shared"
+
+
+def require_shared(*parts: str) -> Path:
+    """Path ``<shared>/<parts...>``; skip when absent outside CI, fail when absent under CI."""
+    path = shared_path().joinpath(*parts)
+    if not path.exists():
+        reason = f"shared data not found: {path} (set GFCS_SHARED to its location)"
+        if os.environ.get("CI") == "true":
+            pytest.fail(reason + "; CI=true requires it")
+        pytest.skip(reason)
+    return path
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> Path:
+    """The shared data directory (skip/fail rule of :func:`require_shared`)."""
+    return require_shared()
+
+
+@pytest.fixture(scope="session")
+def mbm_panda_dir() -> Path:
+    """``<shared>/robots/mbm_panda`` (skip/fail rule of :func:`require_shared`)."""
+    return require_shared("robots", "mbm_panda")
+
+
+@pytest.fixture(scope="session")
+def mbm_dir() -> Path:
+    """``<shared>/mbm``: MotionBenchMaker problems (skip/fail rule of :func:`require_shared`)."""
+    return require_shared("mbm")

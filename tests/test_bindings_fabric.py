@@ -1,0 +1,252 @@
+"""gfcs.Fabric bindings: construction, acceleration and diagnostics, rollouts (checked against the
+semi-implicit Euler recurrence), sequences, batch evaluation (thread-count independence), scene updates,
+the GIL being released, the particle systems, and errors."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import gfcs
+
+Q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+GOAL = Q0 + np.array([0.4, 0.2, -0.3, 0.3, 0.2, -0.2, 0.1])
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return gfcs.Robot.panda()
+
+
+@pytest.fixture()
+def scene():
+    s = gfcs.Scene()
+    s.add_sphere([0.5, 0.3, 0.5], 0.08, name="ball")
+    return s
+
+
+@pytest.fixture()
+def fabric(robot, scene):
+    return gfcs.Fabric(robot, scene)
+
+
+def test_construction_variants(robot, scene, tmp_path):
+    f = gfcs.Fabric(robot)
+    assert f.dof == 7 and len(f.scene) == 0
+    assert f.robot.name == "panda"
+    assert f.config == gfcs.FabricConfig()
+    cfg = gfcs.FabricConfig({"speed": {"desired_speed": 0.8}})
+    path = tmp_path / "fabric.toml"
+    path.write_text("[speed]\ndesired_speed = 0.8\n")
+    for c in (cfg, {"speed": {"desired_speed": 0.8}}, path, str(path)):
+        assert gfcs.Fabric(robot, scene, c).config == cfg
+    assert "panda" in repr(f)
+
+
+def test_acceleration_and_diagnostics(fabric):
+    assert fabric.diagnostics() is None
+    qdd = fabric.acceleration(Q0, np.zeros(7), GOAL)
+    assert qdd.shape == (7,) and qdd.dtype == np.float64 and np.all(np.isfinite(qdd))
+    d = fabric.diagnostics()
+    for key in ("energy", "exec_energy", "potential", "min_clearance", "min_self_clearance", "min_joint_margin",
+                "alpha_le", "beta", "eta", "leaves"):
+        assert key in d
+    assert d["exec_energy"] == 0.0  # at rest
+    assert isinstance(d["leaves"], int)
+    # at the command, at rest, the acceleration vanishes up to the barrier terms: much smaller than away
+    assert np.linalg.norm(fabric.acceleration(GOAL, np.zeros(7), GOAL)) < 0.1 * np.linalg.norm(qdd)
+
+
+def test_rollout_follows_semi_implicit_euler(fabric):
+    dt = 0.01
+    r = fabric.rollout(Q0, np.zeros(7), GOAL, dt=dt, t_max=5.0, tol=0.01)
+    t, q, qd, qdd = r.t, r.q, r.qd, r.qdd
+    n = len(t)
+    assert n == len(r) and q.shape == qd.shape == qdd.shape == (n, 7)
+    np.testing.assert_array_equal(q[0], Q0)
+    np.testing.assert_array_equal(qd[0], np.zeros(7))
+    np.testing.assert_allclose(t, dt * np.arange(n), atol=1e-12)
+    # q̇ₖ₊₁ = q̇ₖ + dt q̈ₖ ; qₖ₊₁ = qₖ + dt q̇ₖ₊₁
+    np.testing.assert_allclose(qd[1:], qd[:-1] + dt * qdd[:-1], atol=1e-12)
+    np.testing.assert_allclose(q[1:], q[:-1] + dt * qd[1:], atol=1e-12)
+    # the first recorded acceleration is the fabric's
+    np.testing.assert_allclose(qdd[0], fabric.acceleration(Q0, np.zeros(7), GOAL), atol=1e-12)
+    assert r.reason == "reached" and r.reached
+    assert np.linalg.norm(r.q_final - GOAL) < 0.01
+    assert r.t_star == pytest.approx(r.steps * dt)
+    assert r.min_clearance > 0
+    np.testing.assert_array_equal(r.q_final, q[-1])
+    # not recorded: empty arrays, same outcome
+    r2 = fabric.rollout(Q0, None, GOAL, record=False)
+    assert r2.q.shape == (0, 7) and r2.t.shape == (0,)
+    assert r2.t_star == r.t_star
+    rk = fabric.rollout(Q0, None, GOAL, integrator="rk4")
+    assert rk.reached
+
+
+def test_timeout(fabric):
+    r = fabric.rollout(Q0, None, GOAL, t_max=0.05)
+    assert r.reason == "timeout" and not r.reached and r.t_star == pytest.approx(0.05)
+
+
+def test_sequence_and_evaluate_agree(fabric):
+    mid = 0.5 * (Q0 + GOAL) + 0.1
+    seq = fabric.rollout_sequence(Q0, None, [mid], GOAL)
+    assert seq.t_stars.shape == (2,) and len(seq.reasons) == 2
+    assert seq.reached and seq.success and seq.cost == pytest.approx(seq.t_stars.sum())
+    assert seq.q.shape[1] == 7 and np.all(np.diff(seq.t) > 0)
+    direct = fabric.rollout_sequence(Q0, None, np.zeros((0, 7)), GOAL)
+    assert direct.cost == pytest.approx(fabric.rollout(Q0, None, GOAL).t_star)
+    cands = np.stack([mid, GOAL, Q0 - 0.2, Q0 + 0.3])
+    costs, reached, clearance = fabric.evaluate(Q0, None, GOAL, cands)
+    assert costs.shape == reached.shape == clearance.shape == (4,)
+    assert reached.dtype == np.bool_
+    assert costs[0] == pytest.approx(seq.cost)
+    for i, c in enumerate(cands):
+        s = fabric.rollout_sequence(Q0, np.zeros(7), c[None], GOAL, record=False)
+        assert costs[i] == s.cost and reached[i] == s.reached and clearance[i] == s.min_clearance
+    one = fabric.evaluate(Q0, None, GOAL, cands, threads=1)
+    two = fabric.evaluate(Q0, None, GOAL, cands, threads=2)
+    for a, b in zip(one, two):
+        np.testing.assert_array_equal(a, b)
+    *_, trajs = fabric.evaluate(Q0, None, GOAL, cands, return_trajectories=True)
+    assert len(trajs) == 4 and trajs[0].q.shape[1] == 7 and trajs[0].cost == costs[0]
+    # two free commands per candidate: (N, 2·dof)
+    two_cmd = fabric.evaluate(Q0, None, GOAL, np.hstack([cands, cands]))
+    assert two_cmd[0].shape == (4,)
+
+
+def test_penalty_when_goal_not_reached(fabric):
+    costs, reached, _ = fabric.evaluate(Q0, None, GOAL, GOAL[None], t_max=0.05, penalty=50.0)
+    assert not reached[0] and costs[0] == pytest.approx(0.1 + 50.0)
+
+
+def test_scene_is_held_by_value_and_updatable(robot, scene):
+    f = gfcs.Fabric(robot, scene)
+    near = f.acceleration(Q0, np.zeros(7), GOAL)
+    ball = scene.ids()[0]
+    scene.set_pose(ball, np.eye(4))  # the fabric holds a copy: no effect
+    np.testing.assert_array_equal(f.acceleration(Q0, np.zeros(7), GOAL), near)
+    copy = f.scene
+    copy.remove(ball)
+    assert len(f.scene) == 1
+    far = np.eye(4)
+    far[:3, 3] = [5, 5, 5]
+    f.update_obstacle(ball, pose=far)
+    moved = f.acceleration(Q0, np.zeros(7), GOAL)
+    np.testing.assert_allclose(f.scene.get(ball)["pose"], far)
+    f.set_scene(gfcs.Scene())
+    np.testing.assert_allclose(f.acceleration(Q0, np.zeros(7), GOAL), moved, atol=1e-12)  # far = absent
+    f.set_scene(scene)
+    assert len(f.scene) == 1
+    with pytest.raises(gfcs.InvalidValueError, match="99"):
+        f.update_obstacle(99, velocity=[0, 0, 1])
+
+
+def test_ee_target_matches_default_targets(robot):
+    cfg = {"ee_position": {"enabled": True}, "ee_orientation": {"enabled": True}}
+    f = gfcs.Fabric(robot, None, cfg)
+    target = robot.link_poses(GOAL)[robot.link_index(robot.ee_link)]
+    qd = np.full(7, 0.1)
+    np.testing.assert_allclose(
+        f.acceleration(Q0, qd, GOAL, ee_target=target), f.acceleration(Q0, qd, GOAL), atol=1e-10
+    )
+
+
+def test_gil_released_during_evaluate(fabric):
+    cands = np.tile(GOAL, (64, 1)) + np.random.default_rng(0).normal(scale=0.3, size=(64, 7))
+    done = threading.Event()
+    elapsed = {}
+
+    def work():
+        t0 = time.perf_counter()
+        fabric.evaluate(Q0, None, GOAL, cands, threads=1)
+        elapsed["t"] = time.perf_counter() - t0
+        done.set()
+
+    worker = threading.Thread(target=work)
+    last = time.perf_counter()
+    max_gap = 0.0
+    worker.start()
+    while not done.is_set():
+        now = time.perf_counter()
+        max_gap = max(max_gap, now - last)
+        last = now
+    worker.join()
+    assert elapsed["t"] > 0.05, "the batch is too small to test the GIL"
+    assert max_gap < 0.5 * elapsed["t"], f"main thread blocked {max_gap:.3f}s of {elapsed['t']:.3f}s"
+
+
+def test_bad_inputs(fabric, robot):
+    with pytest.raises(gfcs.ShapeError, match=r"q: expected shape \(7,\), got \(6,\)"):
+        fabric.acceleration(np.zeros(6), np.zeros(7), GOAL)
+    with pytest.raises(gfcs.ShapeError, match="command"):
+        fabric.acceleration(Q0, np.zeros(7), GOAL[:3])
+    with pytest.raises(gfcs.NonFiniteError, match="qd"):
+        fabric.acceleration(Q0, np.full(7, np.nan), GOAL)
+    with pytest.raises(gfcs.NonFiniteError, match="q0"):
+        fabric.rollout(np.full(7, np.inf), None, GOAL)
+    with pytest.raises(gfcs.InvalidValueError, match="dt"):
+        fabric.rollout(Q0, None, GOAL, dt=0.0)
+    with pytest.raises(gfcs.InvalidValueError, match="integrator"):
+        fabric.rollout(Q0, None, GOAL, integrator="verlet")
+    with pytest.raises(gfcs.ShapeError, match=r"candidates: expected shape \(N, n\*7\)"):
+        fabric.evaluate(Q0, None, GOAL, np.zeros((3, 5)))
+    with pytest.raises(gfcs.ShapeError, match="commands"):
+        fabric.rollout_sequence(Q0, None, np.zeros(7), GOAL)
+    with pytest.raises(gfcs.NonFiniteError, match="candidates"):
+        fabric.evaluate(Q0, None, GOAL, np.full((2, 7), np.nan))
+    with pytest.raises(gfcs.InvalidValueError, match="threads"):
+        fabric.evaluate(Q0, None, GOAL, np.zeros((2, 7)), threads=0)
+    with pytest.raises(gfcs.InvalidValueError, match="penalty"):
+        fabric.evaluate(Q0, None, GOAL, np.zeros((2, 7)), penalty=-1.0)
+    with pytest.raises(gfcs.FormatError, match="obstacles.nope"):
+        gfcs.Fabric(robot, None, {"obstacles": {"nope": 1}})
+    with pytest.raises(TypeError):
+        gfcs.Fabric("not a robot")
+
+
+# ----------------------------------------------------------------------------------------- particles
+
+VARIANTS = ["unbent_riemannian", "unbent_finsler", "bent_riemannian", "bent_finsler"]
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_particle_rollout(variant):
+    d = gfcs._core.particle_defaults()
+    start = np.array([3.0, 0.7])
+    r = gfcs.particle_rollout(variant, 2.0, start, t_max=20.0, tol=0.05)
+    assert r.q.shape[1] == 2
+    np.testing.assert_array_equal(r.q[0], start)
+    np.testing.assert_allclose(r.qd[1:], r.qd[:-1] + 0.01 * r.qdd[:-1], atol=1e-12)
+    np.testing.assert_allclose(
+        r.qdd[0], gfcs._core.particle_acceleration(variant, start, [0, 0], speed=2.0), atol=1e-12
+    )
+    # the particle goes around the unit circle to the target on its left
+    assert r.reached and np.linalg.norm(r.q_final - d["target"]) < 0.05
+    assert r.min_clearance > 0
+    np.testing.assert_allclose(
+        r.min_clearance, (np.linalg.norm(r.q - d["obstacle_center"], axis=1) - d["obstacle_radius"]).min(), atol=1e-12
+    )
+
+
+def test_particle_batch_and_params():
+    starts = np.array([[3.0, 0.5], [3.0, -0.5], [2.5, 1.5]])
+    rs = gfcs.particle_rollout("bent_finsler", 4.0, starts, t_max=2.0)
+    assert isinstance(rs, list) and len(rs) == 3
+    for s, r in zip(starts, rs):
+        np.testing.assert_array_equal(r.q[0], s)
+    moved = gfcs.particle_rollout("bent_finsler", 2.0, [3.0, 0.5], t_max=1.0, target=[0.0, 3.0])
+    single = gfcs.particle_rollout("bent_finsler", 2.0, [3.0, 0.5], t_max=1.0)
+    assert not np.allclose(moved.q[-1], single.q[-1])
+    with pytest.raises(gfcs.InvalidValueError, match="variant"):
+        gfcs.particle_rollout("curved", 2.0, [3.0, 0.5])
+    with pytest.raises(gfcs.InvalidValueError, match="unknown keyword 'gravity'"):
+        gfcs.particle_rollout("bent_finsler", 2.0, [3.0, 0.5], gravity=1.0)
+    with pytest.raises(gfcs.ShapeError, match="qd0"):
+        gfcs.particle_rollout("bent_finsler", 2.0, starts, qd0=[0.0, 0.0])
+    with pytest.raises(gfcs.InvalidValueError, match="speed"):
+        gfcs.particle_rollout("bent_finsler", -1.0, [3.0, 0.5])

@@ -1,0 +1,96 @@
+"""The `gfcs` command line: help everywhere, a small solve with JSON on stdout, bench, generate, errors."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from gfcs import cli
+from gfcs.results import SolveResult, read_rows
+
+SMALL = ["--batches", "1", "--population", "6", "--threads", "1"]
+
+
+def run(*args, timeout=600):
+    return subprocess.run([sys.executable, "-m", "gfcs.cli", *args], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+@pytest.mark.parametrize("args", [[], ["solve"], ["bench"], ["generate"]])
+def test_help(args):
+    r = run(*args, "--help")
+    assert r.returncode == 0, r.stderr
+    assert "usage: gfcs" in r.stdout
+    if not args:
+        for name in ("solve", "bench", "generate", "train", "view", "experiment"):
+            assert name in r.stdout
+
+
+def test_help_does_not_import_optional_dependencies():
+    code = ("import sys; from gfcs import cli\n"
+            "try:\n    cli.main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "print('torch' in sys.modules, 'rerun' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.stdout.strip().splitlines()[-1] == "False False"
+
+
+def test_solve_json_to_stdout():
+    r = run("solve", "--json", "-", *SMALL)
+    assert r.returncode in (0, 1), r.stderr
+    result = SolveResult.from_json(r.stdout)
+    assert result.method == "gfcs" and result.problem.startswith("bookshelf_small/")
+    assert result.trajectory.q.shape[1] == 7 and len(result.trajectory) > 1
+    assert "cost" in r.stderr and "EE length" in r.stderr  # the summary went to stderr
+    assert r.returncode == (0 if result.success else 1)
+
+
+def test_solve_gf_summary(tmp_path):
+    out = tmp_path / "r.json"
+    r = run("solve", "--method", "gf", "--class", "box", "--json", str(out))
+    assert r.returncode in (0, 1), r.stderr
+    assert "method    gf" in r.stdout
+    assert SolveResult.from_json(out.read_text()).commands.shape == (0, 7)
+
+
+def test_user_errors_are_one_line(tmp_path):
+    r = run("solve", "--scene", str(tmp_path / "missing.yaml"), "--request", str(tmp_path / "r.yaml"))
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr and "missing.yaml" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    r = run("solve", "--class", "kitchen")
+    assert r.returncode == 2 and "unknown problem class 'kitchen'" in r.stderr and "Traceback" not in r.stderr
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[speed]\nno_such_gain = 1.0\n")
+    r = run("solve", "--config", str(bad), *SMALL)
+    assert r.returncode == 2 and "no_such_gain" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_generate_then_bench(tmp_path):
+    r = run("generate", "--out", str(tmp_path / "suite"), "--classes", "single_shelf", "box", "--n", "1")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "suite" / "box" / "scene0001.yaml").is_file()
+    rows_file, md = tmp_path / "rows.jsonl", tmp_path / "table.md"
+    r = run("bench", "--problems", str(tmp_path / "suite"), "--batches", "2", "--population", "6",
+            "--json", str(rows_file), "--markdown", str(md), "--no-progress")
+    assert r.returncode == 0, r.stderr
+    rows = read_rows(rows_file.read_text().splitlines())
+    labels = {(row["class"], row["label"]) for row in rows}
+    assert labels == {(c, lab) for c in ("bookshelf_small", "box") for lab in ("GF", "Ours (1 b)", "Ours (2 b)")}
+    text = md.read_text()
+    assert "### box" in text and "| Method | % Success |" in text
+    assert "Ours (2 b)" in r.stdout
+
+
+def test_missing_external_command_is_one_line(monkeypatch, capsys):
+    monkeypatch.setitem(cli.EXTERNAL_COMMANDS, "ghost", (("gfcs.no_such_module",), "register", "a ghost", "ghost"))
+    assert cli.main(["ghost", "--help"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "gfcs[ghost]" in err and "no_such_module" in err
+
+
+def test_external_command_registration_is_lazy(monkeypatch):
+    monkeypatch.setitem(cli.EXTERNAL_COMMANDS, "ghost", (("gfcs.no_such_module",), "register", "a ghost", None))
+    # building the parser for another command never imports the ghost module
+    parser = cli.build_parser(["solve"])
+    assert parser.parse_args(["solve"]).command == "solve"

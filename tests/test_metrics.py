@@ -1,0 +1,183 @@
+"""gfcs.metrics against closed forms (pure numpy; no compiled extension needed)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from gfcs import metrics as m
+
+
+def min_jerk(tau):
+    """Minimum-jerk profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ on τ ∈ [0, 1]."""
+    return 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+
+
+# --------------------------------------------------------------------------------------------- lengths
+def test_straight_line_length_with_uneven_samples():
+    rng = np.random.default_rng(1)
+    a, b = np.array([0.1, -0.4, 0.3]), np.array([0.9, 0.5, -0.2])
+    s = np.sort(np.concatenate([[0.0, 1.0], rng.uniform(0, 1, 200)]))
+    pts = a + s[:, None] * (b - a)
+    assert m.path_length(pts) == pytest.approx(np.linalg.norm(b - a), rel=1e-12)
+
+
+def test_back_and_forth_length_counts_both_ways():
+    x = np.array([0.0, 1.0, 0.5, 2.0])
+    assert m.path_length(x) == pytest.approx(1.0 + 0.5 + 1.5)
+
+
+def test_circle_arc_length_polygon_and_limit():
+    r, theta = 0.7, 2.1
+    for n in (3, 17, 1000):
+        ang = np.linspace(0.0, theta, n + 1)
+        pts = np.column_stack([r * np.cos(ang), r * np.sin(ang), np.zeros_like(ang)])
+        chords = 2 * n * r * math.sin(theta / (2 * n))  # exact polygon length
+        assert m.path_length(pts) == pytest.approx(chords, rel=1e-12)
+    # converges to the arc length r·θ with error r θ³ / (24 n²)
+    n = 1000
+    assert abs(m.path_length(pts) - r * theta) < 1.1 * r * theta**3 / (24 * n * n)
+
+
+def test_degenerate_lengths():
+    assert m.path_length(np.zeros((1, 3))) == 0.0
+    assert m.path_length(np.zeros((0, 3))) == 0.0
+    with pytest.raises(ValueError, match="x"):
+        m.path_length(np.zeros((2, 2, 2)))
+    with pytest.raises(ValueError, match="NaN"):
+        m.path_length([[0.0], [math.nan]])
+
+
+# ------------------------------------------------------------------------------------------------ LDJ
+def test_min_jerk_ldj_matches_closed_form():
+    # DJ = T³/v_peak² ∫ x⃛² dt with v_peak = 1.875 A/T and ∫ x⃛² = 720 A²/T⁵  ->  DJ = 720/1.875² = 204.8
+    T, n = 1.5, 2001
+    t = np.linspace(0.0, T, n)
+    x = 0.8 * min_jerk(t / T)
+    expected = -math.log(720.0 / 1.875**2)
+    assert m.log_dimensionless_jerk(x, t[1] - t[0]) == pytest.approx(expected, abs=1e-4)
+    # second-order estimator: halving dt divides the error by about 4
+    e1 = abs(m.log_dimensionless_jerk(x[::2], 2 * (t[1] - t[0])) - expected)
+    e2 = abs(m.log_dimensionless_jerk(x, t[1] - t[0]) - expected)
+    assert 3.0 < e1 / e2 < 5.0
+
+
+def test_cosine_profile_ldj_matches_closed_form():
+    # x = A(1 − cos(πt/T))/2: v_peak = Aπ/(2T), ∫ x⃛² = A²π⁶/(8T⁵)  ->  DJ = π⁴/2
+    T, n = 2.0, 1001
+    t = np.linspace(0.0, T, n)
+    x = 0.3 * (1 - np.cos(np.pi * t / T)) / 2
+    assert m.dimensionless_jerk(x, t[1] - t[0]) == pytest.approx(np.pi**4 / 2, rel=1e-5)
+
+
+def test_ldj_is_dimensionless_and_direction_free():
+    n = 800
+    tau = np.linspace(0, 1, n)
+    base = m.log_dimensionless_jerk(min_jerk(tau), 1.0 / (n - 1))
+    direction = np.array([0.3, -0.5, 0.81])
+    direction /= np.linalg.norm(direction)
+    pts = 2.5 * min_jerk(tau)[:, None] * direction + np.array([1.0, 2.0, 3.0])
+    # amplitude x2.5, offset, a 3-D direction and duration x7 (same samples, dt x7): identical value
+    assert m.log_dimensionless_jerk(pts, 7.0 / (n - 1)) == pytest.approx(base, rel=1e-10)
+
+
+def test_two_submovements_are_less_smooth_than_one():
+    n = 2001
+    tau = np.linspace(0, 1, n)
+    one = min_jerk(tau)
+    two = np.where(tau < 0.5, 0.5 * min_jerk(2 * tau), 0.5 + 0.5 * min_jerk(np.clip(2 * tau - 1, 0, 1)))
+    dt = 1.0 / (n - 1)
+    assert m.log_dimensionless_jerk(two, dt) < m.log_dimensionless_jerk(one, dt) - 0.5
+
+
+def test_ldj_degenerate_cases():
+    assert math.isnan(m.log_dimensionless_jerk(np.zeros((10, 3)), 0.01))  # no motion
+    assert math.isnan(m.log_dimensionless_jerk(np.arange(3.0), 0.01))  # too short
+    assert m.log_dimensionless_jerk(np.arange(10.0), 0.01) == math.inf  # zero jerk
+    with pytest.raises(ValueError, match="dt"):
+        m.log_dimensionless_jerk(np.arange(10.0), 0.0)
+
+
+def test_uniform_resample():
+    t = np.array([0.0, 0.1, 0.35, 0.5, 1.0])
+    x = np.column_stack([2 * t + 1, -t])
+    xu, dt = m.uniform_resample(t, x)
+    assert dt == pytest.approx(0.25)
+    grid = np.arange(5) * 0.25
+    np.testing.assert_allclose(xu, np.column_stack([2 * grid + 1, -grid]), atol=1e-15)
+    # already uniform: returned unchanged
+    xu2, dt2 = m.uniform_resample(grid, x)
+    assert xu2 is not None and dt2 == pytest.approx(0.25)
+    np.testing.assert_array_equal(xu2, x)
+    with pytest.raises(ValueError, match="increasing"):
+        m.uniform_resample([0.0, 0.0, 1.0], np.zeros((3, 1)))
+
+
+# --------------------------------------------------------------------- clearance and success (fakes)
+class FakeRobot:
+    """Two spheres on a prismatic 'robot': sphere i sits at (q0, 0, q1 + 0.5·i), radius 0.1."""
+
+    lower = np.array([-1.0, 0.0])
+    upper = np.array([1.0, 2.0])
+    sphere_radii = np.array([0.1, 0.1])
+    self_collision_pairs = np.array([[0, 1]])
+
+    def sphere_centers(self, q):
+        q = np.atleast_2d(q)
+        c = np.zeros((q.shape[0], 2, 3))
+        c[:, :, 0] = q[:, :1]
+        c[:, 0, 2] = q[:, 1]
+        c[:, 1, 2] = q[:, 1] + 0.5
+        return c
+
+    def ee_position(self, q):
+        return self.sphere_centers(q)[:, 1]
+
+
+class FakeFloor:
+    """Half-space z ≥ 0."""
+
+    def __len__(self):
+        return 1
+
+    def signed_distance(self, p):
+        return np.asarray(p)[:, 2]
+
+
+def test_clearances_and_success_flags():
+    robot, floor = FakeRobot(), FakeFloor()
+    t = np.linspace(0.0, 1.0, 101)
+    q = np.column_stack([t, 1.0 - 0.8 * t])  # lowest sphere ends at z = 0.2
+    clear = m.obstacle_clearance(robot, floor, q)
+    np.testing.assert_allclose(clear, 1.0 - 0.8 * t - 0.1)
+    np.testing.assert_allclose(m.self_clearance(robot, q), np.full(101, 0.3))
+    out = m.trajectory_metrics(robot, floor, t, q, goal=q[-1])
+    assert out["success"] and out["within_limits"]
+    assert out["min_clearance"] == pytest.approx(0.1)
+    assert out["ee_length"] == pytest.approx(math.hypot(1.0, 0.8))
+    assert out["cspace_length"] == pytest.approx(math.hypot(1.0, 0.8))
+    assert out["duration"] == pytest.approx(1.0)
+    # penetrating the floor, missing the goal, leaving the limits: each alone fails
+    q_low = np.column_stack([t, 1.0 - 1.0 * t])
+    assert not m.trajectory_metrics(robot, floor, t, q_low, goal=q_low[-1])["success"]
+    assert not m.trajectory_metrics(robot, floor, t, q, goal=q[-1] + 0.1)["success"]
+    q_out = q.copy()
+    q_out[50, 0] = 1.5
+    res = m.trajectory_metrics(robot, floor, t, q_out, goal=q_out[-1])
+    assert not res["within_limits"] and not res["success"]
+
+
+def test_empty_scene_has_infinite_clearance():
+    class Empty:
+        def __len__(self):
+            return 0
+
+    c = m.obstacle_clearance(FakeRobot(), Empty(), np.zeros((4, 2)))
+    assert c.shape == (4,) and np.all(np.isinf(c))
+
+
+def test_within_limits_shapes():
+    assert m.within_limits([[0.0, 1.0]], [-1, 0], [1, 2])
+    assert not m.within_limits([[0.0, 2.1]], [-1, 0], [1, 2])
+    with pytest.raises(ValueError, match="lower/upper"):
+        m.within_limits([[0.0, 1.0]], [-1], [1])

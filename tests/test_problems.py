@@ -1,0 +1,156 @@
+"""gfcs.problems (Problem, MotionBenchMaker loading) and gfcs.generators (seeded problem generators)."""
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gfcs
+from gfcs import generators, metrics, problems
+from gfcs.problems import CLASSES, Problem, canonical_class
+
+
+def shared_dir():
+    """The shared data folder, or skip (fail under CI=true) when it is absent."""
+    env = os.environ.get("GFCS_SHARED")
+    path = Path(env) if env else Path(__file__).resolve().parents[1].parent / "shared"
+    if not path.is_dir():
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"shared data folder {path} is missing (CI=true)")
+        pytest.skip(f"shared data folder {path} is absent")
+    return path
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return gfcs.Robot.panda()
+
+
+# ------------------------------------------------------------------------------------------ Problem
+def test_problem_defaults_and_validation(panda):
+    p = Problem("p", panda, gfcs.Scene(), q0=generators.READY, goal=generators.READY + 0.1)
+    assert p.qd0.shape == (7,) and np.all(p.qd0 == 0) and p.dof == 7 and p.cls == ""
+    with pytest.raises(ValueError, match=r"q0: expected shape \(7,\)"):
+        Problem("p", panda, gfcs.Scene(), q0=np.zeros(3), goal=generators.READY)
+    with pytest.raises(ValueError, match="goal contains NaN"):
+        Problem("p", panda, gfcs.Scene(), q0=generators.READY, goal=np.full(7, math.nan))
+    scene = gfcs.Scene()
+    scene.add_sphere([0.5, 0.0, 0.5], 0.1)
+    q = p.with_scene(scene)
+    assert len(q.scene) == 1 and len(p.scene) == 0 and np.array_equal(q.q0, p.q0)
+
+
+def test_class_aliases():
+    assert canonical_class("table_under") == "table_under_pick"
+    assert canonical_class("Single shelf") == "bookshelf_small"
+    assert canonical_class("cage") == "cage"
+    with pytest.raises(ValueError, match="unknown problem class 'kitchen'"):
+        canonical_class("kitchen")
+
+
+# -------------------------------------------------------------------------------------- generators
+@pytest.fixture(scope="module")
+def generated(panda):
+    return {c: generators.generate(c, 2, seed=0, robot=panda) for c in CLASSES}
+
+
+@pytest.mark.parametrize("cls", CLASSES)
+def test_generated_problems_are_valid(generated, panda, cls):
+    for p in generated[cls]:
+        assert p.cls == cls and len(p.scene) >= 3
+        for q in (p.q0, p.goal):
+            assert metrics.within_limits(q, panda.lower, panda.upper)
+            assert metrics.obstacle_clearance(panda, p.scene, q[None])[0] >= 0.01
+            assert metrics.self_clearance(panda, q[None])[0] >= 0.0
+        assert np.linalg.norm(p.goal - p.q0) >= 0.5
+    # distinct scenes
+    a, b = generated[cls]
+    assert a.meta["primitives"] != b.meta["primitives"]
+
+
+def test_goal_targets_are_met(panda):
+    # the goal's TCP lies inside the structure for a shelf: check the goal EE is between the shelf boards
+    p = generators.generate("bookshelf_small", 1, seed=3, robot=panda)[0]
+    prims = {d["name"]: d for d in p.meta["primitives"]}
+    pose = panda.link_poses(p.goal)[panda.link_index(panda.ee_link)]
+    tcp = pose[:3, :3] @ generators.PANDA_TCP + pose[:3, 3]
+    assert prims["shelf_bottom"]["position"][2] < tcp[2] < prims["shelf_top"]["position"][2]
+
+
+def test_generation_is_seeded_and_prefix_consistent(panda):
+    a = generators.generate("box", 2, seed=5, robot=panda)
+    b = generators.generate("box", 1, seed=5, robot=panda)
+    c = generators.generate("box", 1, seed=6, robot=panda)
+    assert np.array_equal(a[0].goal, b[0].goal) and a[0].meta == b[0].meta
+    assert not np.array_equal(a[0].goal, c[0].goal)
+    assert generators.generate("box", 0, robot=panda) == []
+    with pytest.raises(ValueError, match="unknown problem class"):
+        generators.generate("kitchen", 1)
+
+
+def test_inverse_kinematics_reaches_target(panda):
+    rng = np.random.default_rng(0)
+    target = generators.Target(np.array([0.5, 0.2, 0.3]), np.array([0.0, 0.0, -1.0]), 5.0)
+    q = generators.inverse_kinematics(panda, target, rng, q_seed=generators.READY)
+    assert q is not None
+    pose = panda.link_poses(q)[panda.link_index(panda.ee_link)]
+    np.testing.assert_allclose(pose[:3, :3] @ generators.PANDA_TCP + pose[:3, 3], target.position, atol=2e-3)
+    assert pose[:3, 2] @ target.approach >= math.cos(math.radians(5.0))
+    # unreachable (3 m away): None, never an exception
+    far = generators.Target(np.array([3.0, 0.0, 0.3]))
+    assert generators.inverse_kinematics(panda, far, rng, restarts=2, iterations=30) is None
+
+
+def test_written_problems_load_back(generated, panda, tmp_path):
+    suite = generated["bookshelf_small"] + generated["cage"]
+    folders = generators.write_problems(suite, tmp_path)
+    assert sorted(f.name for f in folders) == ["bookshelf_small", "cage"]
+    loaded = problems.load_mbm_dir(tmp_path, robot=panda)
+    assert [p.name for p in loaded] == ["bookshelf_small/0001", "bookshelf_small/0002", "cage/0001", "cage/0002"]
+    by_class = {"bookshelf_small": generated["bookshelf_small"], "cage": generated["cage"]}
+    rng = np.random.default_rng(1)
+    pts = rng.uniform([-0.2, -1.0, -0.3], [1.2, 1.0, 1.2], size=(500, 3))
+    for p in loaded:
+        orig = by_class[p.cls][int(p.name[-4:]) - 1]
+        np.testing.assert_array_equal(p.q0, orig.q0)
+        np.testing.assert_array_equal(p.goal, orig.goal)
+        np.testing.assert_allclose(p.scene.signed_distance(pts), orig.scene.signed_distance(pts), atol=1e-12)
+    only = problems.load_mbm_dir(tmp_path, classes=["single_shelf"], limit=1, robot=panda)
+    assert [p.name for p in only] == ["bookshelf_small/0001"]
+
+
+def test_load_errors_name_the_culprit(generated, panda, tmp_path):
+    with pytest.raises(FileNotFoundError, match="nowhere"):
+        problems.load_mbm_dir(tmp_path / "nowhere")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match="no MotionBenchMaker problems"):
+        problems.load_mbm_dir(tmp_path / "empty")
+    generators.write_problems(generated["box"][:1], tmp_path / "suite")
+    request = tmp_path / "suite" / "box" / "request0001.yaml"
+    text = request.read_text()
+    # drop panda_joint3 from the goal constraints
+    lines = text.splitlines()
+    i = next(k for k, s in enumerate(lines) if "joint_name: panda_joint3" in s)
+    request.write_text("\n".join(lines[:i] + lines[i + 2:]) + "\n")
+    with pytest.raises(gfcs.LinkError, match="panda_joint3.*goal constraints"):
+        problems.load_mbm_dir(tmp_path / "suite", robot=panda)
+    request.unlink()
+    with pytest.raises(FileNotFoundError, match="request0001"):
+        problems.load_mbm_dir(tmp_path / "suite", robot=panda)
+
+
+# ----------------------------------------------------------------------- MotionBenchMaker (shared)
+def test_load_mbm_bookshelf_small_with_both_robots(panda):
+    root = shared_dir()
+    folder = root / "mbm" / "bookshelf_small"
+    p = problems.load_mbm(folder / "scene0001.yaml", folder / "request0001.yaml", robot=panda)
+    assert p.name == "bookshelf_small/0001" and p.cls == "bookshelf_small" and len(p.scene) == 7
+    np.testing.assert_allclose(p.q0, [0, -0.785, 0, -2.356, 0, 1.571, 0.785])
+    assert p.goal[0] == pytest.approx(1.48904932702624)
+    mbm = problems.mbm_panda(root / "robots" / "mbm_panda")
+    assert mbm.dof == 7 and mbm.ee_link == "panda_hand" and len(mbm.sphere_radii) > 0
+    suite = problems.load_mbm_dir(root / "mbm", classes=["single_shelf"], limit=3, robot=mbm)
+    assert [s.name for s in suite] == [f"bookshelf_small/000{k}" for k in (1, 2, 3)]
+    assert all(s.robot is mbm for s in suite)
