@@ -4,15 +4,12 @@ name the file and the dotted field."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
 import gfcs
-
-DEFAULT_TOML = Path(__file__).resolve().parent.parent / "crates" / "fabric-core" / "assets" / "fabric_default.toml"
 
 
 def test_defaults_and_dict_round_trip():
@@ -62,8 +59,6 @@ def test_files_in_every_format(tmp_path):
     assert gfcs.FabricConfig.from_str("[joint_attraction]\nmass = 2.5\n") == expected
     assert gfcs.FabricConfig.from_str(json.dumps(d), format="json") == expected
     assert gfcs.FabricConfig.from_str("joint_attraction: {mass: 2.5}", format="yaml") == expected
-    if DEFAULT_TOML.exists():
-        assert gfcs.FabricConfig.from_file(DEFAULT_TOML) == gfcs.FabricConfig()
 
 
 def test_errors_name_file_and_field(tmp_path):

@@ -29,8 +29,11 @@ def scene():
 
 
 @pytest.fixture()
-def fabric(robot, scene):
-    return gfcs.Fabric(robot, scene)
+def fabric(robot):
+    """A fabric whose only obstacle stays beyond the influence radius: rollouts converge to the command."""
+    s = gfcs.Scene()
+    s.add_sphere([-0.6, -0.6, 0.3], 0.1, name="far ball")
+    return gfcs.Fabric(robot, s)
 
 
 def test_construction_variants(robot, scene, tmp_path):
@@ -87,6 +90,20 @@ def test_rollout_follows_semi_implicit_euler(fabric):
     assert rk.reached
 
 
+def test_rollout_min_clearance_is_the_minimum_over_states(robot, scene):
+    """Rollout.min_clearance is the minimum over the visited states of min(obstacle clearance, self
+    clearance), as the diagnostics report them."""
+    f = gfcs.Fabric(robot, scene)  # the ball is within the influence radius
+    r = f.rollout(Q0, None, GOAL, t_max=0.5)
+    clearances = []
+    for q, qd in zip(r.q, r.qd):
+        f.acceleration(q, qd, GOAL)
+        d = f.diagnostics()
+        clearances.append(min(d["min_clearance"], d["min_self_clearance"]))
+    assert np.isfinite(r.min_clearance) and r.min_clearance > 0
+    assert min(clearances) - 1e-12 <= r.min_clearance <= min(clearances[:-1]) + 1e-12
+
+
 def test_timeout(fabric):
     r = fabric.rollout(Q0, None, GOAL, t_max=0.05)
     assert r.reason == "timeout" and not r.reached and r.t_star == pytest.approx(0.05)
@@ -124,9 +141,28 @@ def test_penalty_when_goal_not_reached(fabric):
     assert not reached[0] and costs[0] == pytest.approx(0.1 + 50.0)
 
 
+def test_collision_penalty_and_tolerance(robot):
+    s = gfcs.Scene()
+    # a box around the start configuration's hand: every sequence starts in collision
+    hand = robot.link_poses(Q0)[robot.link_index("panda_hand")][:3, 3]
+    s.add_box([0.3, 0.3, 0.3], (hand, [0, 0, 0, 1]))
+    f = gfcs.Fabric(robot, s)
+    base, _, clearance = f.evaluate(Q0, None, GOAL, GOAL[None], t_max=0.5)
+    assert clearance[0] < 0
+    penalised, _, _ = f.evaluate(Q0, None, GOAL, GOAL[None], t_max=0.5, collision_penalty=30.0)
+    assert penalised[0] == pytest.approx(base[0] + 30.0)
+    tolerated, _, _ = f.evaluate(
+        Q0, None, GOAL, GOAL[None], t_max=0.5, collision_penalty=30.0, collision_tol=1.0 - clearance[0]
+    )
+    assert tolerated[0] == pytest.approx(base[0])
+    seq = f.rollout_sequence(Q0, None, GOAL[None], GOAL, t_max=0.5, collision_penalty=30.0)
+    assert seq.collided and not seq.success and seq.cost == pytest.approx(penalised[0])
+
+
 def test_scene_is_held_by_value_and_updatable(robot, scene):
     f = gfcs.Fabric(robot, scene)
     near = f.acceleration(Q0, np.zeros(7), GOAL)
+    assert np.isfinite(f.diagnostics()["min_clearance"])
     ball = scene.ids()[0]
     scene.set_pose(ball, np.eye(4))  # the fabric holds a copy: no effect
     np.testing.assert_array_equal(f.acceleration(Q0, np.zeros(7), GOAL), near)
@@ -138,6 +174,7 @@ def test_scene_is_held_by_value_and_updatable(robot, scene):
     f.update_obstacle(ball, pose=far)
     moved = f.acceleration(Q0, np.zeros(7), GOAL)
     np.testing.assert_allclose(f.scene.get(ball)["pose"], far)
+    assert not np.allclose(moved, near)
     f.set_scene(gfcs.Scene())
     np.testing.assert_allclose(f.acceleration(Q0, np.zeros(7), GOAL), moved, atol=1e-12)  # far = absent
     f.set_scene(scene)

@@ -148,3 +148,133 @@ def test_uniform_sampler_within_limits():
     lo, up = np.tile(robot.lower, 3), np.tile(robot.upper, 3)
     assert np.all(y >= lo) and np.all(y <= up)
     np.testing.assert_allclose(y.mean(axis=0), (lo + up) / 2, atol=0.15)
+
+
+# ---------------------------------------------------------------------- robot level (needs _core)
+@pytest.fixture(scope="module")
+def shelf_problem():
+    import gfcs
+    from gfcs import generators
+
+    return generators.generate("bookshelf_small", 1, seed=0, robot=gfcs.Robot.panda())[0]
+
+
+@pytest.fixture(scope="module")
+def solved(shelf_problem):
+    return opt.solve(shelf_problem, batches=3, population=16, seed=0)
+
+
+def test_solve_end_to_end(shelf_problem, solved):
+    r, p = solved, shelf_problem
+    assert r.success and r.reached and r.method == "gfcs" and r.problem == p.name and r.cls == p.cls
+    assert r.commands.shape == (1, 7) and r.t_stars.shape == (2,)
+    np.testing.assert_array_equal(r.trajectory.q[0], p.q0)
+    assert np.linalg.norm(r.trajectory.q[-1] - p.goal) < r.settings["tol"]
+    assert np.all(np.diff(r.trajectory.t) > 0)
+    # the recorded rollout of the best candidate costs what the batch evaluation said (deterministic core)
+    assert r.cost == pytest.approx(r.batch_best_costs[-1], abs=1e-12)
+    assert r.cost == pytest.approx(r.t_stars.sum())
+    assert np.all(np.diff(r.batch_best_costs) <= 0) and r.batch_times.shape == (3,)
+    costs = [c for _, c in r.top]
+    assert len(r.top) == 4 and costs == sorted(costs) and costs[0] == r.cost
+    np.testing.assert_array_equal(r.top[0][0], r.commands.ravel())
+    assert r.n_evaluations == 48 and r.solve_time == pytest.approx(r.batch_times.sum())
+    lo, up = np.asarray(p.robot.lower), np.asarray(p.robot.upper)
+    assert np.all(r.commands >= lo) and np.all(r.commands <= up)
+    m = r.metrics
+    assert m["success"] and m["ee_length"] > 0 and m["cspace_length"] >= np.linalg.norm(p.goal - p.q0) - 1e-9
+    assert m["min_clearance"] >= 0 and np.isfinite(m["ee_ldj"]) and m["ee_ldj"] < 0
+
+
+def test_solve_is_reproducible(shelf_problem, solved):
+    again = opt.solve(shelf_problem, batches=3, population=16, seed=0, threads=1)
+    np.testing.assert_array_equal(again.commands, solved.commands)
+    np.testing.assert_array_equal(again.batch_best_costs, solved.batch_best_costs)
+    other = opt.solve(shelf_problem, batches=1, population=16, seed=1)
+    assert not np.array_equal(other.top[0][0], solved.batch_best_commands[0])
+
+
+def test_gf_baseline(shelf_problem):
+    r = opt.solve(shelf_problem, method="gf")
+    assert r.method == "gf" and r.commands.shape == (0, 7) and r.t_stars.shape == (1,)
+    assert r.n_evaluations == 1 and len(r.top) == 0
+    np.testing.assert_array_equal(r.trajectory.q[0], shelf_problem.q0)
+    expected = r.t_stars[0] + (0 if r.reached else r.settings["penalty"])
+    expected += r.settings["collision_penalty"] if r.metrics["min_clearance"] < 0 else 0
+    assert r.cost == pytest.approx(expected)
+    with pytest.raises(ValueError, match="method"):
+        opt.solve(shelf_problem, method="rrt")
+
+
+def test_custom_sampler_warm_starts_the_first_batch(shelf_problem):
+    class Fixed:
+        def __init__(self):
+            self.calls = 0
+
+        def sample(self, problem, n, rng):
+            self.calls += 1
+            return np.tile(problem.goal, (n, 1)) + rng.normal(0, 0.05, (n, problem.dof))
+
+    seen = []
+    sampler = Fixed()
+    r = opt.solve(shelf_problem, batches=2, population=8, sampler=sampler, callback=lambda i: seen.append(i))
+    assert sampler.calls == 1 and len(seen) == 2
+    assert np.all(np.abs(seen[0].candidates - shelf_problem.goal) < 0.3)  # the sampler's candidates
+    assert r.settings["sampler"] == "Fixed"
+
+    class Wrong:
+        def sample(self, problem, n, rng):
+            return np.zeros((n, 3))
+
+    with pytest.raises(ValueError, match=r"sampler Wrong: expected shape \(8, 7\)"):
+        opt.solve(shelf_problem, batches=1, population=8, sampler=Wrong())
+
+
+def test_replay_is_exact_and_reacts_to_new_obstacles(shelf_problem, solved):
+    from gfcs import metrics
+
+    same = opt.replay(solved, shelf_problem.scene)
+    np.testing.assert_array_equal(same.trajectory.q, solved.trajectory.q)
+    assert same.cost == solved.cost
+    # an obstacle on the end-effector path, which the optimisation never saw (GFCS Sec. V, Fig. 4)
+    robot = shelf_problem.robot
+    ee = robot.ee_position(solved.trajectory.q)
+    scene = shelf_problem.scene.copy()
+    scene.add_sphere(ee[len(ee) // 2], 0.05)
+    assert metrics.obstacle_clearance(robot, scene, solved.trajectory.q).min() < 0  # old path collides
+    new = opt.replay(solved, scene)
+    assert new.metrics["min_clearance"] >= 0  # the fabric avoids it without re-optimising
+    np.testing.assert_array_equal(new.commands, solved.commands)
+    # first-batch commands replayed: the anytime solution after batch 1
+    first = opt.replay(solved, shelf_problem.scene, commands=solved.batch_best_commands[0].reshape(1, 7))
+    assert first.cost == pytest.approx(solved.batch_best_costs[0], abs=1e-12)
+
+
+def test_result_json_round_trip(shelf_problem, solved):
+    from gfcs.results import SolveResult
+
+    text = solved.to_json()
+    assert "NaN" not in text.replace('"NaN"', "") and "Infinity" not in text.replace('"Infinity"', "")
+    back = SolveResult.from_json(text)
+    for name in ("q0", "qd0", "goal", "commands", "t_stars", "batch_times", "batch_best_costs",
+                 "batch_best_commands"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(solved, name), err_msg=name)
+    for name in ("t", "q", "qd"):
+        np.testing.assert_array_equal(getattr(back.trajectory, name), getattr(solved.trajectory, name))
+    assert back.metrics == solved.metrics and back.settings == solved.settings
+    assert back.fabric_config == solved.fabric_config
+    assert [(c.tolist(), v) for c, v in back.top] == [(c.tolist(), v) for c, v in solved.top]
+    assert (back.problem, back.cls, back.method, back.seed, back.cost, back.success) == (
+        solved.problem, solved.cls, solved.method, solved.seed, solved.cost, solved.success)
+    # non-finite values survive as strict JSON
+    import dataclasses
+
+    odd = dataclasses.replace(solved, cost=math.inf, metrics=dict(solved.metrics, ee_ldj=math.nan))
+    back = SolveResult.from_json(odd.to_json(include_trajectory=False))
+    assert back.cost == math.inf and math.isnan(back.metrics["ee_ldj"]) and len(back.trajectory) == 0
+    with pytest.raises(ValueError, match="robot="):
+        opt.replay(back, None)
+    # a result loaded from JSON replays with an explicit robot (stored config and settings reused)
+    loaded = SolveResult.from_json(text)
+    again = opt.replay(loaded, shelf_problem.scene, robot=shelf_problem.robot)
+    np.testing.assert_array_equal(again.trajectory.q, solved.trajectory.q)

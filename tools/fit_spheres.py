@@ -53,6 +53,9 @@ from scipy.spatial.distance import cdist
 #: Slack (m) when testing whether a target is inside a sphere (float32 distances of the cover matrix).
 COVER_TOL = 1e-7
 
+#: Coverage weights ``mu`` of the successive :class:`UnionObjective` minimisations.
+PENALTY_STAGES = (1e1, 1e2, 1e3, 1e4)
+
 #: Decimal places written for centres and radii (1e-6 m).
 DECIMALS = 6
 
@@ -457,9 +460,10 @@ class LinkFitter:
         self.targets = norm(sample_points(mesh, opts.fit_surface_points, opts.fit_grid_points, opts.seed))
         surface, _ = trimesh.sample.sample_surface(mesh, opts.fit_surface_points, seed=opts.seed)
         self.surface = norm(np.asarray(surface))
-        pad = 0.3 * self.scale
+        pad = 0.15 * self.scale  # the objective only sees excess volume within `pad` of the mesh
         grid, step = centred_grid(mesh.bounds[0] - pad, mesh.bounds[1] + pad, opts.outside_grid_points)
-        self.outside = norm(grid[~inside(mesh, grid)])
+        grid = grid[~inside(mesh, grid)]
+        self.outside = norm(grid[surface_distance(mesh, grid) <= pad])
         self.cell = (step / self.scale) ** 3
         self.covers: list[tuple[list[Sphere], float]] = []  # covers[k - 1]: (normalised spheres, volume m^3)
 
@@ -485,7 +489,7 @@ class LinkFitter:
         k = len(spheres)
         x = np.concatenate([np.array([s.center for s in spheres]).ravel(), [s.radius for s in spheres]])
         objective = UnionObjective(self.targets, self.outside, self.cell, self.opts.tau)
-        for mu in (1e1, 1e2, 1e3, 1e4):
+        for mu in PENALTY_STAGES:
             objective.mu = mu
             x = minimize(objective, x, jac=True, method="L-BFGS-B",
                          options={"maxiter": self.opts.iterations}).x
@@ -561,8 +565,6 @@ def allocate(fitters: dict[str, LinkFitter], opts: FitOptions, log=None) -> dict
     """Sphere budget per link: start at one each, then repeatedly give one more sphere to the link whose
     union volume drops most, while the drop is at least ``opts.min_gain`` times the total mesh volume, no
     link exceeds ``opts.max_per_link`` and the total stays within ``opts.max_total``."""
-    if len(fitters) > opts.max_total:
-        raise FitError(f"{len(fitters)} links need at least {len(fitters)} spheres > --max-total {opts.max_total}")
     budget = {name: 1 for name in fitters}
     threshold = opts.min_gain * sum(mesh_volume(f.mesh) for f in fitters.values())
     while sum(budget.values()) < opts.max_total:
@@ -583,6 +585,8 @@ def fit_robot(meshes: dict[str, trimesh.Trimesh], opts: FitOptions, log=None) ->
     """Fit every link of ``meshes`` (``{link: mesh in link frame}``) under the budgets of ``opts``."""
     if opts.margin < 0 or opts.max_per_link < 1 or opts.max_total < 1 or opts.min_gain < 0 or opts.tau <= 0:
         raise FitError("need --margin >= 0, --max-per-link >= 1, --max-total >= 1, --min-gain >= 0, --tau > 0")
+    if len(meshes) > opts.max_total:
+        raise FitError(f"{len(meshes)} links need at least {len(meshes)} spheres > --max-total {opts.max_total}")
     fitters = {}
     for name, mesh in meshes.items():
         try:

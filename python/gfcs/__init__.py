@@ -10,13 +10,15 @@ Quick start::
     scene = gfcs.Scene()
     scene.add_sphere([0.5, 0.0, 0.4], 0.1)
     fabric = gfcs.Fabric(robot, scene)
-    result = fabric.rollout(q0, qd0, q_goal)          # GFCS eq. 1-3
+    q0 = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+    goal = [0.4, -0.5, -0.3, -2.0, 0.2, 1.4, 0.9]
+    result = fabric.rollout(q0, None, goal)           # GFCS eq. 1-3: result.t_star, result.q (T, 7)
 
 Conventions: SI units (m, rad, s); arrays float64; signed distance positive outside; quaternions [x, y, z, w].
 
-The Python submodules (``problems``, ``optimize``, ``metrics``, ``learning``, ``viz``, ``plots``,
-``experiments``, ``cli``) are imported on first attribute access, so that a missing optional dependency
-(torch, rerun) never breaks ``import gfcs``.
+The Python submodules (``problems``, ``generators``, ``optimize``, ``results``, ``metrics``, ``learning``,
+``viz``, ``plots``, ``experiments``, ``cli``) are imported on first attribute access, so that a missing
+optional dependency (torch, rerun) never breaks ``import gfcs``.
 """
 
 from __future__ import annotations
@@ -58,7 +60,7 @@ if _TYPE_CHECKING:  # pragma: no cover
 
 #: Python submodules loaded lazily by :func:`__getattr__`.
 _LAZY_SUBMODULES = frozenset(
-    {"problems", "optimize", "metrics", "learning", "viz", "plots", "experiments", "cli"}
+    {"problems", "generators", "optimize", "results", "metrics", "learning", "viz", "plots", "experiments", "cli"}
 )
 
 __all__ = [

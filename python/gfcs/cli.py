@@ -60,7 +60,10 @@ EXIT_USER_ERROR = 2
 # ------------------------------------------------------------------------------------ shared options
 def _add_robot_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("robot (default: the shipped Panda)")
-    g.add_argument("--robot", metavar="URDF", help="robot URDF file")
+    g.add_argument("--robot", metavar="URDF",
+                   help="robot URDF file, or 'mbm' for the MotionBenchMaker Panda of the shared data folder "
+                        "(spherized URDF + SRDF; use it for MotionBenchMaker problems: their goals are "
+                        "collision-free for its spheres)")
     g.add_argument("--srdf", metavar="SRDF", help="SRDF whose disabled collisions prune self-collision pairs")
     g.add_argument("--spheres", metavar="JSON", help="collision sphere file (replaces URDF spheres)")
     g.add_argument("--ee-link", metavar="LINK", help="end-effector link (default: deepest active link)")
@@ -105,9 +108,13 @@ def _settings(args: argparse.Namespace) -> Any:
 def _robot(args: argparse.Namespace) -> Any:
     import gfcs
 
-    if args.robot is None:
+    if args.robot is None or args.robot == "mbm":
         if args.srdf or args.spheres or args.ee_link or args.mesh_dir:
             raise ValueError("--srdf/--spheres/--ee-link/--mesh-dir need --robot URDF")
+        if args.robot == "mbm":
+            from gfcs.problems import mbm_panda
+
+            return mbm_panda()
         return gfcs.Robot.panda()
     return gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
                                 srdf=args.srdf, spheres=args.spheres)
@@ -388,6 +395,9 @@ def _register_external(sub: Any, name: str, load: bool) -> None:
             try:
                 module = importlib.import_module(module_name)
             except ImportError as e:
+                missing = getattr(e, "name", None) or ""
+                if missing == "gfcs" or missing.startswith("gfcs."):
+                    extra = None  # the module itself is absent from this installation, not a dependency
                 errors.append(f"{module_name}: {e}")
                 continue
             register = getattr(module, func_name, None)
@@ -401,12 +411,17 @@ def _register_external(sub: Any, name: str, load: bool) -> None:
         def unavailable(args: argparse.Namespace) -> int:
             raise _MissingExtra(message)
 
-        p = sub.add_parser(name, help=help_text, add_help=False)
-        p.add_argument("rest", nargs=argparse.REMAINDER)
-        p.set_defaults(func=unavailable)
+        _stand_in(sub, name, help_text).set_defaults(func=unavailable)
     else:
-        p = sub.add_parser(name, help=help_text, add_help=False)
-        p.add_argument("rest", nargs=argparse.REMAINDER)
+        _stand_in(sub, name, help_text)
+
+
+def _stand_in(sub: Any, name: str, help_text: str) -> argparse.ArgumentParser:
+    """A parser that swallows every argument (its prefix character is never typed, so even ``--help`` is a
+    plain word): listed in ``gfcs --help`` without importing the command's module."""
+    p = sub.add_parser(name, help=help_text, add_help=False, prefix_chars="\x00")
+    p.add_argument("rest", nargs="*")
+    return p
 
 
 def build_parser(argv: Optional[Sequence[str]] = None) -> argparse.ArgumentParser:

@@ -11,13 +11,14 @@ fn tune_mbm() {
     let fabric = Fabric::new(robot.clone(), cfg).unwrap();
     let per: usize = std::env::var("PER").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
     for class in ["table_pick", "table_under_pick", "box", "bookshelf_small", "bookshelf_tall", "bookshelf_thin", "cage"] {
-        let (mut reached, mut t, mut coll, mut selfc, mut jl, mut vmax) = (0, 0.0, 0, 0, 0, 0.0f64);
+        let (mut reached, mut t, mut coll, mut selfc, mut jl, mut vmax, mut worst) = (0, 0.0, 0, 0, 0, 0.0f64, f64::INFINITY);
         for i in 1..=per {
             let (mut scene, start, goal) = mbm_problem(&shared, &robot, class, i);
             if std::env::var("EMPTY").is_ok() { scene = fabric_core::scene::Scene::new(); }
             let r = euler_rollout(&fabric, &scene, &start, &goal, 0.01, 7.0, 0.01);
             if let Some(tr) = r.reached { reached += 1; t += tr; }
             if r.min_clearance < 0.0 { coll += 1; }
+            worst = worst.min(r.min_clearance);
             if r.min_self_clearance < 0.0 { selfc += 1; }
             if r.min_joint_margin < 0.0 { jl += 1; }
             vmax = vmax.max(r.max_speed);
@@ -26,7 +27,7 @@ fn tune_mbm() {
                     r.q.iter().zip(&goal).map(|(a,b)|(a-b)*(a-b)).sum::<f64>().sqrt());
             }
         }
-        println!("{class:18} reached {reached}/{per} mean t {:.2} coll {coll} selfcoll {selfc} jl {jl} vmax {vmax:.2}", t / reached.max(1) as f64);
+        println!("{class:18} reached {reached}/{per} mean t {:.2} coll {coll} selfcoll {selfc} jl {jl} vmax {vmax:.2} worst {worst:.4}", t / reached.max(1) as f64);
     }
 }
 
@@ -49,7 +50,7 @@ fn trace_one() {
         fabric.acceleration(&scene, &q, &qd, &goal, &mut ws, &mut qdd).unwrap();
         let d = fabric.diagnostics(&ws);
         let err = q.iter().zip(&goal).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
-        if k % 20 == 0 {
+        if k % 20 == 0 || std::env::var("ALL").is_ok() {
             println!("t {:.2} err {:.3} v {:.3} |qdd| {:.2} eta {:.2} sb {:.2} aLe {:.2} aex0 {:.2} aexpsi {:.2} areg {:.2} clr {:.3} self {:.3} jl {:.3} leaves {}", k as f64 * 0.01, err, (2.0 * d.exec_energy).sqrt(), qdd.iter().map(|v| v*v).sum::<f64>().sqrt(), d.eta, d.s_beta, d.alpha_le, d.alpha_ex0, d.alpha_expsi, d.alpha_reg, d.min_clearance, d.min_self_clearance, d.min_joint_margin, d.leaves);
         }
         for i in 0..n { qd[i] += 0.01 * qdd[i]; q[i] += 0.01 * qd[i]; }

@@ -19,9 +19,17 @@ fn check_robot(robot: &Robot, states: usize, seed: u64) {
     let (mut worst, mut worst2) = (0.0_f64, 0.0_f64);
     for _ in 0..states {
         let (q, qd) = random_state(robot, &mut rng);
-        let mut tasks: Vec<Task> = robot.spheres().iter().map(|s| Task::Point(s.link, s.center)).collect();
+        let mut tasks: Vec<Task> = robot
+            .spheres()
+            .iter()
+            .map(|s| Task::Point(s.link, s.center))
+            .collect();
         for l in 0..robot.link_names().len() {
-            let p = Vector3::new(rng.gen_range(-0.2..0.2), rng.gen_range(-0.2..0.2), rng.gen_range(-0.2..0.2));
+            let p = Vector3::new(
+                rng.gen_range(-0.2..0.2),
+                rng.gen_range(-0.2..0.2),
+                rng.gen_range(-0.2..0.2),
+            );
             tasks.push(Task::Point(l, p));
             for u in [Vector3::x(), Vector3::y(), Vector3::z()] {
                 tasks.push(Task::Axis(l, u));
@@ -29,13 +37,24 @@ fn check_robot(robot: &Robot, states: usize, seed: u64) {
         }
         for t in &tasks {
             let (e, e2) = check_task(t, robot, &q, &qd);
-            assert!(e < TOL, "{}: {t:?} at q={q:?} qd={qd:?}: relative error {e}", robot.name());
-            assert!(e2 < TOL_SECOND, "{}: {t:?} J̇q̇ vs FK second difference: {e2}", robot.name());
+            assert!(
+                e < TOL,
+                "{}: {t:?} at q={q:?} qd={qd:?}: relative error {e}",
+                robot.name()
+            );
+            assert!(
+                e2 < TOL_SECOND,
+                "{}: {t:?} J̇q̇ vs FK second difference: {e2}",
+                robot.name()
+            );
             worst = worst.max(e);
             worst2 = worst2.max(e2);
         }
     }
-    eprintln!("{}: worst relative error {worst:.2e} (FK second difference {worst2:.2e})", robot.name());
+    eprintln!(
+        "{}: worst relative error {worst:.2e} (FK second difference {worst2:.2e})",
+        robot.name()
+    );
 }
 
 #[test]
@@ -45,7 +64,10 @@ fn sphere_api_matches_point_on_shipped_panda() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let (q, qd) = random_state(&robot, &mut rng);
     robot.update(&q, &qd, &mut ws).unwrap();
-    let (mut a, mut b) = (fabric_core::robot::TaskPoint::new(7), fabric_core::robot::TaskPoint::new(7));
+    let (mut a, mut b) = (
+        fabric_core::robot::TaskPoint::new(7),
+        fabric_core::robot::TaskPoint::new(7),
+    );
     for (i, s) in robot.spheres().iter().enumerate() {
         robot.sphere(&ws, i, &mut a);
         robot.point(&ws, s.link, &s.center, &mut b);
@@ -72,35 +94,39 @@ fn panda_with_active_fingers_derivatives() {
     let xml = include_str!("../assets/panda.urdf");
     let mut joints: Vec<String> = (1..=7).map(|i| format!("panda_joint{i}")).collect();
     joints.push("panda_finger_joint1".into());
-    let opts = RobotOptions { active_joints: Some(joints), ..Default::default() };
+    let opts = RobotOptions {
+        active_joints: Some(joints),
+        ..Default::default()
+    };
     let robot = Robot::from_urdf_str(xml, "panda.urdf", &opts).unwrap();
     assert_eq!(robot.dof(), 8);
     check_robot(&robot, 20, 4);
 }
 
-/// Re-rooted at panda_link3: the joints from link3 down to link0 are reversed.
-#[test]
-fn rerooted_panda_derivatives_and_relative_poses() {
-    let xml = include_str!("../assets/panda.urdf");
-    let joints: Vec<String> = (1..=7).map(|i| format!("panda_joint{i}")).collect();
+/// `xml` re-rooted at `base` (the joints above it are reversed): every link pose equals the plain
+/// model's pose relative to `base`, and the derivatives match finite differences.
+fn check_rerooted(xml: &str, base: &str, ee: &str, joints: &[&str], seed: u64) {
+    let joints: Vec<String> = joints.iter().map(|j| j.to_string()).collect();
     let opts = RobotOptions {
-        base_link: Some("panda_link3".into()),
-        ee_link: Some("panda_hand".into()),
+        base_link: Some(base.into()),
+        ee_link: Some(ee.into()),
         active_joints: Some(joints.clone()),
         ..Default::default()
     };
-    let rerooted = Robot::from_urdf_str(xml, "panda.urdf", &opts).unwrap();
-    let plain = Robot::from_urdf_str(
-        xml,
-        "panda.urdf",
-        &RobotOptions { active_joints: Some(joints), ..Default::default() },
-    )
-    .unwrap();
-    assert_eq!(rerooted.link_names()[0], "panda_link3");
+    let rerooted = Robot::from_urdf_str(xml, "r.urdf", &opts).unwrap();
+    let plain_opts = RobotOptions {
+        active_joints: Some(joints),
+        ..Default::default()
+    };
+    let plain = Robot::from_urdf_str(xml, "r.urdf", &plain_opts).unwrap();
+    assert_eq!(rerooted.link_names()[0], base);
     assert_eq!(rerooted.link_names().len(), plain.link_names().len());
-    let (mut wr, mut wp) = (KinematicsWorkspace::new(&rerooted), KinematicsWorkspace::new(&plain));
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let base_p = plain.link_index("panda_link3").unwrap();
+    let (mut wr, mut wp) = (
+        KinematicsWorkspace::new(&rerooted),
+        KinematicsWorkspace::new(&plain),
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let base_p = plain.link_index(base).unwrap();
     for _ in 0..20 {
         let (q, _) = random_state(&plain, &mut rng);
         rerooted.update_positions(&q, &mut wr).unwrap();
@@ -110,11 +136,39 @@ fn rerooted_panda_derivatives_and_relative_poses() {
             let lp = plain.link_index(name).unwrap();
             let expect = inv * plain.link_pose(&wp, lp);
             let got = rerooted.link_pose(&wr, lr);
-            let d = (expect.translation.vector - got.translation.vector).norm() + expect.rotation.angle_to(&got.rotation);
+            let d = (expect.translation.vector - got.translation.vector).norm()
+                + expect.rotation.angle_to(&got.rotation);
             assert!(d < 1e-12, "{name}: {d}");
         }
     }
-    check_robot(&rerooted, 20, 6);
+    check_robot(&rerooted, 20, seed + 100);
+}
+
+/// The Panda re-rooted at panda_link3: joints 1-3 are reversed.
+#[test]
+fn rerooted_panda_derivatives_and_relative_poses() {
+    let joints = [
+        "panda_joint1",
+        "panda_joint2",
+        "panda_joint3",
+        "panda_joint4",
+        "panda_joint5",
+        "panda_joint6",
+        "panda_joint7",
+    ];
+    check_rerooted(
+        include_str!("../assets/panda.urdf"),
+        "panda_link3",
+        "panda_hand",
+        &joints,
+        5,
+    );
+}
+
+/// The mimic robot re-rooted at its last link: reversed prismatic, revolute and mimic joints.
+#[test]
+fn rerooted_mimic_robot_derivatives_and_relative_poses() {
+    check_rerooted(MIMIC_URDF, "l5", "base", &["a", "b"], 6);
 }
 
 const MIMIC_URDF: &str = r#"<robot name="mimic">
@@ -161,7 +215,12 @@ fn mimic_joints_follow_their_source_and_fill_its_column() {
         let x = robot.link_pose(&ws, l5) * Point3::new(0.0, 0.05, 0.0);
         assert!((x.coords - mimic_closed_form(q[0], q[1])).norm() < 1e-12);
         for l in 0..robot.link_names().len() {
-            let (e, e2) = check_task(&Task::Point(l, Vector3::new(0.03, -0.02, 0.04)), &robot, &q, &qd);
+            let (e, e2) = check_task(
+                &Task::Point(l, Vector3::new(0.03, -0.02, 0.04)),
+                &robot,
+                &q,
+                &qd,
+            );
             assert!(e < TOL && e2 < TOL_SECOND, "link {l}: {e} {e2}");
             let (e, e2) = check_task(&Task::Axis(l, Vector3::new(0.6, 0.0, 0.8)), &robot, &q, &qd);
             assert!(e < TOL && e2 < TOL_SECOND, "axis link {l}: {e} {e2}");
@@ -180,7 +239,12 @@ fn mimic_joints_follow_their_source_and_fill_its_column() {
         locked.update_positions(&[a], &mut ws).unwrap();
         let x = locked.link_pose(&ws, l5) * Point3::new(0.0, 0.05, 0.0);
         assert!((x.coords - mimic_closed_form(a, 0.02)).norm() < 1e-12);
-        let (e, e2) = check_task(&Task::Point(l5, Vector3::new(0.0, 0.05, 0.0)), &locked, &[a], &[0.7]);
+        let (e, e2) = check_task(
+            &Task::Point(l5, Vector3::new(0.0, 0.05, 0.0)),
+            &locked,
+            &[a],
+            &[0.7],
+        );
         assert!(e < TOL && e2 < TOL_SECOND);
     }
 }

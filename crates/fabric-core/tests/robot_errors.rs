@@ -26,7 +26,10 @@ fn assert_urdf_err(xml: &str, needle: &str) {
     match load(xml) {
         Err(FabricError::Urdf { file, message }) => {
             assert_eq!(file, "test.urdf");
-            assert!(message.contains(needle), "message '{message}' lacks '{needle}'");
+            assert!(
+                message.contains(needle),
+                "message '{message}' lacks '{needle}'"
+            );
         }
         other => panic!("expected Urdf error containing '{needle}', got {other:?}"),
     }
@@ -36,21 +39,49 @@ fn assert_urdf_err(xml: &str, needle: &str) {
 fn malformed_and_inconsistent_urdf() {
     assert_urdf_err("<robot name='x'><link name='a'></robot>", "");
     assert_urdf_err("not xml at all", "");
+    assert_urdf_err("", "");
+    assert_urdf_err("<robot name='x'/>", "no <link>");
+    assert_urdf_err(&TWO_LINK.replace("<parent link=\"a\"/>", ""), "");
+    assert_urdf_err(&TWO_LINK.replace("velocity=\"1\"", "velocity=\"fast\""), "");
     assert_urdf_err(&TWO_LINK.replace("type=\"fixed\"", "type=\"bogus\""), "");
-    assert_urdf_err(&TWO_LINK.replace("<link name=\"b\"/>", "<link name=\"b\"/><link name=\"a\"/>"), "duplicate link");
-    assert_urdf_err(&TWO_LINK.replace("<child link=\"b\"/>", "<child link=\"zz\"/>"), "unknown link 'zz'");
-    assert_urdf_err(&TWO_LINK.replace("<link name=\"b\"/>", "<link name=\"b\"/><link name=\"c\"/>"), "one root");
+    assert_urdf_err(
+        &TWO_LINK.replace("<link name=\"b\"/>", "<link name=\"b\"/><link name=\"a\"/>"),
+        "duplicate link",
+    );
+    assert_urdf_err(
+        &TWO_LINK.replace("<child link=\"b\"/>", "<child link=\"zz\"/>"),
+        "unknown link 'zz'",
+    );
+    assert_urdf_err(
+        &TWO_LINK.replace("<link name=\"b\"/>", "<link name=\"b\"/><link name=\"c\"/>"),
+        "one root",
+    );
     // A second parent for link a.
     assert_urdf_err(
-        &TWO_LINK.replace("</robot>", "<joint name='j3' type='fixed'><parent link='b'/><child link='a'/></joint></robot>"),
+        &TWO_LINK.replace(
+            "</robot>",
+            "<joint name='j3' type='fixed'><parent link='b'/><child link='a'/></joint></robot>",
+        ),
         "several joints",
     );
     // Revolute without <limit>.
-    assert_urdf_err(&TWO_LINK.replace("<limit lower=\"-1\" upper=\"1\" velocity=\"1\"/>", ""), "limits");
+    assert_urdf_err(
+        &TWO_LINK.replace("<limit lower=\"-1\" upper=\"1\" velocity=\"1\"/>", ""),
+        "limits",
+    );
     // Zero velocity limit, zero axis, NaN origin.
-    assert_urdf_err(&TWO_LINK.replace("velocity=\"1\"", "velocity=\"0\""), "velocity");
-    assert_urdf_err(&TWO_LINK.replace("<axis xyz=\"0 0 1\"/>", "<axis xyz=\"0 0 0\"/>"), "axis");
-    assert_urdf_err(&TWO_LINK.replace("xyz=\"0 0 0.1\"", "xyz=\"0 nan 0.1\""), "NaN");
+    assert_urdf_err(
+        &TWO_LINK.replace("velocity=\"1\"", "velocity=\"0\""),
+        "velocity",
+    );
+    assert_urdf_err(
+        &TWO_LINK.replace("<axis xyz=\"0 0 1\"/>", "<axis xyz=\"0 0 0\"/>"),
+        "axis",
+    );
+    assert_urdf_err(
+        &TWO_LINK.replace("xyz=\"0 0 0.1\"", "xyz=\"0 nan 0.1\""),
+        "NaN",
+    );
     // Mimic of an unknown joint.
     assert_urdf_err(
         &TWO_LINK.replace(
@@ -66,7 +97,10 @@ fn malformed_and_inconsistent_urdf() {
         "sizes",
     );
     assert!(matches!(
-        Robot::from_urdf_file(Path::new("/nonexistent/robot.urdf"), &RobotOptions::default()),
+        Robot::from_urdf_file(
+            Path::new("/nonexistent/robot.urdf"),
+            &RobotOptions::default()
+        ),
         Err(FabricError::Io { .. })
     ));
 }
@@ -76,8 +110,15 @@ fn unsupported_joints_are_named() {
     for kind in ["planar", "floating"] {
         let xml = TWO_LINK.replace("type=\"fixed\"", &format!("type=\"{kind}\""));
         match load(&xml) {
-            Err(FabricError::UnsupportedJoint { file, joint, kind: k }) => {
-                assert_eq!((file.as_str(), joint.as_str(), k.as_str()), ("test.urdf", "j2", kind));
+            Err(FabricError::UnsupportedJoint {
+                file,
+                joint,
+                kind: k,
+            }) => {
+                assert_eq!(
+                    (file.as_str(), joint.as_str(), k.as_str()),
+                    ("test.urdf", "j2", kind)
+                );
             }
             other => panic!("{kind}: {other:?}"),
         }
@@ -88,29 +129,74 @@ fn unsupported_joints_are_named() {
 fn bad_options() {
     let with = |opts: RobotOptions| Robot::from_urdf_str(TWO_LINK, "test.urdf", &opts);
     let missing_link = |r: Result<Robot, FabricError>, name: &str| {
-        assert_eq!(r.err(), Some(FabricError::MissingLink { robot: "two".into(), link: name.into() }));
+        assert_eq!(
+            r.err(),
+            Some(FabricError::MissingLink {
+                robot: "two".into(),
+                link: name.into()
+            })
+        );
     };
-    missing_link(with(RobotOptions { base_link: Some("nope".into()), ..Default::default() }), "nope");
-    missing_link(with(RobotOptions { ee_link: Some("gone".into()), ..Default::default() }), "gone");
-    assert_eq!(
-        with(RobotOptions { active_joints: Some(vec!["jx".into()]), ..Default::default() }).err(),
-        Some(FabricError::MissingJoint { robot: "two".into(), joint: "jx".into() })
+    missing_link(
+        with(RobotOptions {
+            base_link: Some("nope".into()),
+            ..Default::default()
+        }),
+        "nope",
     );
-    let value = |r: Result<Robot, FabricError>| assert!(matches!(r, Err(FabricError::Value { .. })), "{r:?}");
-    value(with(RobotOptions { active_joints: Some(vec!["j2".into()]), ..Default::default() }));
-    value(with(RobotOptions { active_joints: Some(vec!["j1".into(), "j1".into()]), ..Default::default() }));
-    value(with(RobotOptions { active_joints: Some(vec![]), ..Default::default() }));
+    missing_link(
+        with(RobotOptions {
+            ee_link: Some("gone".into()),
+            ..Default::default()
+        }),
+        "gone",
+    );
+    assert_eq!(
+        with(RobotOptions {
+            active_joints: Some(vec!["jx".into()]),
+            ..Default::default()
+        })
+        .err(),
+        Some(FabricError::MissingJoint {
+            robot: "two".into(),
+            joint: "jx".into()
+        })
+    );
+    let value = |r: Result<Robot, FabricError>| {
+        assert!(matches!(r, Err(FabricError::Value { .. })), "{r:?}")
+    };
+    value(with(RobotOptions {
+        active_joints: Some(vec!["j2".into()]),
+        ..Default::default()
+    }));
+    value(with(RobotOptions {
+        active_joints: Some(vec!["j1".into(), "j1".into()]),
+        ..Default::default()
+    }));
+    value(with(RobotOptions {
+        active_joints: Some(vec![]),
+        ..Default::default()
+    }));
     // The end-effector is the base: no joint between them.
-    value(with(RobotOptions { ee_link: Some("base".into()), ..Default::default() }));
+    value(with(RobotOptions {
+        ee_link: Some("base".into()),
+        ..Default::default()
+    }));
     // Locking an active joint, a fixed joint, an unknown joint, or at NaN.
-    value(with(RobotOptions { locked_positions: vec![("j1".into(), 0.0)], ..Default::default() }));
+    value(with(RobotOptions {
+        locked_positions: vec![("j1".into(), 0.0)],
+        ..Default::default()
+    }));
     value(with(RobotOptions {
         active_joints: Some(vec!["j1".into()]),
         locked_positions: vec![("j2".into(), 0.0)],
         ..Default::default()
     }));
     assert!(matches!(
-        with(RobotOptions { locked_positions: vec![("zz".into(), 0.0)], ..Default::default() }),
+        with(RobotOptions {
+            locked_positions: vec![("zz".into(), 0.0)],
+            ..Default::default()
+        }),
         Err(FabricError::MissingJoint { .. })
     ));
     let xml = TWO_LINK.replace(
@@ -123,29 +209,65 @@ fn bad_options() {
         locked_positions: vec![("j3".into(), f64::NAN)],
         ..Default::default()
     };
-    assert!(matches!(Robot::from_urdf_str(&xml, "t", &opts), Err(FabricError::NonFinite { .. })));
-    assert_eq!(two().link_index("zz").err(), Some(FabricError::MissingLink { robot: "two".into(), link: "zz".into() }));
-    assert!(matches!(two().joint_index("j2"), Err(FabricError::MissingJoint { .. })));
+    assert!(matches!(
+        Robot::from_urdf_str(&xml, "t", &opts),
+        Err(FabricError::NonFinite { .. })
+    ));
+    assert_eq!(
+        two().link_index("zz").err(),
+        Some(FabricError::MissingLink {
+            robot: "two".into(),
+            link: "zz".into()
+        })
+    );
+    assert!(matches!(
+        two().joint_index("j2"),
+        Err(FabricError::MissingJoint { .. })
+    ));
 }
 
 #[test]
 fn bad_states() {
     let robot = two();
     let mut ws = KinematicsWorkspace::new(&robot);
-    assert!(matches!(robot.update(&[0.0, 0.0], &[0.0], &mut ws), Err(FabricError::Shape { .. })));
-    assert!(matches!(robot.update(&[0.0], &[], &mut ws), Err(FabricError::Shape { .. })));
-    assert!(matches!(robot.update(&[f64::NAN], &[0.0], &mut ws), Err(FabricError::NonFinite { .. })));
-    assert!(matches!(robot.update(&[0.0], &[f64::INFINITY], &mut ws), Err(FabricError::NonFinite { .. })));
-    assert!(matches!(robot.update_positions(&[], &mut ws), Err(FabricError::Shape { .. })));
+    assert!(matches!(
+        robot.update(&[0.0, 0.0], &[0.0], &mut ws),
+        Err(FabricError::Shape { .. })
+    ));
+    assert!(matches!(
+        robot.update(&[0.0], &[], &mut ws),
+        Err(FabricError::Shape { .. })
+    ));
+    assert!(matches!(
+        robot.update(&[f64::NAN], &[0.0], &mut ws),
+        Err(FabricError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        robot.update(&[0.0], &[f64::INFINITY], &mut ws),
+        Err(FabricError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        robot.update_positions(&[], &mut ws),
+        Err(FabricError::Shape { .. })
+    ));
     // A workspace made for another robot.
     let mut other = KinematicsWorkspace::new(&Robot::panda());
-    assert!(matches!(robot.update(&[0.0], &[0.0], &mut other), Err(FabricError::Shape { .. })));
+    assert!(matches!(
+        robot.update(&[0.0], &[0.0], &mut other),
+        Err(FabricError::Shape { .. })
+    ));
     // Batches: length not a multiple of dof, NaN.
     let panda = Robot::panda();
-    assert!(matches!(batch::link_poses(&panda, &[0.0; 8]), Err(FabricError::Shape { .. })));
+    assert!(matches!(
+        batch::link_poses(&panda, &[0.0; 8]),
+        Err(FabricError::Shape { .. })
+    ));
     let mut qs = vec![0.0; 14];
     qs[9] = f64::NAN;
-    assert!(matches!(batch::sphere_centers(&panda, &qs), Err(FabricError::NonFinite { .. })));
+    assert!(matches!(
+        batch::sphere_centers(&panda, &qs),
+        Err(FabricError::NonFinite { .. })
+    ));
     assert_eq!(batch::sphere_centers(&panda, &[]).unwrap().len(), 0);
 }
 
@@ -162,36 +284,81 @@ fn bad_sphere_files_and_lists() {
     assert_eq!(format_field("{"), "(document)");
     assert_eq!(format_field("{}"), "spheres");
     assert_eq!(format_field(r#"{"spheres": 3}"#), "spheres");
-    assert_eq!(format_field(r#"{"spheres": [{"link": "a", "center": [0, 0, 0]}]}"#), "spheres[0].radius");
-    assert_eq!(format_field(r#"{"spheres": [{"link": "a", "radius": 0.1}]}"#), "spheres[0].center");
     assert_eq!(
-        format_field(r#"{"spheres": [{"link": "a", "center": [0, 0, 0], "radius": 0.1}, {"link": "a", "center": [0, 0], "radius": 0.1}]}"#),
+        format_field(r#"{"spheres": [{"link": "a", "center": [0, 0, 0]}]}"#),
+        "spheres[0].radius"
+    );
+    assert_eq!(
+        format_field(r#"{"spheres": [{"link": "a", "radius": 0.1}]}"#),
+        "spheres[0].center"
+    );
+    assert_eq!(
+        format_field(
+            r#"{"spheres": [{"link": "a", "center": [0, 0, 0], "radius": 0.1}, {"link": "a", "center": [0, 0], "radius": 0.1}]}"#
+        ),
         "spheres[1].center"
     );
-    assert_eq!(format_field(r#"{"spheres": [{"link": 3, "center": [0, 0, 0], "radius": 0.1}]}"#), "spheres[0].link");
     assert_eq!(
-        robot.parse_sphere_json(r#"{"spheres": [{"link": "zz", "center": [0, 0, 0], "radius": 0.1}]}"#, "s.json").err(),
-        Some(FabricError::MissingLink { robot: "two".into(), link: "zz".into() })
+        format_field(r#"{"spheres": [{"link": 3, "center": [0, 0, 0], "radius": 0.1}]}"#),
+        "spheres[0].link"
+    );
+    assert_eq!(
+        robot
+            .parse_sphere_json(
+                r#"{"spheres": [{"link": "zz", "center": [0, 0, 0], "radius": 0.1}]}"#,
+                "s.json"
+            )
+            .err(),
+        Some(FabricError::MissingLink {
+            robot: "two".into(),
+            link: "zz".into()
+        })
     );
     for r in ["-0.1", "0"] {
-        let json = format!(r#"{{"spheres": [{{"link": "a", "center": [0, 0, 0], "radius": {r}}}]}}"#);
-        assert!(matches!(robot.parse_sphere_json(&json, "s.json"), Err(FabricError::Value { .. })), "radius {r}");
+        let json =
+            format!(r#"{{"spheres": [{{"link": "a", "center": [0, 0, 0], "radius": {r}}}]}}"#);
+        assert!(
+            matches!(
+                robot.parse_sphere_json(&json, "s.json"),
+                Err(FabricError::Value { .. })
+            ),
+            "radius {r}"
+        );
     }
     let ok = robot
         .parse_sphere_json(r#"{"spheres": [{"link": "b", "center": [0.1, 0.2, 0.3], "radius": 0.05}], "note": "x"}"#, "s")
         .unwrap();
-    assert_eq!(ok, vec![CollisionSphere { link: 2, center: Vector3::new(0.1, 0.2, 0.3), radius: 0.05 }]);
-    assert!(matches!(robot.load_sphere_file(Path::new("/nonexistent.json")), Err(FabricError::Io { .. })));
+    assert_eq!(
+        ok,
+        vec![CollisionSphere {
+            link: 2,
+            center: Vector3::new(0.1, 0.2, 0.3),
+            radius: 0.05
+        }]
+    );
+    assert!(matches!(
+        robot.load_sphere_file(Path::new("/nonexistent.json")),
+        Err(FabricError::Io { .. })
+    ));
 
     let mut robot = robot;
-    let bad = |link, center, radius| vec![CollisionSphere { link, center, radius }];
+    let bad = |link, center, radius| {
+        vec![CollisionSphere {
+            link,
+            center,
+            radius,
+        }]
+    };
     for spheres in [
         bad(9, Vector3::zeros(), 0.1),
         bad(1, Vector3::new(f64::NAN, 0.0, 0.0), 0.1),
         bad(1, Vector3::zeros(), -1.0),
         bad(1, Vector3::zeros(), f64::INFINITY),
     ] {
-        assert!(matches!(robot.set_spheres(spheres), Err(FabricError::Value { .. })));
+        assert!(matches!(
+            robot.set_spheres(spheres),
+            Err(FabricError::Value { .. })
+        ));
     }
     assert!(robot.spheres().is_empty());
 }
@@ -207,8 +374,14 @@ fn bad_srdf() {
         }
         other => panic!("{other:?}"),
     };
-    assert_eq!(field(robot.set_self_collision_from_srdf("<robot><disable_collisions", "bad.srdf")), "(xml)");
-    assert_eq!(field(robot.set_self_collision_from_srdf("<srdf/>", "bad.srdf")), "(root)");
+    assert_eq!(
+        field(robot.set_self_collision_from_srdf("<robot><disable_collisions", "bad.srdf")),
+        "(xml)"
+    );
+    assert_eq!(
+        field(robot.set_self_collision_from_srdf("<srdf/>", "bad.srdf")),
+        "(root)"
+    );
     let f = field(robot.set_self_collision_from_srdf(
         "<robot>\n<disable_collisions link1=\"panda_link0\" link2=\"panda_link1\"/>\n<disable_collisions link1=\"panda_link0\"/>\n</robot>",
         "bad.srdf",

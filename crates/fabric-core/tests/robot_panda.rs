@@ -17,9 +17,18 @@ fn shipped_panda_model() {
     assert_eq!(robot.dof(), 7);
     let names: Vec<String> = (1..=7).map(|i| format!("panda_joint{i}")).collect();
     assert_eq!(robot.joint_names(), names.as_slice());
-    assert_eq!(robot.lower(), [-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973]);
-    assert_eq!(robot.upper(), [2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973]);
-    assert_eq!(robot.velocity_limits(), [2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61]);
+    assert_eq!(
+        robot.lower(),
+        [-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973]
+    );
+    assert_eq!(
+        robot.upper(),
+        [2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973]
+    );
+    assert_eq!(
+        robot.velocity_limits(),
+        [2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61]
+    );
     assert_eq!(robot.link_names()[robot.base_link()], "panda_link0");
     assert_eq!(robot.link_names()[robot.ee_link()], "panda_hand");
     assert_eq!(robot.link_names().len(), 13);
@@ -27,7 +36,12 @@ fn shipped_panda_model() {
     assert!(!robot.self_collision_pairs().is_empty());
     assert!(robot.collision_geometry().is_empty());
     // The same URDF with default options chooses the same base, end-effector and active joints.
-    let default = Robot::from_urdf_str(include_str!("../assets/panda.urdf"), "p", &RobotOptions::default()).unwrap();
+    let default = Robot::from_urdf_str(
+        include_str!("../assets/panda.urdf"),
+        "p",
+        &RobotOptions::default(),
+    )
+    .unwrap();
     assert_eq!(default.link_names()[default.ee_link()], "panda_hand");
     assert_eq!(default.joint_names(), robot.joint_names());
 }
@@ -53,7 +67,11 @@ fn shipped_panda_zero_configuration() {
     assert!((left.translation.vector - Vector3::new(0.0, 0.04, 0.0584)).norm() < 1e-12);
     assert!((right.translation.vector - Vector3::new(0.0, -0.04, 0.0584)).norm() < 1e-12);
     // The hand is the flange turned by -π/4 about z.
-    let expect = flange * Isometry3::from_parts(Translation3::identity(), UnitQuaternion::from_euler_angles(0.0, 0.0, -std::f64::consts::FRAC_PI_4));
+    let expect = flange
+        * Isometry3::from_parts(
+            Translation3::identity(),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, -std::f64::consts::FRAC_PI_4),
+        );
     assert!(hand.rotation.angle_to(&expect.rotation) < 1e-12);
 }
 
@@ -64,7 +82,10 @@ fn shipped_panda_fk_equals_mbm_panda_fk() {
     let ours = Robot::panda();
     assert_eq!(mbm.joint_names(), ours.joint_names());
     assert_eq!(mbm.link_names()[mbm.ee_link()], "panda_hand");
-    let (mut wa, mut wb) = (KinematicsWorkspace::new(&ours), KinematicsWorkspace::new(&mbm));
+    let (mut wa, mut wb) = (
+        KinematicsWorkspace::new(&ours),
+        KinematicsWorkspace::new(&mbm),
+    );
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     let mut links: Vec<String> = (0..=8).map(|i| format!("panda_link{i}")).collect();
     links.push("panda_hand".into());
@@ -84,7 +105,11 @@ fn shipped_panda_fk_equals_mbm_panda_fk() {
 
 /// Independent rigid-body labels from the raw URDF: links joined by fixed joints (union-find).
 fn rigid_labels(urdf: &urdf_rs::Robot) -> HashMap<String, String> {
-    let mut parent: HashMap<String, String> = urdf.links.iter().map(|l| (l.name.clone(), l.name.clone())).collect();
+    let mut parent: HashMap<String, String> = urdf
+        .links
+        .iter()
+        .map(|l| (l.name.clone(), l.name.clone()))
+        .collect();
     fn find(p: &HashMap<String, String>, x: &str) -> String {
         let mut x = x.to_string();
         while p[&x] != x {
@@ -92,11 +117,18 @@ fn rigid_labels(urdf: &urdf_rs::Robot) -> HashMap<String, String> {
         }
         x
     }
-    for j in urdf.joints.iter().filter(|j| j.joint_type == urdf_rs::JointType::Fixed) {
+    for j in urdf
+        .joints
+        .iter()
+        .filter(|j| j.joint_type == urdf_rs::JointType::Fixed)
+    {
         let (a, b) = (find(&parent, &j.parent.link), find(&parent, &j.child.link));
         parent.insert(a, b);
     }
-    urdf.links.iter().map(|l| (l.name.clone(), find(&parent, &l.name))).collect()
+    urdf.links
+        .iter()
+        .map(|l| (l.name.clone(), find(&parent, &l.name)))
+        .collect()
 }
 
 #[test]
@@ -105,7 +137,9 @@ fn mbm_self_collision_pairs_skip_adjacent_and_disabled_links() {
     let mut robot = mbm_spherized().unwrap();
     let before = robot.self_collision_pairs().len();
     let srdf = std::fs::read_to_string(dir.join("panda.srdf")).unwrap();
-    robot.set_self_collision_from_srdf(&srdf, "panda.srdf").unwrap();
+    robot
+        .set_self_collision_from_srdf(&srdf, "panda.srdf")
+        .unwrap();
     assert!(robot.self_collision_pairs().len() < before);
 
     // Brute force from the raw files.
@@ -113,7 +147,11 @@ fn mbm_self_collision_pairs_skip_adjacent_and_disabled_links() {
     let urdf = urdf_rs::read_from_string(&xml).unwrap();
     let body = rigid_labels(&urdf);
     let mut adjacent: HashSet<(String, String)> = HashSet::new();
-    for j in urdf.joints.iter().filter(|j| j.joint_type != urdf_rs::JointType::Fixed) {
+    for j in urdf
+        .joints
+        .iter()
+        .filter(|j| j.joint_type != urdf_rs::JointType::Fixed)
+    {
         let (a, b) = (body[&j.parent.link].clone(), body[&j.child.link].clone());
         adjacent.insert((a.clone(), b.clone()));
         adjacent.insert((b, a));
@@ -123,7 +161,10 @@ fn mbm_self_collision_pairs_skip_adjacent_and_disabled_links() {
         .descendants()
         .filter(|n| n.has_tag_name("disable_collisions"))
         .flat_map(|n| {
-            let (a, b) = (n.attribute("link1").unwrap().to_string(), n.attribute("link2").unwrap().to_string());
+            let (a, b) = (
+                n.attribute("link1").unwrap().to_string(),
+                n.attribute("link2").unwrap().to_string(),
+            );
             [(a.clone(), b.clone()), (b, a)]
         })
         .collect();
@@ -154,10 +195,14 @@ fn shipped_panda_self_collision_pairs_are_free_at_rest() {
     // At the "ready" configuration no checked pair of the shipped spheres overlaps.
     let robot = Robot::panda();
     let mut ws = KinematicsWorkspace::new(&robot);
-    robot.update_positions(&[0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785], &mut ws).unwrap();
+    robot
+        .update_positions(&[0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785], &mut ws)
+        .unwrap();
     for &(i, j) in robot.self_collision_pairs() {
         let (si, sj) = (robot.spheres()[i], robot.spheres()[j]);
-        let d = (robot.sphere_center(&ws, i) - robot.sphere_center(&ws, j)).norm() - si.radius - sj.radius;
+        let d = (robot.sphere_center(&ws, i) - robot.sphere_center(&ws, j)).norm()
+            - si.radius
+            - sj.radius;
         assert!(
             d > 0.0,
             "{} / {} overlap by {d}",

@@ -5,7 +5,9 @@ mod robot_support;
 
 use std::f64::consts::TAU;
 
-use fabric_core::robot::{batch, CollisionSphere, GeometryKind, KinematicsWorkspace, Robot, RobotOptions};
+use fabric_core::robot::{
+    batch, CollisionSphere, GeometryKind, KinematicsWorkspace, Robot, RobotOptions,
+};
 use nalgebra::{Matrix3, Point3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -65,7 +67,11 @@ fn branches_defaults_and_limits() {
     let mut ws = KinematicsWorkspace::new(&robot);
     robot.update_positions(&[0.4, -0.3], &mut ws).unwrap();
     let palm = *robot.link_pose(&ws, robot.link_index("palm").unwrap());
-    let rel = |n: &str| (palm.inverse() * robot.link_pose(&ws, robot.link_index(n).unwrap())).translation.vector;
+    let rel = |n: &str| {
+        (palm.inverse() * robot.link_pose(&ws, robot.link_index(n).unwrap()))
+            .translation
+            .vector
+    };
     assert!((rel("left") - Vector3::new(0.0, 0.015, 0.05)).norm() < 1e-12);
     assert!((rel("right") - Vector3::new(0.0, -0.015, 0.05)).norm() < 1e-12);
     // Camera: fixed on the base.
@@ -73,7 +79,10 @@ fn branches_defaults_and_limits() {
     assert!((cam.translation.vector - Vector3::new(0.3, 0.0, 0.5)).norm() < 1e-15);
 
     // Explicit active joints: q order as given, end-effector below the deepest one.
-    let opts = RobotOptions { active_joints: Some(vec!["f1".into(), "yaw".into()]), ..Default::default() };
+    let opts = RobotOptions {
+        active_joints: Some(vec!["f1".into(), "yaw".into()]),
+        ..Default::default()
+    };
     let r2 = tree(&opts);
     assert_eq!(r2.joint_names(), ["f1", "yaw"]);
     assert_eq!(r2.link_names()[r2.ee_link()], "left");
@@ -81,7 +90,10 @@ fn branches_defaults_and_limits() {
     let panda = Robot::from_urdf_str(
         include_str!("../assets/panda.urdf"),
         "p",
-        &RobotOptions { active_joints: Some((1..=4).map(|i| format!("panda_joint{i}")).collect()), ..Default::default() },
+        &RobotOptions {
+            active_joints: Some((1..=4).map(|i| format!("panda_joint{i}")).collect()),
+            ..Default::default()
+        },
     )
     .unwrap();
     assert_eq!(panda.link_names()[panda.ee_link()], "panda_link4");
@@ -89,15 +101,27 @@ fn branches_defaults_and_limits() {
     let p2 = Robot::from_urdf_str(
         include_str!("../assets/panda.urdf"),
         "p",
-        &RobotOptions { active_joints: Some(vec!["panda_joint1".into()]), ..Default::default() },
+        &RobotOptions {
+            active_joints: Some(vec!["panda_joint1".into()]),
+            ..Default::default()
+        },
     )
     .unwrap();
     let full = Robot::panda();
-    let (mut wa, mut wb) = (KinematicsWorkspace::new(&p2), KinematicsWorkspace::new(&full));
+    let (mut wa, mut wb) = (
+        KinematicsWorkspace::new(&p2),
+        KinematicsWorkspace::new(&full),
+    );
     p2.update_positions(&[0.3], &mut wa).unwrap();
-    full.update_positions(&[0.3, 0.0, 0.0, -0.0698, 0.0, 0.0, 0.0], &mut wb).unwrap();
+    full.update_positions(&[0.3, 0.0, 0.0, -0.0698, 0.0, 0.0, 0.0], &mut wb)
+        .unwrap();
     let l7 = |r: &Robot| r.link_index("panda_link7").unwrap();
-    assert!((p2.link_pose(&wa, l7(&p2)).translation.vector - full.link_pose(&wb, l7(&full)).translation.vector).norm() < 1e-12);
+    assert!(
+        (p2.link_pose(&wa, l7(&p2)).translation.vector
+            - full.link_pose(&wb, l7(&full)).translation.vector)
+            .norm()
+            < 1e-12
+    );
 }
 
 /// URDF rpy is fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll).
@@ -121,20 +145,31 @@ fn collision_geometry_and_mesh_paths() {
     let dir = std::env::temp_dir().join(format!("gfcs_robot_urdf_{}", std::process::id()));
     std::fs::create_dir_all(dir.join("robot_pkg/meshes")).unwrap();
     std::fs::write(dir.join("robot_pkg/meshes/arm.obj"), "").unwrap();
-    let with_dir = tree(&RobotOptions { mesh_dir: Some(dir.clone()), ..Default::default() });
+    let with_dir = tree(&RobotOptions {
+        mesh_dir: Some(dir.clone()),
+        ..Default::default()
+    });
     let without = tree(&RobotOptions::default());
     std::fs::remove_dir_all(&dir).unwrap();
 
     let geo = with_dir.collision_geometry();
     assert_eq!(geo.len(), 8);
     let arm = with_dir.link_index("arm").unwrap();
-    assert!(matches!(geo[0].kind, GeometryKind::Box { size } if size == Vector3::new(0.2, 0.3, 0.1)));
+    assert!(
+        matches!(geo[0].kind, GeometryKind::Box { size } if size == Vector3::new(0.2, 0.3, 0.1))
+    );
     assert_eq!(geo[0].link, 0);
     assert!((geo[0].origin.translation.vector - Vector3::new(0.0, 0.0, 0.05)).norm() < 1e-15);
-    assert!(matches!(geo[1].kind, GeometryKind::Cylinder { radius, length } if radius == 0.04 && length == 0.4));
+    assert!(
+        matches!(geo[1].kind, GeometryKind::Cylinder { radius, length } if radius == 0.04 && length == 0.4)
+    );
     assert_eq!(geo[1].link, arm);
     match &geo[2].kind {
-        GeometryKind::Mesh { path, scale, exists } => {
+        GeometryKind::Mesh {
+            path,
+            scale,
+            exists,
+        } => {
             assert_eq!(path, &dir.join("robot_pkg/meshes/arm.obj"));
             assert_eq!(*scale, Vector3::repeat(2.0));
             assert!(exists);
@@ -142,11 +177,21 @@ fn collision_geometry_and_mesh_paths() {
         other => panic!("{other:?}"),
     }
     // No mesh directory: not an error, flagged as missing.
-    assert!(matches!(&without.collision_geometry()[2].kind, GeometryKind::Mesh { exists: false, .. }));
+    assert!(matches!(
+        &without.collision_geometry()[2].kind,
+        GeometryKind::Mesh { exists: false, .. }
+    ));
     // Spheres become collision spheres too.
     let forearm = with_dir.link_index("forearm").unwrap();
     assert_eq!(with_dir.spheres().len(), 5);
-    assert_eq!(with_dir.spheres()[0], CollisionSphere { link: forearm, center: Vector3::new(0.1, 0.0, 0.0), radius: 0.05 });
+    assert_eq!(
+        with_dir.spheres()[0],
+        CollisionSphere {
+            link: forearm,
+            center: Vector3::new(0.1, 0.0, 0.0),
+            radius: 0.05
+        }
+    );
     assert!(matches!(geo[3].kind, GeometryKind::Sphere { radius } if radius == 0.05));
 }
 
@@ -183,24 +228,54 @@ fn self_collision_pairs_follow_bodies_and_srdf() {
     // arm's body, but not to the forearm's) and one on the arm (adjacent to both).
     assert!(robot.self_collision_pairs().is_empty());
     let mut spheres = robot.spheres().to_vec();
-    spheres.push(CollisionSphere { link: id("camera"), center: Vector3::zeros(), radius: 0.1 });
-    spheres.push(CollisionSphere { link: id("arm"), center: Vector3::zeros(), radius: 0.1 });
+    spheres.push(CollisionSphere {
+        link: id("camera"),
+        center: Vector3::zeros(),
+        radius: 0.1,
+    });
+    spheres.push(CollisionSphere {
+        link: id("arm"),
+        center: Vector3::zeros(),
+        radius: 0.1,
+    });
     robot.set_spheres(spheres).unwrap();
-    assert_eq!(robot.self_collision_pairs(), [(0, 5), (1, 5), (2, 5), (3, 5), (4, 5)]);
+    assert_eq!(
+        robot.self_collision_pairs(),
+        [(0, 5), (1, 5), (2, 5), (3, 5), (4, 5)]
+    );
     robot
-        .set_self_collision_from_srdf("<robot><disable_collisions link1='camera' link2='palm'/></robot>", "t.srdf")
+        .set_self_collision_from_srdf(
+            "<robot><disable_collisions link1='camera' link2='palm'/></robot>",
+            "t.srdf",
+        )
         .unwrap();
-    assert_eq!(robot.self_collision_pairs(), [(0, 5), (1, 5), (3, 5), (4, 5)]);
+    assert_eq!(
+        robot.self_collision_pairs(),
+        [(0, 5), (1, 5), (3, 5), (4, 5)]
+    );
     assert_eq!(robot.disabled_collisions(), [(id("camera"), id("palm"))]);
     // A new SRDF replaces the previous one.
-    robot.set_self_collision_from_srdf("<robot/>", "t.srdf").unwrap();
+    robot
+        .set_self_collision_from_srdf("<robot/>", "t.srdf")
+        .unwrap();
     assert_eq!(robot.self_collision_pairs().len(), 5);
     // Spheres from a file.
     let path = std::env::temp_dir().join(format!("gfcs_spheres_{}.json", std::process::id()));
-    std::fs::write(&path, r#"{"spheres": [{"link": "arm", "center": [0, 0, 0.1], "radius": 0.05}]}"#).unwrap();
+    std::fs::write(
+        &path,
+        r#"{"spheres": [{"link": "arm", "center": [0, 0, 0.1], "radius": 0.05}]}"#,
+    )
+    .unwrap();
     let loaded = robot.load_sphere_file(&path);
     std::fs::remove_file(&path).unwrap();
-    assert_eq!(loaded.unwrap(), [CollisionSphere { link: id("arm"), center: Vector3::new(0.0, 0.0, 0.1), radius: 0.05 }]);
+    assert_eq!(
+        loaded.unwrap(),
+        [CollisionSphere {
+            link: id("arm"),
+            center: Vector3::new(0.0, 0.0, 0.1),
+            radius: 0.05
+        }]
+    );
 }
 
 #[test]
@@ -208,15 +283,27 @@ fn batches_match_single_evaluations_for_any_thread_count() {
     let robot = Robot::panda();
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     let n = 257;
-    let qs: Vec<f64> = (0..n).flat_map(|_| random_state(&robot, &mut rng).0).collect();
+    let qs: Vec<f64> = (0..n)
+        .flat_map(|_| random_state(&robot, &mut rng).0)
+        .collect();
     let (l, s) = (robot.link_names().len(), robot.spheres().len());
     let mut ws = KinematicsWorkspace::new(&robot);
     for threads in [1, 2, 3] {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        let (poses, centers) = pool.install(|| (batch::link_poses(&robot, &qs).unwrap(), batch::sphere_centers(&robot, &qs).unwrap()));
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let (poses, centers) = pool.install(|| {
+            (
+                batch::link_poses(&robot, &qs).unwrap(),
+                batch::sphere_centers(&robot, &qs).unwrap(),
+            )
+        });
         assert_eq!((poses.len(), centers.len()), (n * l, n * s));
         for k in 0..n {
-            robot.update_positions(&qs[k * 7..(k + 1) * 7], &mut ws).unwrap();
+            robot
+                .update_positions(&qs[k * 7..(k + 1) * 7], &mut ws)
+                .unwrap();
             for li in 0..l {
                 assert_eq!(poses[k * l + li], *robot.link_pose(&ws, li));
             }

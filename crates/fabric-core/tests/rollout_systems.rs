@@ -252,7 +252,7 @@ fn sequence_cost_matches_closed_form() {
     // From 0 toward (1, 0) at speed 1: within waypoint_tol 0.105 after 90 steps, at (0.9, 0). Then toward
     // the goal (1, 1) from distance √(0.1² + 1) = 1.00499: within tol 0.005 after 100 steps.
     let sys = Kinematic { dof: 2, speed: 1.0, dt: 0.01 };
-    let so = SequenceOptions { rollout: opts(0.01, 7.0, 0.005), n_commands: 1, waypoint_tol: 0.105, penalty: 50.0, collision_penalty: 3.0 };
+    let so = SequenceOptions { rollout: opts(0.01, 7.0, 0.005), n_commands: 1, waypoint_tol: 0.105, penalty: 50.0, collision_penalty: 3.0, collision_tol: 0.0 };
     let r = rollout_sequence_system(&sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &[1.0, 1.0], &so).unwrap();
     assert_eq!(r.reasons, vec![StopReason::Reached, StopReason::Reached]);
     assert!((r.t_stars[0] - 0.9).abs() < 1e-12 && (r.t_stars[1] - 1.0).abs() < 1e-12, "{:?}", r.t_stars);
@@ -283,7 +283,7 @@ fn sequence_cost_matches_closed_form() {
 fn sequence_penalties() {
     // Budget too short for either leg: both time out (the first hands over anyway, eq. 7), penalty p.
     let sys = Kinematic { dof: 2, speed: 1.0, dt: 0.01 };
-    let so = SequenceOptions { rollout: opts(0.01, 0.5, 0.005), n_commands: 1, waypoint_tol: 0.1, penalty: 50.0, collision_penalty: 3.0 };
+    let so = SequenceOptions { rollout: opts(0.01, 0.5, 0.005), n_commands: 1, waypoint_tol: 0.1, penalty: 50.0, collision_penalty: 3.0, collision_tol: 0.0 };
     let r = rollout_sequence_system(&sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &[1.0, 1.0], &so).unwrap();
     assert_eq!(r.reasons, vec![StopReason::Timeout, StopReason::Timeout]);
     assert_eq!(r.t_stars, vec![0.5, 0.5]);
@@ -297,8 +297,13 @@ fn sequence_penalties() {
     let osc = Oscillator { dof: 1, w: 4.0, z: 0.1, wall: -0.2 };
     let so = SequenceOptions { rollout: opts(0.01, 7.0, 0.01), n_commands: 0, ..so };
     let r = rollout_sequence_system(&osc, &mut osc.workspace(), &[1.0], &[0.0], &[], &[0.0], &so).unwrap();
-    assert!(r.reached && !r.success() && r.min_clearance < 0.0);
+    assert!(r.reached && r.collided && !r.success() && r.min_clearance < 0.0);
     assert!((r.cost - (r.t_stars[0] + 3.0)).abs() < 1e-12);
+    // The same dip tolerated as a shallow penetration: no collision, no penalty.
+    let tolerant = SequenceOptions { collision_tol: -r.min_clearance + 1e-9, ..so.clone() };
+    let t = rollout_sequence_system(&osc, &mut osc.workspace(), &[1.0], &[0.0], &[], &[0.0], &tolerant).unwrap();
+    assert!(t.success() && !t.collided);
+    assert_eq!(t.cost, t.t_stars[0]);
 
     // Divergence in the first leg: every leg counts t_max, plus the penalty.
     let so = SequenceOptions { n_commands: 2, ..so };
@@ -314,7 +319,7 @@ fn sequence_is_a_chain_of_rollouts() {
     let (q0, qd0) = ([0.3, -0.2, 0.1], [0.5, 0.0, -0.4]);
     let commands = [1.0, 0.5, -0.5, -0.6, 0.8, 0.2];
     let goal = [0.0, 0.0, 1.0];
-    let so = SequenceOptions { rollout: opts(0.01, 7.0, 0.01), n_commands: 2, waypoint_tol: 0.15, penalty: 10.0, collision_penalty: 1.0 };
+    let so = SequenceOptions { rollout: opts(0.01, 7.0, 0.01), n_commands: 2, waypoint_tol: 0.15, penalty: 10.0, collision_penalty: 1.0, collision_tol: 0.0 };
     let seq = rollout_sequence_system(&sys, &mut sys.workspace(), &q0, &qd0, &commands, &goal, &so).unwrap();
 
     // Chain rollout_system by hand (eq. 7: state and velocity carried over).
@@ -395,7 +400,7 @@ fn batch_is_identical_whatever_the_thread_count() {
         }
         // The candidates differ, and so do their costs (the batch is not returning one result N times).
         assert!(one.iter().any(|r| r.cost != one[0].cost));
-        assert!(one.iter().any(|r| r.min_clearance < 0.0) && one.iter().any(|r| r.min_clearance >= 0.0));
+        assert!(one.iter().any(|r| r.collided) && one.iter().any(|r| !r.collided));
     }
     let empty = evaluate_batch_system(&sys, &q0, &qd0, &goal, &[], &SequenceOptions::default(), Some(2)).unwrap();
     assert!(empty.is_empty());
@@ -441,6 +446,7 @@ fn invalid_inputs_name_the_culprit() {
         ("SequenceOptions.waypoint_tol", SequenceOptions { waypoint_tol: -0.1, ..so.clone() }),
         ("SequenceOptions.penalty", SequenceOptions { penalty: f64::NAN, ..so.clone() }),
         ("SequenceOptions.collision_penalty", SequenceOptions { collision_penalty: -1.0, ..so.clone() }),
+        ("SequenceOptions.collision_tol", SequenceOptions { collision_tol: f64::INFINITY, ..so.clone() }),
         ("RolloutOptions.tol", SequenceOptions { rollout: RolloutOptions { tol: -1.0, ..o.clone() }, ..so.clone() }),
     ] {
         assert_eq!(what(seq(&z, &z, &bad).unwrap_err()), field);

@@ -13,15 +13,27 @@ use crate::robot::path_arg;
 
 /// A Python value (dict, list, bool, int, float, str, None, numpy scalar) as JSON; `what` is its dotted path.
 fn to_json(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Value> {
-    let bad = |message: String| error(FabricError::Format { file: "<dict>".into(), field: what.into(), message });
+    let bad = |message: String| {
+        error(FabricError::Format {
+            file: "<dict>".into(),
+            field: what.into(),
+            message,
+        })
+    };
     if obj.is_none() {
         return Ok(Value::Null);
     }
     if let Ok(d) = obj.cast::<PyDict>() {
         let mut map = Map::new();
         for (k, v) in d.iter() {
-            let key: String = k.extract().map_err(|_| bad("keys must be strings".into()))?;
-            let sub = if what.is_empty() { key.clone() } else { format!("{what}.{key}") };
+            let key: String = k
+                .extract()
+                .map_err(|_| bad("keys must be strings".into()))?;
+            let sub = if what.is_empty() {
+                key.clone()
+            } else {
+                format!("{what}.{key}")
+            };
             map.insert(key, to_json(&v, &sub)?);
         }
         return Ok(Value::Object(map));
@@ -48,10 +60,14 @@ fn to_json(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Value> {
     }
     // floats and numpy scalars (float64, int64, ...) through __float__
     if obj.is_instance_of::<PyFloat>() || obj.hasattr("__float__")? {
-        let x: f64 = obj.extract().or_else(|_| obj.call_method0("__float__")?.extract())?;
-        return Number::from_f64(x)
-            .map(Value::Number)
-            .ok_or_else(|| error(FabricError::NonFinite { what: what.to_string() }));
+        let x: f64 = obj
+            .extract()
+            .or_else(|_| obj.call_method0("__float__")?.extract())?;
+        return Number::from_f64(x).map(Value::Number).ok_or_else(|| {
+            error(FabricError::NonFinite {
+                what: what.to_string(),
+            })
+        });
     }
     Err(bad(format!("unsupported value of type {type_name}")))
 }
@@ -104,7 +120,13 @@ fn to_python<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
 /// nested dict `d` over them. Sections: `mode` ("bent" | "unbent"), `joint_attraction`, `ee_position`,
 /// `ee_orientation`, `joint_limits`, `self_collision`, `obstacles`, `speed` (see `to_dict()` for every
 /// field and `crates/fabric-core/src/fabric/config.rs` for units and paper equations).
-#[pyclass(frozen, skip_from_py_object, name = "FabricConfig", module = "gfcs._core", eq)]
+#[pyclass(
+    frozen,
+    skip_from_py_object,
+    name = "FabricConfig",
+    module = "gfcs._core",
+    eq
+)]
 #[derive(Clone, PartialEq)]
 pub struct PyFabricConfig {
     /// The core configuration.
@@ -153,7 +175,9 @@ impl PyFabricConfig {
     /// The documented defaults.
     #[staticmethod]
     fn defaults() -> Self {
-        PyFabricConfig { inner: FabricConfig::default() }
+        PyFabricConfig {
+            inner: FabricConfig::default(),
+        }
     }
 
     /// Read a file; the format follows the extension (.toml, .yaml/.yml, .json). Missing fields take their
@@ -161,13 +185,17 @@ impl PyFabricConfig {
     #[staticmethod]
     fn from_file(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Self> {
         let path = path_arg(path)?;
-        Ok(PyFabricConfig { inner: guarded(py, || FabricConfig::from_file(&path))? })
+        Ok(PyFabricConfig {
+            inner: guarded(py, || FabricConfig::from_file(&path))?,
+        })
     }
 
     /// Same as `FabricConfig(values)`.
     #[staticmethod]
     fn from_dict(py: Python<'_>, values: &Bound<'_, PyAny>) -> PyResult<Self> {
-        Ok(PyFabricConfig { inner: Self::from_py_dict(py, values)? })
+        Ok(PyFabricConfig {
+            inner: Self::from_py_dict(py, values)?,
+        })
     }
 
     /// Parse `text` in `format` ("toml", "yaml" or "json"); `source` names it in errors.
@@ -190,8 +218,12 @@ impl PyFabricConfig {
 
     /// Every field as a nested dict (round-trips through `FabricConfig(d)`).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v: Value = serde_json::from_str(&self.inner.to_json())
-            .map_err(|e| error(FabricError::Value { what: "config".into(), message: e.to_string() }))?;
+        let v: Value = serde_json::from_str(&self.inner.to_json()).map_err(|e| {
+            error(FabricError::Value {
+                what: "config".into(),
+                message: e.to_string(),
+            })
+        })?;
         to_python(py, &v)
     }
 
@@ -209,8 +241,12 @@ impl PyFabricConfig {
         changes: Option<&Bound<'_, PyAny>>,
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let mut base: Value = serde_json::from_str(&self.inner.to_json())
-            .map_err(|e| error(FabricError::Value { what: "config".into(), message: e.to_string() }))?;
+        let mut base: Value = serde_json::from_str(&self.inner.to_json()).map_err(|e| {
+            error(FabricError::Value {
+                what: "config".into(),
+                message: e.to_string(),
+            })
+        })?;
         if let Some(c) = changes.filter(|c| !c.is_none()) {
             deep_merge(&mut base, to_json(c, "")?);
         }
@@ -218,10 +254,15 @@ impl PyFabricConfig {
             deep_merge(&mut base, to_json(k.as_any(), "")?);
         }
         let json = base.to_string();
-        Ok(PyFabricConfig { inner: guarded(py, || FabricConfig::from_json_str(&json, "<replace>"))? })
+        Ok(PyFabricConfig {
+            inner: guarded(py, || FabricConfig::from_json_str(&json, "<replace>"))?,
+        })
     }
 
     fn __repr__(&self) -> String {
-        format!("FabricConfig({})", serde_json::to_string(&self.inner).unwrap_or_default())
+        format!(
+            "FabricConfig({})",
+            serde_json::to_string(&self.inner).unwrap_or_default()
+        )
     }
 }

@@ -16,7 +16,7 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLike, PyUntypedArra
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
-use crate::errors::{error, exception_type};
+use crate::errors::{error, internal, make};
 
 /// Tolerance on ‖RᵀR − I‖∞, |det R − 1| and the last row of a 4 × 4 pose.
 const POSE_TOL: f64 = 1e-6;
@@ -35,13 +35,24 @@ pub fn shape_text(shape: &[usize]) -> String {
     match shape {
         [] => "()".to_string(),
         [n] => format!("({n},)"),
-        _ => format!("({})", shape.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     }
 }
 
 /// `ShapeError("{what}: expected shape {expected}, got {got}")`.
 pub fn shape_error(what: &str, expected: &str, got: &[usize]) -> PyErr {
-    error(FabricError::Shape { what: what.to_string(), expected: expected.to_string(), got: shape_text(got) })
+    error(FabricError::Shape {
+        what: what.to_string(),
+        expected: expected.to_string(),
+        got: shape_text(got),
+    })
 }
 
 /// Copy any array-like into a float64 [`Input`]; values are not checked (see [`finite`]).
@@ -50,11 +61,8 @@ pub fn array(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Input> {
         Ok(a) => a,
         Err(e) => {
             let py = obj.py();
-            let ty = exception_type(py, "ShapeError")?;
-            return Err(PyErr::from_type(
-                ty,
-                (format!("{what}: cannot convert to a float64 array: {}", e.value(py)),),
-            ));
+            let message = format!("{what}: cannot convert to a float64 array: {}", e.value(py));
+            return Err(make(py, "ShapeError", message));
         }
     };
     let shape = arr.shape().to_vec();
@@ -95,7 +103,11 @@ pub fn vector3(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vector3<f64>> {
 
 /// Shape (n,) or (N, n), finite. Returns the row-major values and `None` for a single vector or `Some(N)`
 /// for a batch.
-pub fn vector_or_rows(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<(Vec<f64>, Option<usize>)> {
+pub fn vector_or_rows(
+    obj: &Bound<'_, PyAny>,
+    what: &str,
+    n: usize,
+) -> PyResult<(Vec<f64>, Option<usize>)> {
     let a = array(obj, what)?;
     let batch = match a.shape.as_slice() {
         [m] if *m == n => None,
@@ -121,7 +133,10 @@ pub fn rows(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<(Vec<f64>,
 /// Shape (N, 3) (or (3,) for one point), finite, as points.
 pub fn points(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<(Vec<Vector3<f64>>, bool)> {
     let (data, batch) = vector_or_rows(obj, what, 3)?;
-    let pts = data.chunks_exact(3).map(|c| Vector3::new(c[0], c[1], c[2])).collect();
+    let pts = data
+        .chunks_exact(3)
+        .map(|c| Vector3::new(c[0], c[1], c[2]))
+        .collect();
     Ok((pts, batch.is_some()))
 }
 
@@ -141,7 +156,11 @@ pub fn pose(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Isometry3<f64>> {
     }
     let a = array(obj, what)?;
     if a.shape != [4, 4] {
-        return Err(shape_error(what, "(4, 4) or a pair (position (3,), quaternion xyzw (4,))", &a.shape));
+        return Err(shape_error(
+            what,
+            "(4, 4) or a pair (position (3,), quaternion xyzw (4,))",
+            &a.shape,
+        ));
     }
     finite(what, &a.data)?;
     pose_from_matrix(what, &a.data).map_err(error)
@@ -156,7 +175,11 @@ pub fn pose_or_identity(obj: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<
 }
 
 /// Isometry from a position and a quaternion [x, y, z, w] (normalised; zero is rejected).
-pub fn pose_from_parts(what: &str, position: Vector3<f64>, xyzw: &[f64]) -> PyResult<Isometry3<f64>> {
+pub fn pose_from_parts(
+    what: &str,
+    position: Vector3<f64>,
+    xyzw: &[f64],
+) -> PyResult<Isometry3<f64>> {
     let q = Quaternion::new(xyzw[3], xyzw[0], xyzw[1], xyzw[2]);
     let norm = q.norm();
     if norm < 1e-12 {
@@ -166,16 +189,25 @@ pub fn pose_from_parts(what: &str, position: Vector3<f64>, xyzw: &[f64]) -> PyRe
         }));
     }
     let rotation = UnitQuaternion::from_quaternion(q / norm);
-    Ok(Isometry3::from_parts(Translation3::from(position), rotation))
+    Ok(Isometry3::from_parts(
+        Translation3::from(position),
+        rotation,
+    ))
 }
 
 /// Isometry from a row-major 4 × 4 homogeneous matrix; checks that it is a rigid transform.
 pub fn pose_from_matrix(what: &str, m: &[f64]) -> fabric_core::Result<Isometry3<f64>> {
-    let bad = |message: String| FabricError::Value { what: what.to_string(), message };
+    let bad = |message: String| FabricError::Value {
+        what: what.to_string(),
+        message,
+    };
     let bottom = [m[12], m[13], m[14], m[15]];
-    if (bottom[0].abs().max(bottom[1].abs()).max(bottom[2].abs())) > POSE_TOL || (bottom[3] - 1.0).abs() > POSE_TOL
+    if (bottom[0].abs().max(bottom[1].abs()).max(bottom[2].abs())) > POSE_TOL
+        || (bottom[3] - 1.0).abs() > POSE_TOL
     {
-        return Err(bad(format!("last row must be [0, 0, 0, 1], got {bottom:?}")));
+        return Err(bad(format!(
+            "last row must be [0, 0, 0, 1], got {bottom:?}"
+        )));
     }
     let r = Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
     let orth = (r.transpose() * r - Matrix3::identity()).amax();
@@ -186,7 +218,10 @@ pub fn pose_from_matrix(what: &str, m: &[f64]) -> fabric_core::Result<Isometry3<
         )));
     }
     let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
-    Ok(Isometry3::from_parts(Translation3::new(m[3], m[7], m[11]), rotation))
+    Ok(Isometry3::from_parts(
+        Translation3::new(m[3], m[7], m[11]),
+        rotation,
+    ))
 }
 
 /// Row-major 4 × 4 homogeneous matrix of a pose, appended to `out` (16 values).
@@ -200,7 +235,11 @@ pub fn push_pose(out: &mut Vec<f64>, pose: &Isometry3<f64>) {
 }
 
 /// A new float64 numpy array of shape `shape` holding `data` (row-major).
-pub fn output<'py>(py: Python<'py>, data: Vec<f64>, shape: &[usize]) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+pub fn output<'py>(
+    py: Python<'py>,
+    data: Vec<f64>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     typed_output(py, data, shape)
 }
 
@@ -214,24 +253,26 @@ pub fn typed_output<'py, T: numpy::Element>(
     ArrayD::from_shape_vec(IxDyn(shape), data)
         .map(|a| a.into_pyarray(py))
         .map_err(|_| {
-            let ty = exception_type(py, "GfcsError");
-            match ty {
-                Ok(ty) => PyErr::from_type(
-                    ty,
-                    (format!("internal error: {len} values do not fill shape {}", shape_text(shape)),),
-                ),
-                Err(e) => e,
-            }
+            internal(
+                py,
+                &format!("{len} values do not fill shape {}", shape_text(shape)),
+            )
         })
 }
 
 /// A (3,) float64 array.
-pub fn output_vec3<'py>(py: Python<'py>, v: &Vector3<f64>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+pub fn output_vec3<'py>(
+    py: Python<'py>,
+    v: &Vector3<f64>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     output(py, vec![v.x, v.y, v.z], &[3])
 }
 
 /// A (3, 3) float64 array (row-major).
-pub fn output_mat3<'py>(py: Python<'py>, m: &Matrix3<f64>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+pub fn output_mat3<'py>(
+    py: Python<'py>,
+    m: &Matrix3<f64>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let mut data = Vec::with_capacity(9);
     for i in 0..3 {
         for j in 0..3 {
@@ -242,7 +283,10 @@ pub fn output_mat3<'py>(py: Python<'py>, m: &Matrix3<f64>) -> PyResult<Bound<'py
 }
 
 /// A (4, 4) float64 array (homogeneous pose).
-pub fn output_pose<'py>(py: Python<'py>, pose: &Isometry3<f64>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+pub fn output_pose<'py>(
+    py: Python<'py>,
+    pose: &Isometry3<f64>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let mut data = Vec::with_capacity(16);
     push_pose(&mut data, pose);
     output(py, data, &[4, 4])

@@ -86,7 +86,9 @@ fn types(py: Python<'_>) -> PyResult<&ErrorTypes> {
         let namespace = PyDict::new(py);
         namespace.set_item("__name__", "gfcs._core")?;
         py.run(DEFINITIONS, Some(&namespace), None)?;
-        Ok(ErrorTypes { namespace: namespace.unbind() })
+        Ok(ErrorTypes {
+            namespace: namespace.unbind(),
+        })
     })
 }
 
@@ -123,12 +125,17 @@ fn class_name(err: &FabricError) -> &'static str {
     }
 }
 
-/// Build a Python exception of class `name` with the message `message`.
-fn make(py: Python<'_>, name: &str, message: String) -> PyErr {
+/// A Python exception of class `name` (one of [`EXCEPTION_NAMES`]) with the message `message`.
+pub fn make(py: Python<'_>, name: &str, message: String) -> PyErr {
     match exception_type(py, name) {
         Ok(ty) => PyErr::from_type(ty, (message,)),
         Err(e) => e,
     }
+}
+
+/// `GfcsError("internal error: {message}")`: a defect of gfcs itself, not of the input.
+pub fn internal(py: Python<'_>, message: &str) -> PyErr {
+    make(py, "GfcsError", format!("internal error: {message}"))
 }
 
 /// Map one core error to its Python exception; the message is the core's `Display` text, which names the
@@ -155,7 +162,7 @@ fn panic_message(payload: &(dyn Any + Send)) -> String {
 
 /// Turn a caught panic into `GfcsError("internal error: ...")`.
 fn panic_to_pyerr(py: Python<'_>, payload: Box<dyn Any + Send>) -> PyErr {
-    make(py, "GfcsError", format!("internal error: {}", panic_message(payload.as_ref())))
+    internal(py, &panic_message(payload.as_ref()))
 }
 
 /// Run `f` with the GIL held, turning a core error into its exception and a panic into `GfcsError`.
@@ -183,7 +190,9 @@ where
 /// `GfcsError("internal error: ...")` and never as pyo3's `PanicException`.
 #[pyfunction]
 pub fn _raise_internal_panic(py: Python<'_>) -> PyResult<()> {
-    guarded(py, || -> fabric_core::Result<()> { panic!("deliberate panic for testing the panic barrier") })
+    guarded(py, || -> fabric_core::Result<()> {
+        panic!("deliberate panic for testing the panic barrier")
+    })
 }
 
 /// Raise the exception that the core error variant `variant` maps to, with its message; for tests of the
@@ -193,22 +202,50 @@ pub fn _raise_internal_panic(py: Python<'_>) -> PyResult<()> {
 pub fn _raise_core_error(variant: &str) -> PyResult<()> {
     let s = |x: &str| x.to_string();
     let err = match variant {
-        "Urdf" => FabricError::Urdf { file: s("robot.urdf"), message: s("bad xml") },
+        "Urdf" => FabricError::Urdf {
+            file: s("robot.urdf"),
+            message: s("bad xml"),
+        },
         "UnsupportedJoint" => FabricError::UnsupportedJoint {
             file: s("robot.urdf"),
             joint: s("j0"),
             kind: s("planar"),
         },
-        "MissingLink" => FabricError::MissingLink { robot: s("r"), link: s("nolink") },
-        "MissingJoint" => FabricError::MissingJoint { robot: s("r"), joint: s("nojoint") },
-        "Mesh" => FabricError::Mesh { path: s("a.stl"), message: s("not found") },
-        "Shape" => FabricError::Shape { what: s("q"), expected: s("(7,)"), got: s("(3,)") },
+        "MissingLink" => FabricError::MissingLink {
+            robot: s("r"),
+            link: s("nolink"),
+        },
+        "MissingJoint" => FabricError::MissingJoint {
+            robot: s("r"),
+            joint: s("nojoint"),
+        },
+        "Mesh" => FabricError::Mesh {
+            path: s("a.stl"),
+            message: s("not found"),
+        },
+        "Shape" => FabricError::Shape {
+            what: s("q"),
+            expected: s("(7,)"),
+            got: s("(3,)"),
+        },
         "NonFinite" => FabricError::NonFinite { what: s("q") },
-        "Format" => FabricError::Format { file: s("s.yaml"), field: s("radius"), message: s("not a number") },
-        "Value" => FabricError::Value { what: s("dt"), message: s("must be > 0") },
-        "Io" => FabricError::Io { path: s("x.yaml"), message: s("not found") },
+        "Format" => FabricError::Format {
+            file: s("s.yaml"),
+            field: s("radius"),
+            message: s("not a number"),
+        },
+        "Value" => FabricError::Value {
+            what: s("dt"),
+            message: s("must be > 0"),
+        },
+        "Io" => FabricError::Io {
+            path: s("x.yaml"),
+            message: s("not found"),
+        },
         other => {
-            return Err(pyo3::exceptions::PyValueError::new_err(format!("unknown variant '{other}'")))
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "unknown variant '{other}'"
+            )))
         }
     };
     Err(error(err))

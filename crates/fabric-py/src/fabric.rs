@@ -37,36 +37,14 @@ pub struct PyFabric {
 impl PyFabric {
     /// The current scene (shared, immutable snapshot).
     fn scene_snapshot(&self) -> Arc<Scene> {
-        self.scene.read().unwrap_or_else(PoisonError::into_inner).clone()
+        self.scene
+            .read()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
     }
 
     fn dof(&self) -> usize {
         self.fabric.robot().dof()
-    }
-
-    /// Sequence options from keyword arguments (None keeps the core defaults).
-    #[allow(clippy::too_many_arguments)]
-    fn sequence_options(
-        n_commands: usize,
-        dt: Option<f64>,
-        t_max: Option<f64>,
-        tol: Option<f64>,
-        waypoint_tol: Option<f64>,
-        penalty: Option<f64>,
-        collision_penalty: Option<f64>,
-        integrator: &str,
-        record: bool,
-    ) -> PyResult<SequenceOptions> {
-        let d = SequenceOptions::default();
-        let opts = SequenceOptions {
-            rollout: rollout_options(dt, t_max, tol, integrator, record)?,
-            n_commands,
-            waypoint_tol: waypoint_tol.unwrap_or(d.waypoint_tol),
-            penalty: penalty.unwrap_or(d.penalty),
-            collision_penalty: collision_penalty.unwrap_or(d.collision_penalty),
-        };
-        opts.validate().map_err(error)?;
-        Ok(opts)
     }
 
     /// q̇₀: zeros when None.
@@ -78,6 +56,37 @@ impl PyFabric {
     }
 }
 
+/// Keyword options of `rollout_sequence` and `evaluate`; `None` keeps the core default of
+/// `SequenceOptions` (waypoint_tol 0.1 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m) and
+/// of `RolloutOptions` (dt 0.01 s, t_max 7 s, tol 0.01).
+struct SequenceKwargs<'a> {
+    dt: Option<f64>,
+    t_max: Option<f64>,
+    tol: Option<f64>,
+    waypoint_tol: Option<f64>,
+    penalty: Option<f64>,
+    collision_penalty: Option<f64>,
+    collision_tol: Option<f64>,
+    integrator: &'a str,
+}
+
+impl SequenceKwargs<'_> {
+    /// Validated options for `n_commands` free commands.
+    fn options(&self, n_commands: usize, record: bool) -> PyResult<SequenceOptions> {
+        let d = SequenceOptions::default();
+        let opts = SequenceOptions {
+            rollout: rollout_options(self.dt, self.t_max, self.tol, self.integrator, record)?,
+            n_commands,
+            waypoint_tol: self.waypoint_tol.unwrap_or(d.waypoint_tol),
+            penalty: self.penalty.unwrap_or(d.penalty),
+            collision_penalty: self.collision_penalty.unwrap_or(d.collision_penalty),
+            collision_tol: self.collision_tol.unwrap_or(d.collision_tol),
+        };
+        opts.validate().map_err(error)?;
+        Ok(opts)
+    }
+}
+
 /// End-effector targets from a pose (4 × 4 or (position, quaternion xyzw)).
 fn ee_targets(obj: &Bound<'_, PyAny>) -> PyResult<EeTargets> {
     let pose = convert::pose(obj, "ee_target")?;
@@ -85,7 +94,11 @@ fn ee_targets(obj: &Bound<'_, PyAny>) -> PyResult<EeTargets> {
     let m = r.matrix();
     Ok(EeTargets {
         position: pose.translation.vector,
-        axes: [m.column(0).into_owned(), m.column(1).into_owned(), m.column(2).into_owned()],
+        axes: [
+            m.column(0).into_owned(),
+            m.column(1).into_owned(),
+            m.column(2).into_owned(),
+        ],
     })
 }
 
@@ -146,7 +159,9 @@ impl PyFabric {
     /// The configuration.
     #[getter]
     fn config(&self) -> PyFabricConfig {
-        PyFabricConfig { inner: self.fabric.config().clone() }
+        PyFabricConfig {
+            inner: self.fabric.config().clone(),
+        }
     }
 
     /// Number of robot coordinates.
@@ -159,7 +174,9 @@ impl PyFabric {
     /// A copy of the scene the fabric evaluates in.
     #[getter]
     fn scene(&self) -> PyScene {
-        PyScene { inner: (*self.scene_snapshot()).clone() }
+        PyScene {
+            inner: (*self.scene_snapshot()).clone(),
+        }
     }
 
     /// Replace the scene (copied).
@@ -177,8 +194,14 @@ impl PyFabric {
         pose: Option<&Bound<'_, PyAny>>,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        let pose = pose.filter(|p| !p.is_none()).map(|p| convert::pose(p, "pose")).transpose()?;
-        let velocity = velocity.filter(|v| !v.is_none()).map(|v| convert::vector3(v, "velocity")).transpose()?;
+        let pose = pose
+            .filter(|p| !p.is_none())
+            .map(|p| convert::pose(p, "pose"))
+            .transpose()?;
+        let velocity = velocity
+            .filter(|v| !v.is_none())
+            .map(|v| convert::vector3(v, "velocity"))
+            .transpose()?;
         // The lock is taken and released inside the closure: no Python code runs while it is held.
         guarded(py, || {
             let mut guard = self.scene.write().unwrap_or_else(PoisonError::into_inner);
@@ -211,14 +234,18 @@ impl PyFabric {
         let q = convert::vector(q, "q", n)?;
         let qd = convert::vector(qd, "qd", n)?;
         let command = convert::vector(command, "command", n)?;
-        let targets = ee_target.filter(|t| !t.is_none()).map(ee_targets).transpose()?;
+        let targets = ee_target
+            .filter(|t| !t.is_none())
+            .map(ee_targets)
+            .transpose()?;
         let fabric = &self.fabric;
         let scene = self.scene_snapshot();
         let (qdd, diag) = guarded(py, || {
             let mut ws = FabricWorkspace::new(fabric);
             let mut qdd = vec![0.0; n];
             match &targets {
-                Some(t) => fabric.acceleration_with_targets(&scene, &q, &qd, &command, t, &mut ws, &mut qdd)?,
+                Some(t) => fabric
+                    .acceleration_with_targets(&scene, &q, &qd, &command, t, &mut ws, &mut qdd)?,
                 None => fabric.acceleration(&scene, &q, &qd, &command, &mut ws, &mut qdd)?,
             }
             Ok((qdd, fabric.diagnostics(&ws)))
@@ -269,8 +296,8 @@ impl PyFabric {
     /// One command sequence (GFCS eq. 4–8): `commands` (n, dof) free commands (n may be 0), then `goal`
     /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol (default 0.1); the goal at
     /// tol. Cost = Σ tᵢ* + penalty (default 100 s) if the goal is not reached + collision_penalty (default
-    /// 100 s) on collision. GIL released.
-    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, integrator="euler", record=true))]
+    /// 0 s) if the minimum clearance drops below −collision_tol (default 0 m). GIL released.
+    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, integrator="euler", record=true))]
     #[allow(clippy::too_many_arguments)]
     fn rollout_sequence(
         &self,
@@ -285,31 +312,43 @@ impl PyFabric {
         waypoint_tol: Option<f64>,
         penalty: Option<f64>,
         collision_penalty: Option<f64>,
+        collision_tol: Option<f64>,
         integrator: &str,
         record: bool,
     ) -> PyResult<PySequenceRollout> {
+        let kwargs = SequenceKwargs {
+            dt,
+            t_max,
+            tol,
+            waypoint_tol,
+            penalty,
+            collision_penalty,
+            collision_tol,
+            integrator,
+        };
         let n = self.dof();
         let q0 = convert::vector(q0, "q0", n)?;
         let qd0 = self.velocity_or_zeros(qd0, "qd0")?;
         let (commands, n_commands) = convert::rows(commands, "commands", n)?;
         let goal = convert::vector(goal, "goal", n)?;
-        let opts = Self::sequence_options(
-            n_commands, dt, t_max, tol, waypoint_tol, penalty, collision_penalty, integrator, record,
-        )?;
+        let opts = kwargs.options(n_commands, record)?;
         let fabric = self.fabric.clone();
         let scene = self.scene_snapshot();
         let result = detached(py, move || {
             let mut ws = FabricWorkspace::new(&fabric);
-            core_rollout::rollout_sequence(&fabric, &scene, &q0, &qd0, &commands, &goal, &opts, &mut ws)
+            core_rollout::rollout_sequence(
+                &fabric, &scene, &q0, &qd0, &commands, &goal, &opts, &mut ws,
+            )
         })?;
         Ok(PySequenceRollout::new(n, result))
     }
 
-    /// Evaluate N candidate command sequences in parallel (GFCS eq. 4, Alg. 1): `candidates` (N, n·dof),
-    /// each row n free commands, then `goal`. Returns `(costs (N,), reached (N,) bool, min_clearance (N,))`,
-    /// plus a list of N `SequenceRollout` (with trajectories) when `return_trajectories`. Results are in
-    /// candidate order and do not depend on `threads` (None: all cores). GIL released.
-    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, integrator="euler", threads=None, return_trajectories=false))]
+    /// Evaluate N candidate command sequences in parallel (GFCS eq. 4, Alg. 1): `candidates`
+    /// (N, n·dof), each row n free commands, then `goal`; options as in `rollout_sequence`. Returns
+    /// `(costs (N,), reached (N,) bool, min_clearance (N,))`, plus a list of N `SequenceRollout` (with
+    /// trajectories) when `return_trajectories`. Results are in candidate order and do not depend on
+    /// `threads` (None: all cores). GIL released.
+    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, integrator="euler", threads=None, return_trajectories=false))]
     #[allow(clippy::too_many_arguments)]
     fn evaluate<'py>(
         &self,
@@ -324,10 +363,21 @@ impl PyFabric {
         waypoint_tol: Option<f64>,
         penalty: Option<f64>,
         collision_penalty: Option<f64>,
+        collision_tol: Option<f64>,
         integrator: &str,
         threads: Option<usize>,
         return_trajectories: bool,
     ) -> PyResult<Bound<'py, PyTuple>> {
+        let kwargs = SequenceKwargs {
+            dt,
+            t_max,
+            tol,
+            waypoint_tol,
+            penalty,
+            collision_penalty,
+            collision_tol,
+            integrator,
+        };
         let n = self.dof();
         let q0 = convert::vector(q0, "q0", n)?;
         let qd0 = self.velocity_or_zeros(qd0, "qd0")?;
@@ -336,16 +386,21 @@ impl PyFabric {
         let (rows, n_commands) = match cand.shape.as_slice() {
             [r, c] if n > 0 && c % n == 0 => (*r, c / n),
             _ => {
-                return Err(convert::shape_error("candidates", &format!("(N, n*{n}) with n >= 0"), &cand.shape))
+                return Err(convert::shape_error(
+                    "candidates",
+                    &format!("(N, n*{n}) with n >= 0"),
+                    &cand.shape,
+                ))
             }
         };
         convert::finite("candidates", &cand.data)?;
         if threads == Some(0) {
-            return Err(error(FabricError::Value { what: "threads".into(), message: "must be >= 1".into() }));
+            return Err(error(FabricError::Value {
+                what: "threads".into(),
+                message: "must be >= 1".into(),
+            }));
         }
-        let opts = Self::sequence_options(
-            n_commands, dt, t_max, tol, waypoint_tol, penalty, collision_penalty, integrator, return_trajectories,
-        )?;
+        let opts = kwargs.options(n_commands, return_trajectories)?;
         let fabric = self.fabric.clone();
         let scene = self.scene_snapshot();
         let data = cand.data;
@@ -354,12 +409,30 @@ impl PyFabric {
         })?;
         let costs = output(py, results.iter().map(|r| r.cost).collect(), &[rows])?;
         let reached = typed_output(py, results.iter().map(|r| r.reached).collect(), &[rows])?;
-        let clearance = output(py, results.iter().map(|r| r.min_clearance).collect(), &[rows])?;
+        let clearance = output(
+            py,
+            results.iter().map(|r| r.min_clearance).collect(),
+            &[rows],
+        )?;
         if return_trajectories {
-            let list: Vec<PySequenceRollout> = results.into_iter().map(|r| PySequenceRollout::new(n, r)).collect();
-            PyTuple::new(py, [costs.into_any(), reached.into_any(), clearance.into_any(), list.into_pyobject(py)?.into_any()])
+            let list: Vec<PySequenceRollout> = results
+                .into_iter()
+                .map(|r| PySequenceRollout::new(n, r))
+                .collect();
+            PyTuple::new(
+                py,
+                [
+                    costs.into_any(),
+                    reached.into_any(),
+                    clearance.into_any(),
+                    list.into_pyobject(py)?.into_any(),
+                ],
+            )
         } else {
-            PyTuple::new(py, [costs.into_any(), reached.into_any(), clearance.into_any()])
+            PyTuple::new(
+                py,
+                [costs.into_any(), reached.into_any(), clearance.into_any()],
+            )
         }
     }
 

@@ -3,7 +3,9 @@
 //! `particle_defaults`. Rollouts reuse the core integrators through the core `System` trait, with the
 //! attraction target as the command and the clearance ‖q − q_o‖ − r (m) as the collision monitor.
 
-use fabric_core::fabric::{particle_acceleration as core_particle_acceleration, ParticleParams, ParticleVariant};
+use fabric_core::fabric::{
+    particle_acceleration as core_particle_acceleration, ParticleParams, ParticleVariant,
+};
 use fabric_core::rollout::{rollout_system, System};
 use fabric_core::FabricError;
 use numpy::PyArrayDyn;
@@ -39,7 +41,10 @@ fn vec2(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<[f64; 2]> {
 
 /// Parameters: the core defaults (GF Fig. 1 set-up), the desired speed `speed` (m/s) and the keyword
 /// overrides in `params`.
-fn parse_params(speed: Option<f64>, params: Option<&Bound<'_, PyDict>>) -> PyResult<ParticleParams> {
+fn parse_params(
+    speed: Option<f64>,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<ParticleParams> {
     let mut p = ParticleParams::default();
     if let Some(v) = speed {
         p.speed.desired_speed = v;
@@ -82,7 +87,10 @@ fn parse_params(speed: Option<f64>, params: Option<&Bound<'_, PyDict>>) -> PyRes
     ];
     for (what, v) in positive {
         if !(v.is_finite() && v > 0.0) {
-            return Err(error(FabricError::Value { what: what.into(), message: format!("must be > 0, got {v}") }));
+            return Err(error(FabricError::Value {
+                what: what.into(),
+                message: format!("must be > 0, got {v}"),
+            }));
         }
     }
     Ok(p)
@@ -106,8 +114,18 @@ impl System for ParticleSystem {
         f64::INFINITY
     }
 
-    fn acceleration(&self, ws: &mut f64, q: &[f64], qd: &[f64], command: &[f64], qdd: &mut [f64]) -> fabric_core::Result<()> {
-        let p = ParticleParams { target: [command[0], command[1]], ..self.params.clone() };
+    fn acceleration(
+        &self,
+        ws: &mut f64,
+        q: &[f64],
+        qd: &[f64],
+        command: &[f64],
+        qdd: &mut [f64],
+    ) -> fabric_core::Result<()> {
+        let p = ParticleParams {
+            target: [command[0], command[1]],
+            ..self.params.clone()
+        };
         let a = core_particle_acceleration(self.variant, &p, [q[0], q[1]], [qd[0], qd[1]]);
         let c = p.obstacle_center;
         *ws = ((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2)).sqrt() - p.obstacle_radius;
@@ -162,7 +180,10 @@ pub fn particle_rollout<'py>(
     integrator: &str,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Py<PyAny>> {
-    let system = ParticleSystem { variant: parse_variant(variant)?, params: parse_params(Some(speed), params)? };
+    let system = ParticleSystem {
+        variant: parse_variant(variant)?,
+        params: parse_params(Some(speed), params)?,
+    };
     let (q0, batch) = convert::vector_or_rows(q0, "q0", 2)?;
     let qd0 = match qd0 {
         Some(v) if !v.is_none() => {
@@ -197,11 +218,20 @@ pub fn particle_rollout<'py>(
     match batch {
         None => match rollouts.pop() {
             Some(r) => Ok(Py::new(py, r)?.into_any()),
-            None => Err(error(FabricError::Value { what: "q0".into(), message: "no particle".into() })),
+            None => Err(error(FabricError::Value {
+                what: "q0".into(),
+                message: "no particle".into(),
+            })),
         },
-        Some(_) => Ok(PyList::new(py, rollouts.into_iter().map(|r| Py::new(py, r)).collect::<PyResult<Vec<_>>>()?)?
-            .into_any()
-            .unbind()),
+        Some(_) => Ok(PyList::new(
+            py,
+            rollouts
+                .into_iter()
+                .map(|r| Py::new(py, r))
+                .collect::<PyResult<Vec<_>>>()?,
+        )?
+        .into_any()
+        .unbind()),
     }
 }
 

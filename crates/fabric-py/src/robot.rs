@@ -53,12 +53,19 @@ fn looks_like_xml(text: &str) -> bool {
 
 /// Read a text file, `IoError` naming the path on failure.
 pub fn read_text(path: &Path) -> PyResult<String> {
-    std::fs::read_to_string(path)
-        .map_err(|e| error(FabricError::Io { path: path.display().to_string(), message: e.to_string() }))
+    std::fs::read_to_string(path).map_err(|e| {
+        error(FabricError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })
+    })
 }
 
 /// Row-major (3, dof) array from a 3 × dof Jacobian.
-fn jacobian_output<'py>(py: Python<'py>, jac: &Matrix3xX<f64>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+fn jacobian_output<'py>(
+    py: Python<'py>,
+    jac: &Matrix3xX<f64>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let dof = jac.ncols();
     let mut data = Vec::with_capacity(3 * dof);
     for i in 0..3 {
@@ -83,11 +90,17 @@ pub struct PyRobot {
 impl PyRobot {
     /// Wrap a model.
     pub fn new(robot: Robot) -> Self {
-        PyRobot { inner: Arc::new(robot) }
+        PyRobot {
+            inner: Arc::new(robot),
+        }
     }
 
     /// A copy of the model, changed by `f` (spheres, SRDF).
-    fn modified(&self, py: Python<'_>, f: impl FnOnce(&mut Robot) -> fabric_core::Result<()>) -> PyResult<Self> {
+    fn modified(
+        &self,
+        py: Python<'_>,
+        f: impl FnOnce(&mut Robot) -> fabric_core::Result<()>,
+    ) -> PyResult<Self> {
         let mut robot = (*self.inner).clone();
         guarded(py, || f(&mut robot))?;
         Ok(PyRobot::new(robot))
@@ -117,13 +130,18 @@ fn parse_spheres(robot: &Robot, obj: &Bound<'_, PyAny>) -> PyResult<Vec<Collisio
             item.extract().map_err(|_| {
                 error(FabricError::Value {
                     what: what.clone(),
-                    message: "expected a tuple (link name or index, centre (3,), radius)".to_string(),
+                    message: "expected a tuple (link name or index, centre (3,), radius)"
+                        .to_string(),
                 })
             })?;
         let link = link.resolve(robot)?;
         let center = convert::vector3(&center, &format!("{what} centre"))?;
         let radius = convert::scalar(&radius, &format!("{what} radius"))?;
-        spheres.push(CollisionSphere { link, center, radius });
+        spheres.push(CollisionSphere {
+            link,
+            center,
+            radius,
+        });
     }
     Ok(spheres)
 }
@@ -171,8 +189,17 @@ impl PyRobot {
         srdf: Option<&Bound<'_, PyAny>>,
         spheres: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let opts = RobotOptions { base_link, ee_link, active_joints, mesh_dir, ..RobotOptions::default() };
-        let xml = path_or_xml.extract::<String>().ok().filter(|s| looks_like_xml(s));
+        let opts = RobotOptions {
+            base_link,
+            ee_link,
+            active_joints,
+            mesh_dir,
+            ..RobotOptions::default()
+        };
+        let xml = path_or_xml
+            .extract::<String>()
+            .ok()
+            .filter(|s| looks_like_xml(s));
         let mut robot = match xml {
             Some(xml) => guarded(py, || Robot::from_urdf_str(&xml, "<string>", &opts))?,
             None => {
@@ -243,7 +270,11 @@ impl PyRobot {
     /// Joint velocity limits, (dof,), rad/s or m/s (inf when the URDF gives none).
     #[getter]
     fn velocity_limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        output(py, self.inner.velocity_limits().to_vec(), &[self.inner.dof()])
+        output(
+            py,
+            self.inner.velocity_limits().to_vec(),
+            &[self.inner.dof()],
+        )
     }
 
     /// End-effector link name.
@@ -274,26 +305,44 @@ impl PyRobot {
     #[getter]
     fn sphere_links(&self) -> Vec<String> {
         let names = self.inner.link_names();
-        self.inner.spheres().iter().map(|s| names[s.link].clone()).collect()
+        self.inner
+            .spheres()
+            .iter()
+            .map(|s| names[s.link].clone())
+            .collect()
     }
 
     /// Collision sphere centres in their link frames, (S, 3), m.
     #[getter]
     fn sphere_centers_local<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let s = self.inner.spheres();
-        output(py, s.iter().flat_map(|s| [s.center.x, s.center.y, s.center.z]).collect(), &[s.len(), 3])
+        output(
+            py,
+            s.iter()
+                .flat_map(|s| [s.center.x, s.center.y, s.center.z])
+                .collect(),
+            &[s.len(), 3],
+        )
     }
 
     /// Sphere index pairs (i < j) checked for self-collision, (P, 2) int64.
     #[getter]
     fn self_collision_pairs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<i64>>> {
         let p = self.inner.self_collision_pairs();
-        typed_output(py, p.iter().flat_map(|&(i, j)| [i as i64, j as i64]).collect(), &[p.len(), 2])
+        typed_output(
+            py,
+            p.iter().flat_map(|&(i, j)| [i as i64, j as i64]).collect(),
+            &[p.len(), 2],
+        )
     }
 
     /// World poses of every link, (L, 4, 4) for q (dof,) or (N, L, 4, 4) for q (N, dof). Link order:
     /// `link_names`. Batches run in parallel with the GIL released.
-    fn link_poses<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    fn link_poses<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let robot = self.inner.clone();
         let (qs, batch_n) = convert::vector_or_rows(q, "q", robot.dof())?;
         let poses = detached(py, move || batch::link_poses(&robot, &qs))?;
@@ -309,7 +358,11 @@ impl PyRobot {
     }
 
     /// World centres of the collision spheres, (S, 3) for q (dof,) or (N, S, 3) for q (N, dof), m.
-    fn sphere_centers<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    fn sphere_centers<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let robot = self.inner.clone();
         let (qs, batch_n) = convert::vector_or_rows(q, "q", robot.dof())?;
         let centers = detached(py, move || batch::sphere_centers(&robot, &qs))?;
@@ -322,7 +375,11 @@ impl PyRobot {
     }
 
     /// World position of the end-effector link origin, (3,) for q (dof,) or (N, 3) for q (N, dof), m.
-    fn ee_position<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    fn ee_position<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let robot = self.inner.clone();
         let dof = robot.dof();
         let (qs, batch_n) = convert::vector_or_rows(q, "q", dof)?;
@@ -410,20 +467,29 @@ impl PyRobot {
             let d = PyDict::new(py);
             d.set_item("link", &names[g.link])?;
             d.set_item("origin", output_pose(py, &g.origin)?)?;
-            let (kind, size, path, scale, exists): (&str, Option<Vec<f64>>, Option<String>, Option<Vector3<f64>>, bool) =
-                match &g.kind {
-                    GeometryKind::Mesh { path, scale, exists } => {
-                        ("mesh", None, Some(path.display().to_string()), Some(*scale), *exists)
-                    }
-                    GeometryKind::Box { size } => ("box", Some(vec![size.x, size.y, size.z]), None, None, true),
-                    GeometryKind::Cylinder { radius, length } => {
-                        ("cylinder", Some(vec![*length, *radius]), None, None, true)
-                    }
-                    GeometryKind::Capsule { radius, length } => {
-                        ("capsule", Some(vec![*length, *radius]), None, None, true)
-                    }
-                    GeometryKind::Sphere { radius } => ("sphere", Some(vec![*radius]), None, None, true),
-                };
+            d.set_item("path", py.None())?;
+            d.set_item("scale", py.None())?;
+            d.set_item("exists", true)?;
+            let (kind, size) = match &g.kind {
+                GeometryKind::Mesh {
+                    path,
+                    scale,
+                    exists,
+                } => {
+                    d.set_item("path", path.display().to_string())?;
+                    d.set_item("scale", output_vec3(py, scale)?)?;
+                    d.set_item("exists", *exists)?;
+                    ("mesh", None)
+                }
+                GeometryKind::Box { size } => ("box", Some(vec![size.x, size.y, size.z])),
+                GeometryKind::Cylinder { radius, length } => {
+                    ("cylinder", Some(vec![*length, *radius]))
+                }
+                GeometryKind::Capsule { radius, length } => {
+                    ("capsule", Some(vec![*length, *radius]))
+                }
+                GeometryKind::Sphere { radius } => ("sphere", Some(vec![*radius])),
+            };
             d.set_item("type", kind)?;
             match size {
                 Some(s) => {
@@ -432,12 +498,6 @@ impl PyRobot {
                 }
                 None => d.set_item("size", py.None())?,
             }
-            d.set_item("path", path)?;
-            match scale {
-                Some(s) => d.set_item("scale", output_vec3(py, &s)?)?,
-                None => d.set_item("scale", py.None())?,
-            }
-            d.set_item("exists", exists)?;
             list.append(d)?;
         }
         Ok(list)

@@ -1,7 +1,9 @@
 //! Result classes of rollouts (`Rollout`, GFCS eq. 1–3) and command sequences (`SequenceRollout`,
 //! GFCS eq. 4–8), and the parsing of rollout options from Python keyword arguments.
 
-use fabric_core::rollout::{Integrator, RolloutOptions, RolloutResult, SequenceResult, StopReason, Trajectory};
+use fabric_core::rollout::{
+    Integrator, RolloutOptions, RolloutResult, SequenceResult, StopReason, Trajectory,
+};
 use fabric_core::FabricError;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
@@ -64,8 +66,20 @@ struct Recorded {
 impl Recorded {
     fn new(dof: usize, tr: Option<Trajectory>) -> Self {
         match tr {
-            Some(tr) => Recorded { dof, t: tr.t, q: tr.q, qd: tr.qd, qdd: tr.qdd },
-            None => Recorded { dof, t: vec![], q: vec![], qd: vec![], qdd: vec![] },
+            Some(tr) => Recorded {
+                dof,
+                t: tr.t,
+                q: tr.q,
+                qd: tr.qd,
+                qdd: tr.qdd,
+            },
+            None => Recorded {
+                dof,
+                t: vec![],
+                q: vec![],
+                qd: vec![],
+                qdd: vec![],
+            },
         }
     }
 
@@ -138,8 +152,9 @@ impl PyRollout {
     fn reached(&self) -> bool {
         self.result.reason == StopReason::Reached
     }
-    /// Minimum clearance (m) between robot spheres and obstacles over the rollout; negative = collision,
-    /// inf when no sphere came within the obstacle influence radius.
+    /// Minimum clearance (m) over the rollout's states: the smaller of the sphere–obstacle clearance
+    /// (within the obstacle influence radius) and the self-collision sphere-pair clearance; negative =
+    /// collision, inf when nothing came close.
     #[getter]
     fn min_clearance(&self) -> f64 {
         self.result.min_clearance
@@ -171,7 +186,12 @@ impl PyRollout {
 
 /// One command sequence (one GFCOP candidate, GFCS eq. 4–8): n free commands then the goal. The
 /// trajectory is the concatenation of the n + 1 rollouts (empty when not recorded).
-#[pyclass(frozen, skip_from_py_object, name = "SequenceRollout", module = "gfcs._core")]
+#[pyclass(
+    frozen,
+    skip_from_py_object,
+    name = "SequenceRollout",
+    module = "gfcs._core"
+)]
 #[derive(Clone)]
 pub struct PySequenceRollout {
     rec: Recorded,
@@ -208,7 +228,7 @@ impl PySequenceRollout {
     fn qdd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         self.rec.rows(py, &self.rec.qdd)
     }
-    /// Cost Σ tᵢ* + p·1[goal not reached] + collision_penalty·1[min_clearance < 0], s (eq. 4, 8).
+    /// Cost Σ tᵢ* + p·1[goal not reached] + collision_penalty·1[collided], s (eq. 4, 8).
     #[getter]
     fn cost(&self) -> f64 {
         self.result.cost
@@ -216,24 +236,38 @@ impl PySequenceRollout {
     /// tᵢ* of every command, (n + 1,), s (eq. 5).
     #[getter]
     fn t_stars<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        output(py, self.result.t_stars.clone(), &[self.result.t_stars.len()])
+        output(
+            py,
+            self.result.t_stars.clone(),
+            &[self.result.t_stars.len()],
+        )
     }
     /// Stop reason of every command ("reached", "timeout", "non_finite"), length n + 1.
     #[getter]
     fn reasons(&self) -> Vec<&'static str> {
-        self.result.reasons.iter().map(|r| reason_name(*r)).collect()
+        self.result
+            .reasons
+            .iter()
+            .map(|r| reason_name(*r))
+            .collect()
     }
     /// The final rollout reached the goal (eq. 8).
     #[getter]
     fn reached(&self) -> bool {
         self.result.reached
     }
-    /// Reached the goal without collision (min_clearance >= 0).
+    /// Reached the goal without collision.
     #[getter]
     fn success(&self) -> bool {
         self.result.success()
     }
-    /// Minimum clearance (m) over every step of every rollout; negative = collision.
+    /// The minimum clearance dropped below −collision_tol: the sequence went through a collision.
+    #[getter]
+    fn collided(&self) -> bool {
+        self.result.collided
+    }
+    /// Minimum clearance (m) over every step of every rollout (obstacles and self-collision, as for
+    /// `Rollout.min_clearance`); negative = collision.
     #[getter]
     fn min_clearance(&self) -> f64 {
         self.result.min_clearance

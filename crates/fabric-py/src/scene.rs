@@ -5,7 +5,9 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use fabric_core::scene::{meshio, moveit, DistanceSample, Obstacle, ObstacleId, PointCloud, Scene, Shape};
+use fabric_core::scene::{
+    meshio, moveit, DistanceSample, Obstacle, ObstacleId, PointCloud, Scene, Shape,
+};
 use fabric_core::FabricError;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use numpy::PyArrayDyn;
@@ -22,14 +24,18 @@ fn positive(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<f64> {
     if v > 0.0 {
         Ok(v)
     } else {
-        Err(error(FabricError::Value { what: what.to_string(), message: format!("must be > 0, got {v}") }))
+        Err(error(FabricError::Value {
+            what: what.to_string(),
+            message: format!("must be > 0, got {v}"),
+        }))
     }
 }
 
 /// Rotation taking +z to the unit vector `n` (the free side of a half-space).
 fn rotation_z_to(n: &Vector3<f64>) -> UnitQuaternion<f64> {
-    UnitQuaternion::rotation_between(&Vector3::z(), n)
-        .unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI))
+    UnitQuaternion::rotation_between(&Vector3::z(), n).unwrap_or_else(|| {
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+    })
 }
 
 /// Obstacle scene. Mutable: obstacles are added, moved and removed by integer id.
@@ -59,7 +65,14 @@ impl PyScene {
         };
         let name = name.unwrap_or_else(|| format!("{}{}", shape.kind(), self.inner.len()));
         let scene = &mut self.inner;
-        let id = guarded(py, || scene.add(Obstacle { name, shape, pose, velocity }))?;
+        let id = guarded(py, || {
+            scene.add(Obstacle {
+                name,
+                shape,
+                pose,
+                velocity,
+            })
+        })?;
         Ok(id.0)
     }
 
@@ -71,7 +84,10 @@ impl PyScene {
 
 /// Error for an obstacle id that is not in the scene.
 fn unknown_id(id: u64) -> PyErr {
-    error(FabricError::Value { what: "obstacle id".to_string(), message: format!("no obstacle with id {id}") })
+    error(FabricError::Value {
+        what: "obstacle id".to_string(),
+        message: format!("no obstacle with id {id}"),
+    })
 }
 
 /// Size of a shape for `obstacles()`: box (3,) full edges; cylinder/capsule (2,) [height, radius];
@@ -81,7 +97,14 @@ fn shape_size(shape: &Shape) -> Vec<f64> {
     match shape {
         Shape::Sphere { radius } => vec![*radius],
         Shape::Cuboid { half_extents } => (2.0 * half_extents).iter().copied().collect(),
-        Shape::Cylinder { half_height, radius } | Shape::Capsule { half_height, radius } => {
+        Shape::Cylinder {
+            half_height,
+            radius,
+        }
+        | Shape::Capsule {
+            half_height,
+            radius,
+        } => {
             vec![2.0 * half_height, *radius]
         }
         Shape::HalfSpace => vec![],
@@ -106,7 +129,9 @@ impl PyScene {
     /// An empty scene.
     #[new]
     fn py_new() -> Self {
-        PyScene { inner: Scene::new() }
+        PyScene {
+            inner: Scene::new(),
+        }
     }
 
     /// Load a MoveIt PlanningScene YAML file (MotionBenchMaker `sceneNNNN.yaml`): box sizes are full edges,
@@ -156,11 +181,22 @@ impl PyScene {
         if size.iter().any(|&s| s <= 0.0) {
             return Err(error(FabricError::Value {
                 what: "size".to_string(),
-                message: format!("box edges must be > 0, got [{}, {}, {}]", size.x, size.y, size.z),
+                message: format!(
+                    "box edges must be > 0, got [{}, {}, {}]",
+                    size.x, size.y, size.z
+                ),
             }));
         }
         let pose = convert::pose_or_identity(pose, "pose")?;
-        self.add_obstacle(py, Shape::Cuboid { half_extents: size / 2.0 }, pose, name, velocity)
+        self.add_obstacle(
+            py,
+            Shape::Cuboid {
+                half_extents: size / 2.0,
+            },
+            pose,
+            name,
+            velocity,
+        )
     }
 
     /// A cylinder of full `height` m along the pose's local z axis and `radius` m, centred at the pose
@@ -178,7 +214,16 @@ impl PyScene {
         let half_height = positive(height, "height")? / 2.0;
         let radius = positive(radius, "radius")?;
         let pose = convert::pose_or_identity(pose, "pose")?;
-        self.add_obstacle(py, Shape::Cylinder { half_height, radius }, pose, name, velocity)
+        self.add_obstacle(
+            py,
+            Shape::Cylinder {
+                half_height,
+                radius,
+            },
+            pose,
+            name,
+            velocity,
+        )
     }
 
     /// A capsule: a segment of length `height` m along the pose's local z axis (between the two cap
@@ -196,7 +241,16 @@ impl PyScene {
         let half_height = positive(height, "height")? / 2.0;
         let radius = positive(radius, "radius")?;
         let pose = convert::pose_or_identity(pose, "pose")?;
-        self.add_obstacle(py, Shape::Capsule { half_height, radius }, pose, name, velocity)
+        self.add_obstacle(
+            py,
+            Shape::Capsule {
+                half_height,
+                radius,
+            },
+            pose,
+            name,
+            velocity,
+        )
     }
 
     /// A half-space {p : n·p <= offset} (free side +n). Give `normal` (3,) (normalised here) and `offset`
@@ -211,7 +265,10 @@ impl PyScene {
         pose: Option<&Bound<'_, PyAny>>,
         name: Option<String>,
     ) -> PyResult<u64> {
-        let pose = match (normal.filter(|n| !n.is_none()), pose.filter(|p| !p.is_none())) {
+        let pose = match (
+            normal.filter(|n| !n.is_none()),
+            pose.filter(|p| !p.is_none()),
+        ) {
             (Some(_), Some(_)) => {
                 return Err(error(FabricError::Value {
                     what: "add_halfspace".to_string(),
@@ -261,16 +318,28 @@ impl PyScene {
             let loaded = guarded(py, || meshio::load_mesh(&path))?;
             let source = path.display().to_string();
             if scale == Vector3::repeat(1.0) {
-                return self.add_obstacle(py, Shape::TriMesh(Arc::new(loaded)), pose, name, velocity);
+                return self.add_obstacle(
+                    py,
+                    Shape::TriMesh(Arc::new(loaded)),
+                    pose,
+                    name,
+                    velocity,
+                );
             }
-            (loaded.vertices().to_vec(), loaded.indices().to_vec(), source)
+            (
+                loaded.vertices().to_vec(),
+                loaded.indices().to_vec(),
+                source,
+            )
         } else {
-            let (vertices, faces): (Bound<'_, PyAny>, Bound<'_, PyAny>) = mesh.extract().map_err(|_| {
-                error(FabricError::Value {
-                    what: "mesh".to_string(),
-                    message: "expected a path or a pair (vertices (V, 3), faces (F, 3))".to_string(),
-                })
-            })?;
+            let (vertices, faces): (Bound<'_, PyAny>, Bound<'_, PyAny>) =
+                mesh.extract().map_err(|_| {
+                    error(FabricError::Value {
+                        what: "mesh".to_string(),
+                        message: "expected a path or a pair (vertices (V, 3), faces (F, 3))"
+                            .to_string(),
+                    })
+                })?;
             let (v, nv) = convert::rows(&vertices, "mesh vertices", 3)?;
             let (f, _) = convert::rows(&faces, "mesh faces", 3)?;
             let mut triangles = Vec::with_capacity(f.len() / 3);
@@ -287,10 +356,16 @@ impl PyScene {
                 }
                 triangles.push(idx);
             }
-            let points: Vec<Point3<f64>> = v.chunks_exact(3).map(|c| Point3::new(c[0], c[1], c[2])).collect();
+            let points: Vec<Point3<f64>> = v
+                .chunks_exact(3)
+                .map(|c| Point3::new(c[0], c[1], c[2]))
+                .collect();
             (points, triangles, "<arrays>".to_string())
         };
-        let scaled: Vec<Point3<f64>> = vertices.iter().map(|p| Point3::from(p.coords.component_mul(&scale))).collect();
+        let scaled: Vec<Point3<f64>> = vertices
+            .iter()
+            .map(|p| Point3::from(p.coords.component_mul(&scale)))
+            .collect();
         let trimesh = guarded(py, || meshio::build_mesh(scaled, triangles, &source))?;
         self.add_obstacle(py, Shape::TriMesh(Arc::new(trimesh)), pose, name, velocity)
     }
@@ -309,7 +384,10 @@ impl PyScene {
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<u64> {
         let (data, _) = convert::rows(points, "points", 3)?;
-        let pts: Vec<Vector3<f64>> = data.chunks_exact(3).map(|c| Vector3::new(c[0], c[1], c[2])).collect();
+        let pts: Vec<Vector3<f64>> = data
+            .chunks_exact(3)
+            .map(|c| Vector3::new(c[0], c[1], c[2]))
+            .collect();
         let pose = convert::pose_or_identity(pose, "pose")?;
         let cloud = guarded(py, || PointCloud::new(pts, radius))?;
         self.add_obstacle(py, Shape::PointCloud(Arc::new(cloud)), pose, name, velocity)
@@ -330,7 +408,12 @@ impl PyScene {
     }
 
     /// Set the linear velocity (3,) m/s (world frame) of the obstacle `id`.
-    fn set_velocity(&mut self, py: Python<'_>, id: u64, velocity: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_velocity(
+        &mut self,
+        py: Python<'_>,
+        id: u64,
+        velocity: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
         let v = convert::vector3(velocity, "velocity")?;
         let scene = &mut self.inner;
         guarded(py, || scene.set_velocity(ObstacleId(id), v))
@@ -378,11 +461,22 @@ impl PyScene {
 
     /// Minimum signed distance (m, positive outside) from each point to the obstacles: (N,) for points
     /// (N, 3), a float for one point (3,). `inf` when the scene is empty. GIL released.
-    fn signed_distance<'py>(&self, py: Python<'py>, points: &Bound<'py, PyAny>) -> PyResult<Py<PyAny>> {
+    fn signed_distance<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<Py<PyAny>> {
         let (pts, batch) = convert::points(points, "points")?;
         let scene = &self.inner;
         let d: Vec<f64> = detached(py, || {
-            Ok(pts.iter().map(|p| scene.signed_distance(p).map_or(f64::INFINITY, |s| s.distance)).collect())
+            Ok(pts
+                .iter()
+                .map(|p| {
+                    scene
+                        .signed_distance(p)
+                        .map_or(f64::INFINITY, |s| s.distance)
+                })
+                .collect())
         })?;
         if batch {
             let n = d.len();
@@ -404,7 +498,9 @@ impl PyScene {
     ) -> PyResult<Bound<'py, PyList>> {
         let p = convert::vector3(point, "point")?;
         if max_distance.is_nan() {
-            return Err(error(FabricError::NonFinite { what: "max_distance".to_string() }));
+            return Err(error(FabricError::NonFinite {
+                what: "max_distance".to_string(),
+            }));
         }
         let scene = &self.inner;
         let mut samples = Vec::new();
@@ -421,12 +517,20 @@ impl PyScene {
     }
 
     /// Points sampled on the obstacle surfaces about `spacing` m apart, (P, 3), world frame.
-    fn surface_points<'py>(&self, py: Python<'py>, spacing: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    fn surface_points<'py>(
+        &self,
+        py: Python<'py>,
+        spacing: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let spacing = positive(spacing, "spacing")?;
         let scene = &self.inner;
         let pts = detached(py, || Ok(scene.surface_points(spacing)))?;
         let n = pts.len();
-        output(py, pts.iter().flat_map(|p| [p.x, p.y, p.z]).collect(), &[n, 3])
+        output(
+            py,
+            pts.iter().flat_map(|p| [p.x, p.y, p.z]).collect(),
+            &[n, 3],
+        )
     }
 
     /// An independent copy.
@@ -460,7 +564,10 @@ fn obstacle_dict<'py>(py: Python<'py>, id: u64, o: &Obstacle) -> PyResult<Bound<
 /// Read a MoveIt MotionPlanRequest YAML file (MotionBenchMaker `requestNNNN.yaml`): a dict with `group`
 /// (str), `start` (dict joint name -> position, rad or m) and `goal` (dict joint name -> position).
 #[pyfunction]
-pub fn load_motion_plan_request<'py>(py: Python<'py>, path: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
+pub fn load_motion_plan_request<'py>(
+    py: Python<'py>,
+    path: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyDict>> {
     let path = path_arg(path)?;
     let req = guarded(py, || moveit::parse_request_file(&path))?;
     let d = PyDict::new(py);

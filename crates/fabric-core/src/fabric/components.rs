@@ -44,8 +44,8 @@ impl Attractor<ConstantMass> {
     pub fn joint(cfg: &JointAttractionConfig, dim: usize) -> Self {
         Attractor {
             energy: IsotropicEnergy { mass: ConstantMass { dim, mass: cfg.mass } },
-            geometry: LogCosh { gain: cfg.geometry_gain, sharpness: cfg.geometry_sharpness },
-            potential: LogCosh { gain: cfg.potential_gain, sharpness: cfg.potential_sharpness },
+            geometry: LogCosh::from_config(&cfg.geometry),
+            potential: LogCosh::from_config(&cfg.potential),
         }
     }
 }
@@ -57,8 +57,8 @@ impl Attractor<TanhMass> {
             energy: IsotropicEnergy {
                 mass: TanhMass { dim, mass_max: cfg.mass_max, mass_min: cfg.mass_min, sharpness: cfg.mass_sharpness },
             },
-            geometry: LogCosh { gain: cfg.geometry_gain, sharpness: cfg.geometry_sharpness },
-            potential: LogCosh { gain: cfg.potential_gain, sharpness: cfg.potential_sharpness },
+            geometry: LogCosh::from_config(&cfg.geometry),
+            potential: LogCosh::from_config(&cfg.potential),
         }
     }
 }
@@ -116,17 +116,10 @@ pub struct Barrier {
 impl Barrier {
     /// Build from a configuration section.
     pub fn from_config(cfg: &BarrierConfig) -> Self {
-        let pot = |kb: f64, kr: f64| BarrierPotential {
-            barrier_gain: kb,
-            relu_gain: kr,
-            relu_sharpness: cfg.relu_sharpness,
-            relu_shift: cfg.relu_shift,
-            x_min: cfg.x_min,
-        };
         Barrier {
             energy: SwitchedEnergy1D { metric: BarrierMetric { gain: cfg.metric_gain, x_min: cfg.x_min }, switched: true },
-            geometry: pot(cfg.geometry_barrier_gain, cfg.geometry_relu_gain),
-            potential: pot(cfg.potential_barrier_gain, cfg.potential_relu_gain),
+            geometry: BarrierPotential::from_config(&cfg.geometry, cfg.x_min),
+            potential: BarrierPotential::from_config(&cfg.potential, cfg.x_min),
         }
     }
 

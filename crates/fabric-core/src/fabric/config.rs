@@ -25,28 +25,51 @@ pub enum Mode {
     Unbent,
 }
 
+/// Gains of an attractor potential ψ(x) = k ln cosh(α‖x‖) (GF VII-A1, VII-A3): far-field gradient norm
+/// k α, near-field stiffness k α².
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LogCoshConfig {
+    /// k (≥ 0): scale.
+    pub gain: f64,
+    /// α (> 0): sharpness (1/unit of x).
+    pub sharpness: f64,
+}
+
+/// Gains of a barrier potential ψ(x) = k_b / x + (k_r / α) ln(1 + e^{−α(x − x_o)}) (GF VII-A2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BarrierPotentialConfig {
+    /// k_b (≥ 0): barrier gain (ψ units · m).
+    pub barrier_gain: f64,
+    /// k_r (≥ 0): soft-ReLU gain, the slope of ψ well inside x_o (ψ units / m).
+    pub relu_gain: f64,
+    /// α (≥ 0): soft-ReLU sharpness (1/m).
+    pub relu_sharpness: f64,
+    /// x_o (≥ 0): soft-ReLU activation distance (m).
+    pub relu_shift: f64,
+}
+
 /// Joint-space attraction to the command q_g (GF VII-A1): energy L_e = (m/2)‖ẋ‖² on x = q − q_g,
 /// geometry π = −‖ẋ‖² ∂ψ_g, forcing −∂ψ_f, with ψ(x) = k ln cosh(α‖x‖).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct JointAttractionConfig {
-    /// m: isotropic mass of the attraction energy (> 0; it also keeps the root metric positive definite).
-    /// Default 1.0.
+    /// m (> 0): isotropic mass of the attraction energy; it also keeps the root metric positive definite.
     pub mass: f64,
-    /// k of the geometry ψ_g (rad; the far-field geometry acceleration is k α ‖q̇‖², units 1/rad).
-    /// Default 1.0.
-    pub geometry_gain: f64,
-    /// α of the geometry ψ_g (1/rad). Default 10.0.
-    pub geometry_sharpness: f64,
-    /// k of the forcing potential ψ_f (rad²/s² · mass; the far-field force is k α). Default 2.0.
-    pub potential_gain: f64,
-    /// α of the forcing potential ψ_f (1/rad). Default 5.0.
-    pub potential_sharpness: f64,
+    /// ψ_g of the geometry (x in rad; the far-field geometry acceleration is k α ‖q̇‖²).
+    pub geometry: LogCoshConfig,
+    /// ψ_f of the forcing term (far-field force k α, stiffness k α² at the command).
+    pub potential: LogCoshConfig,
 }
 
 impl Default for JointAttractionConfig {
     fn default() -> Self {
-        Self { mass: 1.0, geometry_gain: 1.0, geometry_sharpness: 10.0, potential_gain: 2.0, potential_sharpness: 5.0 }
+        Self {
+            mass: 1.0,
+            geometry: LogCoshConfig { gain: 1.0, sharpness: 10.0 },
+            potential: LogCoshConfig { gain: 0.5, sharpness: 20.0 },
+        }
     }
 }
 
@@ -59,103 +82,106 @@ impl Default for JointAttractionConfig {
 pub struct EeAttractionConfig {
     /// Whether the component is used. Default false (GFCS commands are joint-space).
     pub enabled: bool,
-    /// m̄: mass scale at the target. Default 2.0.
+    /// m̄ (≥ 0): mass scale at the target.
     pub mass_max: f64,
-    /// m̲: mass scale far from the target (> 0 when enabled). Default 0.2.
+    /// m̲ (> 0 when enabled): mass scale far from the target.
     pub mass_min: f64,
-    /// α_m: sharpness of the mass transition (1/m, or 1/unit for axes). Default 10.0.
+    /// α_m (≥ 0): sharpness of the mass transition (1/m, or 1/unit for axes).
     pub mass_sharpness: f64,
-    /// k of the geometry ψ_g. Default 1.0.
-    pub geometry_gain: f64,
-    /// α of the geometry ψ_g (1/m). Default 10.0.
-    pub geometry_sharpness: f64,
-    /// k of the forcing potential ψ_f. Default 2.0.
-    pub potential_gain: f64,
-    /// α of the forcing potential ψ_f (1/m). Default 10.0.
-    pub potential_sharpness: f64,
+    /// ψ_g of the geometry.
+    pub geometry: LogCoshConfig,
+    /// ψ_f of the forcing term.
+    pub potential: LogCoshConfig,
 }
 
-impl Default for EeAttractionConfig {
-    fn default() -> Self {
+impl EeAttractionConfig {
+    fn position_default() -> Self {
         Self {
             enabled: false,
             mass_max: 2.0,
             mass_min: 0.2,
             mass_sharpness: 10.0,
-            geometry_gain: 1.0,
-            geometry_sharpness: 10.0,
-            potential_gain: 2.0,
-            potential_sharpness: 10.0,
+            geometry: LogCoshConfig { gain: 1.0, sharpness: 10.0 },
+            potential: LogCoshConfig { gain: 1.0, sharpness: 10.0 },
+        }
+    }
+    fn orientation_default() -> Self {
+        Self {
+            mass_sharpness: 2.0,
+            geometry: LogCoshConfig { gain: 1.0, sharpness: 2.0 },
+            potential: LogCoshConfig { gain: 1.0, sharpness: 2.0 },
+            ..Self::position_default()
         }
     }
 }
 
+impl Default for EeAttractionConfig {
+    fn default() -> Self {
+        Self::position_default()
+    }
+}
+
 /// Distance-space repulsion (GF VII-A2) on a distance x (m, or rad for joint limits):
-/// energy L_e = (k / 2x) s(ẋ) ẋ², geometry π = −ẋ² ∂ψ_g, forcing −∂ψ_f, with
-/// ψ(x) = k_b / x + (k_r / α) ln(1 + e^{−α(x − x_o)}). Leaves are formed only when x < `influence`.
-/// Below `x_min` (penetration) the metric continues by its tangent line and the potentials by their
-/// second-order Taylor polynomial: the push stays finite, nonzero and outward.
+/// energy L_e = (k / 2x) s(ẋ) ẋ², geometry π = −ẋ² ∂ψ_g, forcing −∂ψ_f, both ψ of the form
+/// k_b / x + (k_r / α) ln(1 + e^{−α(x − x_o)}) with their own gains. Leaves are formed only when
+/// x < `influence`. Below `x_min` (penetration) the metric continues by its tangent line and the
+/// potentials by their second-order Taylor polynomial: the push stays finite, nonzero and outward.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BarrierConfig {
     /// Whether the component is used.
     pub enabled: bool,
-    /// k: metric gain of the barrier energy (metric = k / x).
+    /// k (≥ 0): metric gain of the barrier energy (metric = k / x).
     pub metric_gain: f64,
-    /// k_b of the geometry ψ_g (m).
-    pub geometry_barrier_gain: f64,
-    /// k_r of the geometry ψ_g (1/1: slope of the soft-ReLU).
-    pub geometry_relu_gain: f64,
-    /// k_b of the forcing potential ψ_f (mass · m³/s²).
-    pub potential_barrier_gain: f64,
-    /// k_r of the forcing potential ψ_f (mass · m/s²).
-    pub potential_relu_gain: f64,
-    /// α: soft-ReLU sharpness (1/m), shared by ψ_g and ψ_f.
-    pub relu_sharpness: f64,
-    /// x_o: soft-ReLU activation distance (m), shared by ψ_g and ψ_f.
-    pub relu_shift: f64,
-    /// Safety margin subtracted from the raw distance: x = d − margin (m or rad).
+    /// Safety margin (≥ 0) subtracted from the raw distance: x = d − margin (m or rad).
     pub margin: f64,
-    /// Influence radius: a leaf exists only while x < influence (m or rad).
+    /// Influence radius (> 0): a leaf exists only while x < influence (m or rad).
     pub influence: f64,
     /// x_min (> 0): start of the penetration continuation (m or rad).
     pub x_min: f64,
+    /// ρ (≥ 0, m): minimum curvature radius of the distance field in J̇q̇ (see `fabric::leaves`); 0 = exact.
+    /// Unused by joint limits (their task map is linear).
+    pub min_curvature_radius: f64,
+    /// ψ_g of the geometry π = −ẋ² ∂ψ_g (the main avoidance behaviour).
+    pub geometry: BarrierPotentialConfig,
+    /// ψ_f of the forcing term (a weak soft penalty; keep it small so goals near obstacles stay reachable).
+    pub potential: BarrierPotentialConfig,
 }
 
 impl BarrierConfig {
     fn obstacle_default() -> Self {
         Self {
             enabled: true,
-            metric_gain: 0.5,
-            geometry_barrier_gain: 0.01,
-            geometry_relu_gain: 2.0,
-            potential_barrier_gain: 0.002,
-            potential_relu_gain: 0.5,
-            relu_sharpness: 20.0,
-            relu_shift: 0.1,
+            metric_gain: 0.05,
             margin: 0.0,
             influence: 0.3,
             x_min: 0.005,
+            min_curvature_radius: 0.3,
+            geometry: BarrierPotentialConfig { barrier_gain: 0.02, relu_gain: 5.0, relu_sharpness: 20.0, relu_shift: 0.05 },
+            potential: BarrierPotentialConfig { barrier_gain: 5e-4, relu_gain: 0.3, relu_sharpness: 50.0, relu_shift: 0.005 },
         }
     }
     fn self_collision_default() -> Self {
-        Self { influence: 0.15, relu_shift: 0.05, ..Self::obstacle_default() }
+        Self { influence: 0.15, ..Self::obstacle_default() }
     }
     fn joint_limit_default() -> Self {
-        Self {
-            enabled: true,
-            metric_gain: 0.3,
-            geometry_barrier_gain: 0.01,
-            geometry_relu_gain: 2.0,
-            potential_barrier_gain: 0.002,
-            potential_relu_gain: 0.5,
-            relu_sharpness: 20.0,
-            relu_shift: 0.1,
-            margin: 0.01,
-            influence: 0.4,
-            x_min: 0.005,
-        }
+        Self { margin: 0.01, influence: 0.4, min_curvature_radius: 0.0, ..Self::obstacle_default() }
     }
+}
+
+/// Where the goal damper s_β B of eq. 45 acts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum GoalDampingForm {
+    /// As in GF App. E-B: inside β_reg, an acceleration −s_β B q̇ along the motion (path consistent).
+    #[default]
+    Velocity,
+    /// A force-level isotropic damper −s_β B m q̇ (m: the joint-attraction mass), i.e. the acceleration
+    /// −s_β B m M̃⁻¹ q̇: a positive-definite damping matrix as in GF eq. 4 / Thm IV.4. Directions with a
+    /// heavy metric (near obstacles) get proportionally less damping, so the damping ratio against the
+    /// attraction potential is the same in every direction and convergence near obstacles is not
+    /// over-damped.
+    Force,
 }
 
 /// Speed control by damping regulation (GF Sec. V-A, App. E-B, eq. 40-46) with execution energy
@@ -172,13 +198,15 @@ pub struct SpeedConfig {
     pub eta_rate: f64,
     /// α_shift of eq. 46 (dimensionless): offset of η. Default 0.0.
     pub eta_shift: f64,
-    /// B of eq. 45's damper (1/s): extra damping near the command. Default 8.0.
+    /// B of eq. 45's damper (1/s): extra damping near the command. Default 10.0.
     pub goal_damping: f64,
+    /// Where the goal damper s_β B acts (see [`GoalDampingForm`]). Default `force`.
+    pub goal_damping_form: GoalDampingForm,
     /// B̲ (1/s): constant baseline damping. Default 0.5.
     pub base_damping: f64,
     /// α_β of eq. 45 (1/rad): switching rate of s_β(‖q − q_g‖). Default 10.0.
     pub goal_switch_sharpness: f64,
-    /// r of eq. 45 (rad): distance to the command where s_β = ½. Default 0.3.
+    /// r of eq. 45 (rad): distance to the command where s_β = ½. Default 0.15.
     pub goal_switch_radius: f64,
     /// k of α_boost = k η (1 − s_β)/(‖q̇‖ + ε) (rad/s²). Default 0.0 (off, as in GF except the cubby task).
     pub boost_gain: f64,
@@ -193,10 +221,11 @@ impl Default for SpeedConfig {
             desired_speed: 1.2,
             eta_rate: 20.0,
             eta_shift: 0.0,
-            goal_damping: 8.0,
+            goal_damping: 10.0,
+            goal_damping_form: GoalDampingForm::Force,
             base_damping: 0.5,
             goal_switch_sharpness: 10.0,
-            goal_switch_radius: 0.3,
+            goal_switch_radius: 0.15,
             boost_gain: 0.0,
             boost_epsilon: 1e-3,
         }
@@ -230,8 +259,8 @@ impl Default for FabricConfig {
         Self {
             mode: Mode::Bent,
             joint_attraction: JointAttractionConfig::default(),
-            ee_position: EeAttractionConfig::default(),
-            ee_orientation: EeAttractionConfig { mass_sharpness: 2.0, geometry_sharpness: 2.0, potential_sharpness: 2.0, ..EeAttractionConfig::default() },
+            ee_position: EeAttractionConfig::position_default(),
+            ee_orientation: EeAttractionConfig::orientation_default(),
             joint_limits: BarrierConfig::joint_limit_default(),
             self_collision: BarrierConfig::self_collision_default(),
             obstacles: BarrierConfig::obstacle_default(),
@@ -357,32 +386,35 @@ impl FabricConfig {
             }
             Ok(())
         };
+        let log_cosh = |name: &str, c: &LogCoshConfig| -> Result<()> {
+            check(&format!("{name}.gain"), c.gain, false)?;
+            check(&format!("{name}.sharpness"), c.sharpness, true)
+        };
+        let barrier_pot = |name: &str, c: &BarrierPotentialConfig| -> Result<()> {
+            check(&format!("{name}.barrier_gain"), c.barrier_gain, false)?;
+            check(&format!("{name}.relu_gain"), c.relu_gain, false)?;
+            check(&format!("{name}.relu_sharpness"), c.relu_sharpness, false)?;
+            check(&format!("{name}.relu_shift"), c.relu_shift, false)
+        };
         let ja = &self.joint_attraction;
         check("joint_attraction.mass", ja.mass, true)?;
-        check("joint_attraction.geometry_gain", ja.geometry_gain, false)?;
-        check("joint_attraction.geometry_sharpness", ja.geometry_sharpness, true)?;
-        check("joint_attraction.potential_gain", ja.potential_gain, false)?;
-        check("joint_attraction.potential_sharpness", ja.potential_sharpness, true)?;
+        log_cosh("joint_attraction.geometry", &ja.geometry)?;
+        log_cosh("joint_attraction.potential", &ja.potential)?;
         for (name, ee) in [("ee_position", &self.ee_position), ("ee_orientation", &self.ee_orientation)] {
             check(&format!("{name}.mass_max"), ee.mass_max, false)?;
             check(&format!("{name}.mass_min"), ee.mass_min, ee.enabled)?;
             check(&format!("{name}.mass_sharpness"), ee.mass_sharpness, false)?;
-            check(&format!("{name}.geometry_gain"), ee.geometry_gain, false)?;
-            check(&format!("{name}.geometry_sharpness"), ee.geometry_sharpness, true)?;
-            check(&format!("{name}.potential_gain"), ee.potential_gain, false)?;
-            check(&format!("{name}.potential_sharpness"), ee.potential_sharpness, true)?;
+            log_cosh(&format!("{name}.geometry"), &ee.geometry)?;
+            log_cosh(&format!("{name}.potential"), &ee.potential)?;
         }
         for (name, b) in [("joint_limits", &self.joint_limits), ("self_collision", &self.self_collision), ("obstacles", &self.obstacles)] {
             check(&format!("{name}.metric_gain"), b.metric_gain, false)?;
-            check(&format!("{name}.geometry_barrier_gain"), b.geometry_barrier_gain, false)?;
-            check(&format!("{name}.geometry_relu_gain"), b.geometry_relu_gain, false)?;
-            check(&format!("{name}.potential_barrier_gain"), b.potential_barrier_gain, false)?;
-            check(&format!("{name}.potential_relu_gain"), b.potential_relu_gain, false)?;
-            check(&format!("{name}.relu_sharpness"), b.relu_sharpness, false)?;
-            check(&format!("{name}.relu_shift"), b.relu_shift, false)?;
             check(&format!("{name}.margin"), b.margin, false)?;
             check(&format!("{name}.influence"), b.influence, true)?;
             check(&format!("{name}.x_min"), b.x_min, true)?;
+            check(&format!("{name}.min_curvature_radius"), b.min_curvature_radius, false)?;
+            barrier_pot(&format!("{name}.geometry"), &b.geometry)?;
+            barrier_pot(&format!("{name}.potential"), &b.potential)?;
         }
         let s = &self.speed;
         check("speed.desired_speed", s.desired_speed, true)?;
@@ -425,13 +457,15 @@ mod tests {
 
     #[test]
     fn partial_files_merge_over_defaults_in_three_formats() {
-        let t = FabricConfig::from_toml_str("mode = \"unbent\"\n[obstacles]\nmetric_gain = 2.5\n", "a.toml").unwrap();
-        let y = FabricConfig::from_yaml_str("mode: unbent\nobstacles:\n  metric_gain: 2.5\n", "a.yaml").unwrap();
-        let j = FabricConfig::from_json_str(r#"{"mode": "unbent", "obstacles": {"metric_gain": 2.5}}"#, "a.json").unwrap();
+        let t = FabricConfig::from_toml_str("mode = \"unbent\"\n[obstacles]\nmetric_gain = 2.5\n[obstacles.potential]\nrelu_gain = 0.7\n", "a.toml").unwrap();
+        let y = FabricConfig::from_yaml_str("mode: unbent\nobstacles:\n  metric_gain: 2.5\n  potential: {relu_gain: 0.7}\n", "a.yaml").unwrap();
+        let j = FabricConfig::from_json_str(r#"{"mode": "unbent", "obstacles": {"metric_gain": 2.5, "potential": {"relu_gain": 0.7}}}"#, "a.json").unwrap();
         assert_eq!(t, y);
         assert_eq!(t, j);
         assert_eq!(t.mode, Mode::Unbent);
         assert_eq!(t.obstacles.metric_gain, 2.5);
+        assert_eq!(t.obstacles.potential.relu_gain, 0.7);
+        assert_eq!(t.obstacles.potential.barrier_gain, FabricConfig::default().obstacles.potential.barrier_gain);
         // untouched fields of the same table keep the obstacle-specific defaults
         assert_eq!(t.obstacles.influence, FabricConfig::default().obstacles.influence);
         assert_eq!(t.joint_limits, FabricConfig::default().joint_limits);

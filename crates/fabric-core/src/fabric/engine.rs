@@ -367,7 +367,7 @@ impl Fabric {
             }
             ensure_sphere(robot, ws, a);
             ensure_sphere(robot, ws, b);
-            let leaf = self_collision_leaf(&ws.spheres[a], ra, &ws.spheres[b], rb, sc.margin, &mut ws.jrow);
+            let leaf = self_collision_leaf(&ws.spheres[a], ra, &ws.spheres[b], rb, sc.margin, sc.min_curvature_radius, &mut ws.jrow);
             let bv = self.self_collision.eval(leaf.x, leaf.xd);
             ws.root.add_scalar(&ws.jrow, leaf.jdot_qdot, bv.m, bv.xi, bv.f, bv.grad, bv.psi);
             leaves += 1;
@@ -388,7 +388,7 @@ impl Fabric {
                 for s in 0..ws.samples.len() {
                     let sample = ws.samples[s];
                     diag.min_clearance = diag.min_clearance.min(sample.distance - r);
-                    let leaf = obstacle_leaf(&ws.spheres[k], r, ob.margin, &sample, &mut ws.jrow);
+                    let leaf = obstacle_leaf(&ws.spheres[k], r, ob.margin, &sample, ob.min_curvature_radius, &mut ws.jrow);
                     if leaf.x >= ob.influence {
                         continue;
                     }
@@ -401,7 +401,14 @@ impl Fabric {
 
         // resolve: π̃, energization, forcing, speed control (eq. 7, 17, 40-46)
         let goal_distance = q.iter().zip(command).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
-        let terms = ws.root.solve(self.config.mode, &self.config.speed, qd, goal_distance, qdd)?;
+        let terms = ws.root.solve(
+            self.config.mode,
+            &self.config.speed,
+            qd,
+            goal_distance,
+            self.config.joint_attraction.mass,
+            qdd,
+        )?;
         diag.energy = terms.energy;
         diag.exec_energy = terms.speed.exec_energy;
         diag.potential = terms.potential;

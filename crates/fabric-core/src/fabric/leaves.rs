@@ -15,6 +15,8 @@
 //!   ```
 //!   Coincident centres (‖u‖ < 1e-12) use n̂ = +z and drop the curvature term.
 //!
+//! Both accept a minimum curvature radius ρ that bounds the curvature term of J̇q̇ (exact when ρ = 0).
+//!
 //! Signs of J̇q̇ are checked against finite differences of J(q + t q̇) q̇ in `tests/fabric_leaves.rs`.
 
 use nalgebra::Vector3;
@@ -35,30 +37,53 @@ pub struct LeafState {
 
 /// Obstacle leaf for a sphere of radius `radius` centred at the task point `c` and one distance `sample`
 /// of its centre; writes J (n,) into `jac`. See the module docs for the formulas.
-pub fn obstacle_leaf(c: &TaskPoint, radius: f64, margin: f64, sample: &DistanceSample, jac: &mut [f64]) -> LeafState {
+///
+/// `min_curvature_radius` ρ (m, ≥ 0) bounds the curvature of the distance field used in J̇q̇: the Hessian
+/// is scaled by min(1, 1/(ρ‖H‖_F)), i.e. surface features sharper than ρ are treated as if rounded to
+/// radius ρ. With ρ = 0 the exact Hessian is used. (Near box edges the exact curvature 1/d of the
+/// distance field makes J̇q̇ ~ ‖ċ‖²/d, too stiff for explicit integration at dt = 0.01 s.)
+pub fn obstacle_leaf(
+    c: &TaskPoint,
+    radius: f64,
+    margin: f64,
+    sample: &DistanceSample,
+    min_curvature_radius: f64,
+    jac: &mut [f64],
+) -> LeafState {
     let g = &sample.gradient;
     let rel = c.xd - sample.velocity;
     for (a, j) in jac.iter_mut().enumerate() {
         let col = c.jac.column(a);
         *j = g.x * col[0] + g.y * col[1] + g.z * col[2];
     }
+    let h_norm = sample.hessian.norm();
+    let scale = if min_curvature_radius * h_norm > 1.0 { 1.0 / (min_curvature_radius * h_norm) } else { 1.0 };
     LeafState {
         x: sample.distance - radius - margin,
         xd: g.dot(&rel),
-        jdot_qdot: g.dot(&c.jdot_qdot) + rel.dot(&(sample.hessian * rel)),
+        jdot_qdot: g.dot(&c.jdot_qdot) + scale * rel.dot(&(sample.hessian * rel)),
     }
 }
 
 /// Self-collision leaf between spheres (c_a, r_a) and (c_b, r_b); writes J (n,) into `jac`. See the module
-/// docs for the formulas.
-pub fn self_collision_leaf(a: &TaskPoint, ra: f64, b: &TaskPoint, rb: f64, margin: f64, jac: &mut [f64]) -> LeafState {
+/// docs for the formulas. The curvature term divides by max(‖u‖, `min_curvature_radius`) (see
+/// [`obstacle_leaf`]; inactive while the spheres do not overlap deeply when ρ ≤ r_a + r_b).
+pub fn self_collision_leaf(
+    a: &TaskPoint,
+    ra: f64,
+    b: &TaskPoint,
+    rb: f64,
+    margin: f64,
+    min_curvature_radius: f64,
+    jac: &mut [f64],
+) -> LeafState {
     let u = a.x - b.x;
     let ud = a.xd - b.xd;
     let dist = u.norm();
     let (n, curv) = if dist > 1e-12 {
         let n = u / dist;
         let along = n.dot(&ud);
-        (n, (ud.norm_squared() - along * along) / dist)
+        (n, (ud.norm_squared() - along * along) / dist.max(min_curvature_radius))
     } else {
         (Vector3::z(), 0.0)
     };

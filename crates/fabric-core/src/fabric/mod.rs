@@ -26,6 +26,8 @@ pub mod root;
 pub mod spec;
 pub mod speed;
 
-pub use config::{BarrierConfig, EeAttractionConfig, FabricConfig, JointAttractionConfig, Mode, SpeedConfig};
+pub use config::{
+    BarrierConfig, BarrierPotentialConfig, EeAttractionConfig, FabricConfig, GoalDampingForm, JointAttractionConfig, LogCoshConfig, Mode, SpeedConfig,
+};
 pub use engine::{Diagnostics, EeTargets, Fabric, FabricWorkspace};
 pub use particle::{particle_acceleration, ParticleParams, ParticleVariant};

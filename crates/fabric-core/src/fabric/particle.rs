@@ -23,7 +23,7 @@
 //! [`energy`](super::energy) and [`potential`](super::potential); at the exact centre the outward direction
 //! is taken as +x.
 
-use super::config::{Mode, SpeedConfig};
+use super::config::{GoalDampingForm, Mode, SpeedConfig};
 use super::energy::{GaussianMass, InverseSquareMetric, IsotropicEnergy, Metric1D, SwitchedEnergy1D};
 use super::potential::{InversePower8, LogCosh, Potential1D};
 use super::root::RootSystem;
@@ -104,6 +104,7 @@ impl Default for ParticleParams {
                 base_damping: 0.3,
                 goal_switch_radius: 0.4,
                 goal_switch_sharpness: 8.0,
+                goal_damping_form: GoalDampingForm::Velocity,
                 ..SpeedConfig::default()
             },
         }
@@ -165,7 +166,7 @@ pub fn particle_acceleration(variant: ParticleVariant, p: &ParticleParams, q: [f
     let mode = if variant.bent() { Mode::Bent } else { Mode::Unbent };
     let goal = (x[0] * x[0] + x[1] * x[1]).sqrt();
     let mut qdd = [0.0; 2];
-    match root.solve(mode, &p.speed, &qd, goal, &mut qdd) {
+    match root.solve(mode, &p.speed, &qd, goal, p.mass_min, &mut qdd) {
         Ok(_) => qdd,
         Err(_) => [0.0; 2],
     }

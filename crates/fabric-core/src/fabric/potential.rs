@@ -11,6 +11,8 @@
 //! Taylor polynomial at x_min: the gradient then continues linearly, ψ'(x) = ψ'(x_min) + ψ''(x_min)(x − x_min),
 //! which stays finite, nonzero and outward (ψ' < 0 pushes x up) for any penetration depth.
 
+use super::config::{BarrierPotentialConfig, LogCoshConfig};
+
 /// ln cosh(y), stable for large |y|.
 fn ln_cosh(y: f64) -> f64 {
     let a = y.abs();
@@ -53,6 +55,11 @@ pub struct LogCosh {
 }
 
 impl LogCosh {
+    /// From its configuration section.
+    pub fn from_config(c: &LogCoshConfig) -> Self {
+        LogCosh { gain: c.gain, sharpness: c.sharpness }
+    }
+
     /// ψ(x) and ∂ψ/∂x written into `grad` (same length as `x`).
     pub fn eval(&self, x: &[f64], grad: &mut [f64]) -> f64 {
         let r = x.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -103,6 +110,19 @@ pub struct BarrierPotential {
     pub relu_shift: f64,
     /// x_min (> 0): start of the Taylor continuation (m).
     pub x_min: f64,
+}
+
+impl BarrierPotential {
+    /// From its configuration section and the continuation threshold x_min.
+    pub fn from_config(c: &BarrierPotentialConfig, x_min: f64) -> Self {
+        BarrierPotential {
+            barrier_gain: c.barrier_gain,
+            relu_gain: c.relu_gain,
+            relu_sharpness: c.relu_sharpness,
+            relu_shift: c.relu_shift,
+            x_min,
+        }
+    }
 }
 
 impl Potential1D for BarrierPotential {

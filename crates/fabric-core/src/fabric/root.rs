@@ -40,6 +40,7 @@ pub struct RootSystem {
     pub pi: DVector<f64>,
     /// M̃⁻¹∂ψ (n,) after [`solve`](RootSystem::solve).
     pub minv_grad: DVector<f64>,
+    scratch: DVector<f64>,
 }
 
 /// Scalars of one resolution.
@@ -67,6 +68,7 @@ impl RootSystem {
             chol: DMatrix::zeros(n, n),
             pi: DVector::zeros(n),
             minv_grad: DVector::zeros(n),
+            scratch: DVector::zeros(n),
         }
     }
 
@@ -176,8 +178,18 @@ impl RootSystem {
     }
 
     /// Resolve the accumulated system at velocity `qd` into `qdd` (eq. 7, 17, 40-46). `goal_distance` is
-    /// ‖q − q_g‖ for the speed switches. Errors when M̃ is not positive definite or the result is not finite.
-    pub fn solve(&mut self, mode: Mode, speed: &SpeedConfig, qd: &[f64], goal_distance: f64, qdd: &mut [f64]) -> Result<RootTerms> {
+    /// ‖q − q_g‖ for the speed switches; `damping_mass` is the mass m of a force-level goal damper
+    /// (`GoalDampingForm::Force`: q̈ −= s_β B m M̃⁻¹ q̇). Errors when M̃ is not positive definite or the
+    /// result is not finite.
+    pub fn solve(
+        &mut self,
+        mode: Mode,
+        speed: &SpeedConfig,
+        qd: &[f64],
+        goal_distance: f64,
+        damping_mass: f64,
+        qdd: &mut [f64],
+    ) -> Result<RootTerms> {
         let n = self.dim();
         self.chol.copy_from(&self.m);
         if !cholesky_in_place(&mut self.chol) {
@@ -222,6 +234,14 @@ impl RootSystem {
             &SpeedInputs { qd, pi: self.pi.as_slice(), minv_grad: self.minv_grad.as_slice(), alpha_le, goal_distance },
         );
         regulated_acceleration(self.minv_grad.as_slice(), self.pi.as_slice(), speed_terms.alpha_reg, qd, qdd);
+        let d = speed_terms.force_damping * damping_mass;
+        if d != 0.0 {
+            self.scratch.as_mut_slice().copy_from_slice(qd);
+            cholesky_solve_in_place(&self.chol, self.scratch.as_mut_slice());
+            for a in 0..n {
+                qdd[a] -= d * self.scratch[a];
+            }
+        }
         if !qdd.iter().all(|v| v.is_finite()) {
             return Err(FabricError::NonFinite { what: "fabric acceleration q̈ at this state".to_string() });
         }

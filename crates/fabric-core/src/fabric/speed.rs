@@ -15,6 +15,9 @@
 //! with the execution energy L_ex = ½‖q̇‖² (M_ex = I, ξ_ex = 0) and L_ex,d = ½ v_d². α_ex^0 and α_ex^ψ are
 //! the energization coefficients (eq. 7) of π̃ and of −M̃⁻¹∂ψ + π̃ with respect to L_ex.
 //!
+//! The goal damper s_β B either sits inside β_reg as above (GF, [`GoalDampingForm::Velocity`]) or acts as
+//! a force-level damper −s_β B m q̇ added by the root ([`GoalDampingForm::Force`], see its docs).
+//!
 //! Since α_reg = min(α_ex^η, α_Le) − s_β B − B̲ + α_boost, the system is always damped with respect to the
 //! energized fabric (α_reg < α_Le when α_boost = 0), which is the stability condition of App. E-B.
 //!
@@ -23,7 +26,7 @@
 //! rest the acceleration is −M̃⁻¹∂ψ: finite and nonzero away from the command (the potential starts the
 //! motion, as the paper notes for α_boost).
 
-use super::config::SpeedConfig;
+use super::config::{GoalDampingForm, SpeedConfig};
 
 /// ‖q̇‖² below which the execution-energy coefficients are 0 (rad²/s²).
 pub const SPEED_EPSILON: f64 = 1e-12;
@@ -64,6 +67,9 @@ pub struct SpeedTerms {
     pub alpha_boost: f64,
     /// α_reg of eq. 44: the final coefficient of q̇ in eq. 40.
     pub alpha_reg: f64,
+    /// s_β B when the goal damper is force-level ([`GoalDampingForm::Force`]), else 0 (1/s): the root
+    /// adds the acceleration −(s_β B m) M̃⁻¹ q̇.
+    pub force_damping: f64,
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -87,13 +93,17 @@ pub fn regulate(cfg: &SpeedConfig, inp: &SpeedInputs<'_>) -> SpeedTerms {
     let v2 = dot(inp.qd, inp.qd);
     let exec_energy = 0.5 * v2;
     let s_beta = goal_switch(cfg, inp.goal_distance);
-    let damping = s_beta * cfg.goal_damping + cfg.base_damping;
+    let (damping, force_damping) = match cfg.goal_damping_form {
+        GoalDampingForm::Velocity => (s_beta * cfg.goal_damping + cfg.base_damping, 0.0),
+        GoalDampingForm::Force => (cfg.base_damping, s_beta * cfg.goal_damping),
+    };
     if !cfg.enabled {
         return SpeedTerms {
             exec_energy,
             s_beta,
             beta: damping,
             alpha_reg: inp.alpha_le - damping,
+            force_damping,
             ..SpeedTerms::default()
         };
     }
@@ -118,6 +128,7 @@ pub fn regulate(cfg: &SpeedConfig, inp: &SpeedInputs<'_>) -> SpeedTerms {
         beta,
         alpha_boost,
         alpha_reg: alpha_ex_eta - beta + alpha_boost,
+        force_damping,
     }
 }
 
@@ -133,7 +144,7 @@ mod tests {
     use super::*;
 
     fn cfg() -> SpeedConfig {
-        SpeedConfig { boost_gain: 2.0, ..SpeedConfig::default() }
+        SpeedConfig { boost_gain: 2.0, goal_damping_form: GoalDampingForm::Velocity, ..SpeedConfig::default() }
     }
 
     #[test]
@@ -191,9 +202,14 @@ mod tests {
 
     #[test]
     fn disabled_is_plain_damped_energization() {
-        let c = SpeedConfig { enabled: false, ..SpeedConfig::default() };
+        let c = SpeedConfig { enabled: false, goal_damping_form: GoalDampingForm::Velocity, ..SpeedConfig::default() };
         let t = regulate(&c, &SpeedInputs { qd: &[1.0], pi: &[3.0], minv_grad: &[0.0], alpha_le: -3.0, goal_distance: 5.0 });
         assert!((t.alpha_reg - (-3.0 - t.beta)).abs() < 1e-15);
         assert!((t.beta - (t.s_beta * c.goal_damping + c.base_damping)).abs() < 1e-15);
+        assert_eq!(t.force_damping, 0.0);
+        let f = SpeedConfig { goal_damping_form: GoalDampingForm::Force, ..c };
+        let t = regulate(&f, &SpeedInputs { qd: &[1.0], pi: &[3.0], minv_grad: &[0.0], alpha_le: -3.0, goal_distance: 0.0 });
+        assert!((t.beta - f.base_damping).abs() < 1e-15);
+        assert!((t.force_damping - t.s_beta * f.goal_damping).abs() < 1e-15 && t.force_damping > 0.0);
     }
 }

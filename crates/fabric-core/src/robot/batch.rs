@@ -13,7 +13,7 @@ use crate::error::{check_finite, FabricError, Result};
 /// multiple of dof.
 fn rows(robot: &Robot, qs: &[f64]) -> Result<usize> {
     let dof = robot.dof();
-    if dof == 0 || qs.len() % dof != 0 {
+    if qs.len().checked_rem(dof) != Some(0) {
         return Err(FabricError::Shape {
             what: "qs".into(),
             expected: format!("(N*{dof},)"),
@@ -37,14 +37,16 @@ fn for_each_config<T: Send + Clone>(
     if per_row == 0 {
         return Ok(out);
     }
-    out.par_chunks_mut(per_row).zip(qs.par_chunks(robot.dof())).try_for_each_init(
-        || KinematicsWorkspace::new(robot),
-        |ws, (row, q)| {
-            robot.update_positions(q, ws)?;
-            fill(ws, row);
-            Ok(())
-        },
-    )?;
+    out.par_chunks_mut(per_row)
+        .zip(qs.par_chunks(robot.dof()))
+        .try_for_each_init(
+            || KinematicsWorkspace::new(robot),
+            |ws, (row, q)| {
+                robot.update_positions(q, ws)?;
+                fill(ws, row);
+                Ok(())
+            },
+        )?;
     Ok(out)
 }
 

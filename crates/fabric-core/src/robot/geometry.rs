@@ -11,16 +11,39 @@ use nalgebra::{Isometry3, Vector3};
 /// Shape of one URDF `<collision>` element, in its element frame (sizes in m).
 #[derive(Clone, Debug, PartialEq)]
 pub enum GeometryKind {
-    /// A mesh file: resolved path, per-axis scale, and whether the file existed at load time.
-    Mesh { path: PathBuf, scale: Vector3<f64>, exists: bool },
-    /// A box centred on the frame origin with full edge lengths `size` (m).
-    Box { size: Vector3<f64> },
-    /// A cylinder along local z, centred on the origin: radius and full length (m).
-    Cylinder { radius: f64, length: f64 },
-    /// A capsule along local z, centred on the origin: radius and full length of the cylinder part (m).
-    Capsule { radius: f64, length: f64 },
-    /// A sphere centred on the origin (m).
-    Sphere { radius: f64 },
+    /// A mesh file, in its own units scaled per axis.
+    Mesh {
+        /// Resolved path (see [`RobotOptions::mesh_dir`](super::RobotOptions::mesh_dir)).
+        path: PathBuf,
+        /// Per-axis scale (URDF `scale`, default 1 1 1).
+        scale: Vector3<f64>,
+        /// Whether the file existed at load time.
+        exists: bool,
+    },
+    /// A box centred on the frame origin.
+    Box {
+        /// Full edge lengths along x, y, z (m).
+        size: Vector3<f64>,
+    },
+    /// A cylinder along local z, centred on the origin.
+    Cylinder {
+        /// Radius (m).
+        radius: f64,
+        /// Full length (m).
+        length: f64,
+    },
+    /// A capsule along local z, centred on the origin.
+    Capsule {
+        /// Radius (m).
+        radius: f64,
+        /// Full length of the cylinder part (m).
+        length: f64,
+    },
+    /// A sphere centred on the origin.
+    Sphere {
+        /// Radius (m).
+        radius: f64,
+    },
 }
 
 /// One URDF `<collision>` element: the link it belongs to, its pose in the link frame, and its shape.
@@ -53,7 +76,11 @@ pub(crate) fn resolve_mesh_path(filename: &str, dir: Option<&Path>) -> (PathBuf,
     } else {
         let plain = filename.strip_prefix("file://").unwrap_or(filename);
         let p = Path::new(plain);
-        candidates.push(if p.is_absolute() { p.to_path_buf() } else { base.join(p) });
+        candidates.push(if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            base.join(p)
+        });
     }
     match candidates.iter().find(|c| c.is_file()) {
         Some(found) => (found.clone(), true),

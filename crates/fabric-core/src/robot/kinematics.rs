@@ -22,6 +22,8 @@ use crate::error::{check_finite, check_len, FabricError, Result};
 
 /// Kinematic quantities of one task point or one task axis, in the world (base) frame:
 /// `x` (m, or unitless for an axis), `xd = J q̇`, `jac = ∂x/∂q` (3 × dof), `jdot_qdot = J̇ q̇`.
+/// Create it with the robot's dof; [`Robot::point`] and [`Robot::axis`] resize a Jacobian of another
+/// width (allocating only then).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TaskPoint {
     /// Position (m) of the point, or the world direction of the axis.
@@ -37,7 +39,12 @@ pub struct TaskPoint {
 impl TaskPoint {
     /// A zeroed task point for a robot with `dof` coordinates.
     pub fn new(dof: usize) -> Self {
-        TaskPoint { x: Vector3::zeros(), xd: Vector3::zeros(), jac: Matrix3xX::zeros(dof), jdot_qdot: Vector3::zeros() }
+        TaskPoint {
+            x: Vector3::zeros(),
+            xd: Vector3::zeros(),
+            jac: Matrix3xX::zeros(dof),
+            jdot_qdot: Vector3::zeros(),
+        }
     }
 
     /// Zero the Jacobian, resizing it to 3 × dof first if needed (allocates only then).
@@ -68,8 +75,9 @@ pub struct KinematicsWorkspace {
     acc: Vec<Vector3<f64>>,
     /// `scale · a`: mimic-scaled world axis of the joint above each link (zero for fixed joints).
     jaxis: Vec<Vector3<f64>>,
-    /// A world point on the axis of the joint above each link (its frame origin).
-    pivot: Vec<Vector3<f64>>,
+    /// `jaxis × o` with o a world point on the joint axis: the Jacobian column of a revolute joint at a
+    /// point x is `jaxis × (x − o) = jaxis × x − moment`.
+    moment: Vec<Vector3<f64>>,
 }
 
 impl KinematicsWorkspace {
@@ -84,7 +92,7 @@ impl KinematicsWorkspace {
             alpha: vec![Vector3::zeros(); n],
             acc: vec![Vector3::zeros(); n],
             jaxis: vec![Vector3::zeros(); n],
-            pivot: vec![Vector3::zeros(); n],
+            moment: vec![Vector3::zeros(); n],
         }
     }
 }
@@ -160,7 +168,7 @@ impl Robot {
             ws.pose[i] = child;
             ws.rot[i] = *child.rotation.to_rotation_matrix().matrix();
             ws.jaxis[i] = axis * j.scale;
-            ws.pivot[i] = frame.translation.vector;
+            ws.moment[i] = ws.jaxis[i].cross(&frame.translation.vector);
             if !VEL {
                 ws.omega[i] = Vector3::zeros();
                 ws.vel[i] = Vector3::zeros();
@@ -212,7 +220,11 @@ impl Robot {
     ///
     /// # Panics
     /// As [`Robot::link_pose`].
-    pub fn link_velocity(&self, ws: &KinematicsWorkspace, link: usize) -> (Vector3<f64>, Vector3<f64>) {
+    pub fn link_velocity(
+        &self,
+        ws: &KinematicsWorkspace,
+        link: usize,
+    ) -> (Vector3<f64>, Vector3<f64>) {
         (ws.omega[link], ws.vel[link])
     }
 
@@ -222,7 +234,13 @@ impl Robot {
     ///
     /// # Panics
     /// As [`Robot::link_pose`].
-    pub fn point(&self, ws: &KinematicsWorkspace, link: usize, local: &Vector3<f64>, out: &mut TaskPoint) {
+    pub fn point(
+        &self,
+        ws: &KinematicsWorkspace,
+        link: usize,
+        local: &Vector3<f64>,
+        out: &mut TaskPoint,
+    ) {
         let r = ws.rot[link] * local;
         let x = ws.pose[link].translation.vector + r;
         let w = ws.omega[link];
@@ -233,7 +251,11 @@ impl Robot {
         let jac = out.jac.as_mut_slice();
         for e in &self.chains[link] {
             let a = ws.jaxis[e.link];
-            let col = if e.revolute { a.cross(&(x - ws.pivot[e.link])) } else { a };
+            let col = if e.revolute {
+                a.cross(&x) - ws.moment[e.link]
+            } else {
+                a
+            };
             add_column(jac, e.coord, &col);
         }
     }
@@ -243,7 +265,13 @@ impl Robot {
     ///
     /// # Panics
     /// As [`Robot::link_pose`].
-    pub fn axis(&self, ws: &KinematicsWorkspace, link: usize, local_axis: &Vector3<f64>, out: &mut TaskPoint) {
+    pub fn axis(
+        &self,
+        ws: &KinematicsWorkspace,
+        link: usize,
+        local_axis: &Vector3<f64>,
+        out: &mut TaskPoint,
+    ) {
         let u = ws.rot[link] * local_axis;
         let w = ws.omega[link];
         out.x = u;
@@ -273,5 +301,47 @@ impl Robot {
     pub fn sphere_center(&self, ws: &KinematicsWorkspace, i: usize) -> Vector3<f64> {
         let s = &self.spheres[i];
         ws.pose[s.link].translation.vector + ws.rot[s.link] * s.center
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::RobotOptions;
+
+    const PENDULUM: &str = r#"<robot name="pendulum">
+      <link name="base"/><link name="bob"/>
+      <joint name="swing" type="revolute"><parent link="base"/><child link="bob"/>
+        <origin xyz="0 0 1"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1"/></joint>
+    </robot>"#;
+
+    /// A point at radius ρ on a link turning at rate θ̇ about z: x = o + Rz(θ) p, J = z × (x − o),
+    /// J̇q̇ = −θ̇² (x − o)⊥ (centripetal), and the axis x̂ of the link turns as Rz(θ) x̂.
+    #[test]
+    fn single_revolute_closed_form() {
+        let robot = Robot::from_urdf_str(PENDULUM, "pendulum", &RobotOptions::default()).unwrap();
+        let mut ws = KinematicsWorkspace::new(&robot);
+        let (theta, rate) = (0.7_f64, -1.3_f64);
+        robot.update(&[theta], &[rate], &mut ws).unwrap();
+        let mut tp = TaskPoint::new(3); // wrong width: resized
+        let p = Vector3::new(0.4, 0.0, 0.2);
+        robot.point(&ws, 1, &p, &mut tp);
+        let r = Vector3::new(0.4 * theta.cos(), 0.4 * theta.sin(), 0.0);
+        assert!((tp.x - (Vector3::new(0.0, 0.0, 1.2) + r)).norm() < 1e-15);
+        assert_eq!(tp.jac.ncols(), 1);
+        let j = Vector3::new(-r.y, r.x, 0.0);
+        assert!((tp.jac.column(0) - j).norm() < 1e-15);
+        assert!((tp.xd - j * rate).norm() < 1e-15);
+        assert!((tp.jdot_qdot + r * rate * rate).norm() < 1e-15);
+        robot.axis(&ws, 1, &Vector3::x(), &mut tp);
+        let u = Vector3::new(theta.cos(), theta.sin(), 0.0);
+        assert!((tp.x - u).norm() < 1e-15);
+        assert!((tp.jdot_qdot + u * rate * rate).norm() < 1e-15);
+        let (w, v) = robot.link_velocity(&ws, 1);
+        assert_eq!((w, v), (Vector3::new(0.0, 0.0, rate), Vector3::zeros()));
+        // update_positions zeroes the motion.
+        robot.update_positions(&[theta], &mut ws).unwrap();
+        robot.point(&ws, 1, &p, &mut tp);
+        assert_eq!((tp.xd, tp.jdot_qdot), (Vector3::zeros(), Vector3::zeros()));
     }
 }

@@ -28,8 +28,10 @@ pub struct RobotOptions {
     /// Active joints, in the order of q. Default: every revolute, continuous or prismatic joint that is not
     /// a mimic joint, on the path from the base link to the end-effector link, in chain order.
     pub active_joints: Option<Vec<String>>,
-    /// Directory that resolves `package://pkg/...` and relative mesh paths (default: the directory of the
-    /// URDF file, none for a URDF string).
+    /// Directory `dir` that resolves mesh file names (default: the directory of the URDF file; the
+    /// current directory for a URDF string). `package://pkg/rest` tries `dir/pkg/rest`, `dir/rest` and
+    /// `dir/../rest`; `file://path` and plain relative names are taken relative to `dir`. The first
+    /// existing file wins; a missing file is not an error (the first candidate is kept, flagged).
     pub mesh_dir: Option<PathBuf>,
     /// Positions (rad or m) of inactive movable joints. Joints not listed are locked at 0 clamped into
     /// their limits. Naming an active, fixed or mimic joint is an error.
@@ -95,9 +97,7 @@ impl TreeJoint {
     pub fn moved_frame(&self, theta: f64) -> Isometry3<f64> {
         match self.motion {
             Motion::Fixed => self.pre,
-            Motion::Revolute(axis) => {
-                self.pre * UnitQuaternion::from_axis_angle(&axis, theta)
-            }
+            Motion::Revolute(axis) => self.pre * UnitQuaternion::from_axis_angle(&axis, theta),
             Motion::Prismatic(axis) => {
                 let mut iso = self.pre;
                 iso.translation.vector += iso.rotation * (axis.into_inner() * theta);
@@ -170,10 +170,13 @@ impl Robot {
 
     /// Index in q of an active joint. Errors with `MissingJoint` when the joint is not active.
     pub fn joint_index(&self, name: &str) -> Result<usize> {
-        self.joint_names.iter().position(|n| n == name).ok_or_else(|| FabricError::MissingJoint {
-            robot: self.name.clone(),
-            joint: name.to_string(),
-        })
+        self.joint_names
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| FabricError::MissingJoint {
+                robot: self.name.clone(),
+                joint: name.to_string(),
+            })
     }
 
     /// Lower position limits of the active joints, shape (dof,), rad or m. Continuous joints: -2π (a
@@ -201,15 +204,21 @@ impl Robot {
 
     /// Index of a link by name. Errors with `MissingLink`.
     pub fn link_index(&self, name: &str) -> Result<usize> {
-        self.link_names.iter().position(|n| n == name).ok_or_else(|| FabricError::MissingLink {
-            robot: self.name.clone(),
-            link: name.to_string(),
-        })
+        self.link_names
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| FabricError::MissingLink {
+                robot: self.name.clone(),
+                link: name.to_string(),
+            })
     }
 
     /// Parent link index of `link` (`None` for the base link or an index out of range).
     pub fn link_parent(&self, link: usize) -> Option<usize> {
-        self.joints.get(link).and_then(|j| j.as_ref()).map(|j| j.parent)
+        self.joints
+            .get(link)
+            .and_then(|j| j.as_ref())
+            .map(|j| j.parent)
     }
 
     /// Index of the end-effector link.
@@ -249,5 +258,54 @@ impl Robot {
     /// URDF `<collision>` elements (every geometry, spheres included): for mesh-based validation.
     pub fn collision_geometry(&self) -> &[LinkGeometry] {
         &self.geometry
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix3, Translation3};
+
+    fn joint(motion: Motion, coord: Option<usize>, scale: f64, offset: f64) -> TreeJoint {
+        TreeJoint {
+            name: "j".into(),
+            parent: 0,
+            pre: Isometry3::from_parts(
+                Translation3::new(0.1, -0.2, 0.3),
+                UnitQuaternion::from_euler_angles(0.4, 0.0, 0.0),
+            ),
+            post: None,
+            motion,
+            coord,
+            scale,
+            offset,
+        }
+    }
+
+    #[test]
+    fn mimic_position_and_velocity() {
+        let j = joint(Motion::Fixed, Some(1), -2.0, 0.5);
+        assert_eq!(j.position(&[9.0, 0.25]), 0.0);
+        assert_eq!(j.velocity(&[9.0, 3.0]), -6.0);
+        let locked = joint(Motion::Fixed, None, 1.0, 0.7);
+        assert_eq!(locked.position(&[1.0]), 0.7);
+        assert_eq!(locked.velocity(&[1.0]), 0.0);
+    }
+
+    #[test]
+    fn moved_frame_closed_forms() {
+        let (c, s) = (0.9_f64.cos(), 0.9_f64.sin());
+        let rz = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let rev = joint(Motion::Revolute(Vector3::z_axis()), Some(0), 1.0, 0.0);
+        let f = rev.moved_frame(0.9);
+        let pre = rev.pre.rotation.to_rotation_matrix().into_inner();
+        assert!((f.rotation.to_rotation_matrix().into_inner() - pre * rz).norm() < 1e-14);
+        assert_eq!(f.translation, rev.pre.translation);
+        // Prismatic: the origin moves by θ along the axis expressed in the parent frame.
+        let pri = joint(Motion::Prismatic(Vector3::y_axis()), Some(0), 1.0, 0.0);
+        let f = pri.moved_frame(0.05);
+        let expect = rev.pre.translation.vector + pre * Vector3::new(0.0, 0.05, 0.0);
+        assert!((f.translation.vector - expect).norm() < 1e-15);
+        assert_eq!(f.rotation, pri.pre.rotation);
     }
 }

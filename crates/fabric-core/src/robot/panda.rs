@@ -27,7 +27,9 @@ impl Robot {
         let spheres = robot
             .parse_sphere_json(PANDA_SPHERES, "assets/panda_spheres.json")
             .unwrap_or_else(|e| panic!("shipped Panda spheres: {e}"));
-        robot.set_spheres(spheres).unwrap_or_else(|e| panic!("shipped Panda spheres: {e}"));
+        robot
+            .set_spheres(spheres)
+            .unwrap_or_else(|e| panic!("shipped Panda spheres: {e}"));
         robot
             .set_self_collision_from_srdf(PANDA_SRDF, "assets/panda.srdf")
             .unwrap_or_else(|e| panic!("shipped Panda SRDF: {e}"));

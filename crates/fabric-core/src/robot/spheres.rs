@@ -36,11 +36,18 @@ impl Robot {
             if s.link >= self.link_names.len() {
                 return Err(FabricError::Value {
                     what: what(),
-                    message: format!("link index {} out of range (robot has {} links)", s.link, self.link_names.len()),
+                    message: format!(
+                        "link index {} out of range (robot has {} links)",
+                        s.link,
+                        self.link_names.len()
+                    ),
                 });
             }
             if !s.center.iter().all(|v| v.is_finite()) {
-                return Err(FabricError::Value { what: what(), message: "centre is not finite".into() });
+                return Err(FabricError::Value {
+                    what: what(),
+                    message: "centre is not finite".into(),
+                });
             }
             check_radius(s.radius, &what())?;
         }
@@ -53,8 +60,10 @@ impl Robot {
     /// [`Robot::parse_sphere_json`].
     pub fn load_sphere_file(&self, path: &Path) -> Result<Vec<CollisionSphere>> {
         let source = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| FabricError::Io { path: source.clone(), message: e.to_string() })?;
+        let text = std::fs::read_to_string(path).map_err(|e| FabricError::Io {
+            path: source.clone(),
+            message: e.to_string(),
+        })?;
         self.parse_sphere_json(&text, &source)
     }
 
@@ -67,7 +76,8 @@ impl Robot {
             field: field.to_string(),
             message,
         };
-        let doc: Value = serde_json::from_str(json).map_err(|e| format("(document)", e.to_string()))?;
+        let doc: Value =
+            serde_json::from_str(json).map_err(|e| format("(document)", e.to_string()))?;
         let list = doc
             .get("spheres")
             .ok_or_else(|| format("spheres", "missing".into()))?
@@ -76,9 +86,13 @@ impl Robot {
         let mut out = Vec::with_capacity(list.len());
         for (i, item) in list.iter().enumerate() {
             let field = |name: &str| format!("spheres[{i}].{name}");
-            let get = |name: &str| item.get(name).ok_or_else(|| format(&field(name), "missing".into()));
-            let link_name =
-                get("link")?.as_str().ok_or_else(|| format(&field("link"), "expected a string".into()))?;
+            let get = |name: &str| {
+                item.get(name)
+                    .ok_or_else(|| format(&field(name), "missing".into()))
+            };
+            let link_name = get("link")?
+                .as_str()
+                .ok_or_else(|| format(&field("link"), "expected a string".into()))?;
             let link = self.link_index(link_name)?;
             let center = get("center")?
                 .as_array()
@@ -88,10 +102,15 @@ impl Robot {
                     v.map(|v| Vector3::new(v[0], v[1], v[2]))
                 })
                 .ok_or_else(|| format(&field("center"), "expected an array of 3 numbers".into()))?;
-            let radius =
-                get("radius")?.as_f64().ok_or_else(|| format(&field("radius"), "expected a number".into()))?;
+            let radius = get("radius")?
+                .as_f64()
+                .ok_or_else(|| format(&field("radius"), "expected a number".into()))?;
             check_radius(radius, &format!("{source}: {}", field("radius")))?;
-            out.push(CollisionSphere { link, center, radius });
+            out.push(CollisionSphere {
+                link,
+                center,
+                radius,
+            });
         }
         Ok(out)
     }
@@ -101,6 +120,9 @@ fn check_radius(radius: f64, what: &str) -> Result<()> {
     if radius.is_finite() && radius > 0.0 {
         Ok(())
     } else {
-        Err(FabricError::Value { what: what.to_string(), message: format!("radius {radius} must be finite and > 0") })
+        Err(FabricError::Value {
+            what: what.to_string(),
+            message: format!("radius {radius} must be finite and > 0"),
+        })
     }
 }

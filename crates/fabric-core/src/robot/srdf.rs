@@ -11,18 +11,32 @@ impl Robot {
     /// in errors. Errors: `Format` naming the file and the element (malformed XML, a root other than
     /// `<robot>`, a missing `link1`/`link2` attribute, a link the robot does not have).
     pub fn set_self_collision_from_srdf(&mut self, srdf_xml: &str, source: &str) -> Result<()> {
-        let err = |field: String, message: String| FabricError::Format { file: source.to_string(), field, message };
-        let doc = roxmltree::Document::parse(srdf_xml).map_err(|e| err("(xml)".into(), e.to_string()))?;
+        let err = |field: String, message: String| FabricError::Format {
+            file: source.to_string(),
+            field,
+            message,
+        };
+        let doc =
+            roxmltree::Document::parse(srdf_xml).map_err(|e| err("(xml)".into(), e.to_string()))?;
         let root = doc.root_element();
         if root.tag_name().name() != "robot" {
-            return Err(err("(root)".into(), format!("expected <robot>, found <{}>", root.tag_name().name())));
+            return Err(err(
+                "(root)".into(),
+                format!("expected <robot>, found <{}>", root.tag_name().name()),
+            ));
         }
         let mut disabled = Vec::new();
-        for (k, node) in root.children().filter(|n| n.has_tag_name("disable_collisions")).enumerate() {
+        for (k, node) in root
+            .children()
+            .filter(|n| n.has_tag_name("disable_collisions"))
+            .enumerate()
+        {
             let line = doc.text_pos_at(node.range().start).row;
             let link = |attr: &str| -> Result<usize> {
                 let field = format!("disable_collisions[{k}] (line {line}).{attr}");
-                let name = node.attribute(attr).ok_or_else(|| err(field.clone(), "missing attribute".into()))?;
+                let name = node
+                    .attribute(attr)
+                    .ok_or_else(|| err(field.clone(), "missing attribute".into()))?;
                 self.link_index(name).map_err(|e| err(field, e.to_string()))
             };
             let (a, b) = (link("link1")?, link("link2")?);

@@ -28,25 +28,44 @@ impl Robot {
     /// directory of the file. Errors as [`Robot::from_urdf_str`], plus `Io` when the file cannot be read.
     pub fn from_urdf_file(path: &Path, opts: &RobotOptions) -> Result<Robot> {
         let source = path.display().to_string();
-        let xml = std::fs::read_to_string(path)
-            .map_err(|e| FabricError::Io { path: source.clone(), message: e.to_string() })?;
-        let dir = opts.mesh_dir.clone().or_else(|| path.parent().map(Path::to_path_buf));
+        let xml = std::fs::read_to_string(path).map_err(|e| FabricError::Io {
+            path: source.clone(),
+            message: e.to_string(),
+        })?;
+        let dir = opts
+            .mesh_dir
+            .clone()
+            .or_else(|| path.parent().map(Path::to_path_buf));
         build(&xml, &source, opts, dir.as_deref())
     }
 }
 
 fn urdf_err(source: &str, message: impl Into<String>) -> FabricError {
-    FabricError::Urdf { file: source.to_string(), message: message.into() }
+    FabricError::Urdf {
+        file: source.to_string(),
+        message: message.into(),
+    }
 }
 
 fn is_movable(kind: &JointType) -> bool {
-    matches!(kind, JointType::Revolute | JointType::Continuous | JointType::Prismatic)
+    matches!(
+        kind,
+        JointType::Revolute | JointType::Continuous | JointType::Prismatic
+    )
 }
 
 /// URDF `<origin>` as an isometry (rpy is fixed-axis: R = Rz(yaw)·Ry(pitch)·Rx(roll)).
 fn pose_to_iso(pose: &Pose, what: &str, source: &str) -> Result<Isometry3<f64>> {
-    if pose.xyz.iter().chain(pose.rpy.iter()).any(|v| !v.is_finite()) {
-        return Err(urdf_err(source, format!("{what}: origin contains NaN or infinite values")));
+    if pose
+        .xyz
+        .iter()
+        .chain(pose.rpy.iter())
+        .any(|v| !v.is_finite())
+    {
+        return Err(urdf_err(
+            source,
+            format!("{what}: origin contains NaN or infinite values"),
+        ));
     }
     let [r, p, y] = pose.rpy.0;
     Ok(Isometry3::from_parts(
@@ -75,7 +94,10 @@ impl<'a> Graph<'a> {
         let mut link_index = HashMap::new();
         for (i, l) in urdf.links.iter().enumerate() {
             if link_index.insert(l.name.as_str(), i).is_some() {
-                return Err(urdf_err(source, format!("duplicate link name '{}'", l.name)));
+                return Err(urdf_err(
+                    source,
+                    format!("duplicate link name '{}'", l.name),
+                ));
             }
         }
         let mut joint_index = HashMap::new();
@@ -83,7 +105,10 @@ impl<'a> Graph<'a> {
         let mut children = vec![Vec::new(); urdf.links.len()];
         for (j, joint) in urdf.joints.iter().enumerate() {
             if joint_index.insert(joint.name.as_str(), j).is_some() {
-                return Err(urdf_err(source, format!("duplicate joint name '{}'", joint.name)));
+                return Err(urdf_err(
+                    source,
+                    format!("duplicate joint name '{}'", joint.name),
+                ));
             }
             let kind = match joint.joint_type {
                 JointType::Floating => Some("floating"),
@@ -100,23 +125,40 @@ impl<'a> Graph<'a> {
             }
             let find = |name: &str| {
                 link_index.get(name).copied().ok_or_else(|| {
-                    urdf_err(source, format!("joint '{}' names unknown link '{name}'", joint.name))
+                    urdf_err(
+                        source,
+                        format!("joint '{}' names unknown link '{name}'", joint.name),
+                    )
                 })
             };
             let (p, c) = (find(&joint.parent.link)?, find(&joint.child.link)?);
             if p == c {
-                return Err(urdf_err(source, format!("joint '{}' connects link '{}' to itself", joint.name, joint.parent.link)));
+                return Err(urdf_err(
+                    source,
+                    format!(
+                        "joint '{}' connects link '{}' to itself",
+                        joint.name, joint.parent.link
+                    ),
+                ));
             }
             if parent[c].is_some() {
-                return Err(urdf_err(source, format!("link '{}' is the child of several joints", joint.child.link)));
+                return Err(urdf_err(
+                    source,
+                    format!("link '{}' is the child of several joints", joint.child.link),
+                ));
             }
             parent[c] = Some((j, p));
             children[p].push((j, c));
         }
-        let roots: Vec<usize> = (0..urdf.links.len()).filter(|&l| parent[l].is_none()).collect();
+        let roots: Vec<usize> = (0..urdf.links.len())
+            .filter(|&l| parent[l].is_none())
+            .collect();
         if roots.len() != 1 {
             let names: Vec<&str> = roots.iter().map(|&l| urdf.links[l].name.as_str()).collect();
-            return Err(urdf_err(source, format!("expected one root link, found {}: {names:?}", roots.len())));
+            return Err(urdf_err(
+                source,
+                format!("expected one root link, found {}: {names:?}", roots.len()),
+            ));
         }
         // Every link must hang below the root; a link that does not sits on a cycle.
         let mut seen = vec![false; urdf.links.len()];
@@ -126,9 +168,19 @@ impl<'a> Graph<'a> {
             stack.extend(children[l].iter().map(|&(_, c)| c));
         }
         if let Some(l) = seen.iter().position(|s| !s) {
-            return Err(urdf_err(source, format!("link '{}' is on a joint cycle", urdf.links[l].name)));
+            return Err(urdf_err(
+                source,
+                format!("link '{}' is on a joint cycle", urdf.links[l].name),
+            ));
         }
-        Ok(Graph { urdf, source, link_index, joint_index, parent, children })
+        Ok(Graph {
+            urdf,
+            source,
+            link_index,
+            joint_index,
+            parent,
+            children,
+        })
     }
 
     fn root(&self) -> usize {
@@ -136,34 +188,44 @@ impl<'a> Graph<'a> {
     }
 
     fn joint(&self, name: &str, robot: &str) -> Result<usize> {
-        self.joint_index.get(name).copied().ok_or_else(|| FabricError::MissingJoint {
-            robot: robot.to_string(),
-            joint: name.to_string(),
-        })
+        self.joint_index
+            .get(name)
+            .copied()
+            .ok_or_else(|| FabricError::MissingJoint {
+                robot: robot.to_string(),
+                joint: name.to_string(),
+            })
     }
 }
+
+/// An edge of the re-rooted tree: (URDF joint, parent tree index, reversed).
+type Edge = (usize, usize, bool);
 
 /// The tree re-rooted at the base link, in depth-first pre-order.
 struct Rooted {
     /// URDF link index of each tree link.
     order: Vec<usize>,
     /// For each tree link but the base: (URDF joint, parent tree index, reversed).
-    edge: Vec<Option<(usize, usize, bool)>>,
+    edge: Vec<Option<Edge>>,
     children: Vec<Vec<usize>>,
 }
 
 fn reroot(g: &Graph, base: usize) -> Rooted {
     let n = g.urdf.links.len();
     let mut tree_index = vec![usize::MAX; n];
-    let mut rooted = Rooted { order: Vec::with_capacity(n), edge: Vec::with_capacity(n), children: Vec::new() };
+    let mut rooted = Rooted {
+        order: Vec::with_capacity(n),
+        edge: Vec::with_capacity(n),
+        children: Vec::new(),
+    };
     // (URDF link, incoming edge)
-    let mut stack: Vec<(usize, Option<(usize, usize, bool)>)> = vec![(base, None)];
+    let mut stack: Vec<(usize, Option<Edge>)> = vec![(base, None)];
     while let Some((l, edge)) = stack.pop() {
         tree_index[l] = rooted.order.len();
         rooted.order.push(l);
         rooted.edge.push(edge);
         let me = tree_index[l];
-        let mut next: Vec<(usize, Option<(usize, usize, bool)>)> = Vec::new();
+        let mut next: Vec<(usize, Option<Edge>)> = Vec::new();
         if let Some((j, p)) = g.parent[l] {
             if tree_index[p] == usize::MAX {
                 next.push((p, Some((j, me, true))));
@@ -189,7 +251,8 @@ fn reroot(g: &Graph, base: usize) -> Rooted {
 /// with explicit active joints, start below the deepest one and follow single fixed children only.
 fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usize {
     let n = t.order.len();
-    let movable_edge = |i: usize| t.edge[i].is_some_and(|(j, _, _)| is_movable(&g.urdf.joints[j].joint_type));
+    let movable_edge =
+        |i: usize| t.edge[i].is_some_and(|(j, _, _)| is_movable(&g.urdf.joints[j].joint_type));
     let mut current = 0;
     if let Some(active) = active {
         let depth = |mut i: usize| {
@@ -237,7 +300,13 @@ fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usize {
 }
 
 /// Active joints (URDF joint indices, in q order).
-fn choose_active(g: &Graph, t: &Rooted, ee: usize, opts: &RobotOptions, robot: &str) -> Result<Vec<usize>> {
+fn choose_active(
+    g: &Graph,
+    t: &Rooted,
+    ee: usize,
+    opts: &RobotOptions,
+    robot: &str,
+) -> Result<Vec<usize>> {
     let joints = &g.urdf.joints;
     let Some(names) = &opts.active_joints else {
         let mut chain = Vec::new();
@@ -261,12 +330,18 @@ fn choose_active(g: &Graph, t: &Rooted, ee: usize, opts: &RobotOptions, robot: &
         return Ok(chain);
     };
     if names.is_empty() {
-        return Err(FabricError::Value { what: "active joints".into(), message: "the list is empty".into() });
+        return Err(FabricError::Value {
+            what: "active joints".into(),
+            message: "the list is empty".into(),
+        });
     }
     let mut out = Vec::with_capacity(names.len());
     for name in names {
         let j = g.joint(name, robot)?;
-        let bad = |m: &str| FabricError::Value { what: format!("active joint '{name}'"), message: m.into() };
+        let bad = |m: &str| FabricError::Value {
+            what: format!("active joint '{name}'"),
+            message: m.into(),
+        };
         if !is_movable(&joints[j].joint_type) {
             return Err(bad("is a fixed joint"));
         }
@@ -282,12 +357,20 @@ fn choose_active(g: &Graph, t: &Rooted, ee: usize, opts: &RobotOptions, robot: &
 }
 
 /// How each URDF joint is driven: (coordinate, scale, offset); position = scale·q[coord] + offset.
-fn drives(g: &Graph, active: &[usize], opts: &RobotOptions, robot: &str) -> Result<Vec<(Option<usize>, f64, f64)>> {
+fn drives(
+    g: &Graph,
+    active: &[usize],
+    opts: &RobotOptions,
+    robot: &str,
+) -> Result<Vec<(Option<usize>, f64, f64)>> {
     let joints = &g.urdf.joints;
     let mut locked: HashMap<usize, f64> = HashMap::new();
     for (name, value) in &opts.locked_positions {
         let j = g.joint(name, robot)?;
-        let bad = |m: &str| FabricError::Value { what: format!("locked joint '{name}'"), message: m.into() };
+        let bad = |m: &str| FabricError::Value {
+            what: format!("locked joint '{name}'"),
+            message: m.into(),
+        };
         if !is_movable(&joints[j].joint_type) {
             return Err(bad("is a fixed joint"));
         }
@@ -298,7 +381,9 @@ fn drives(g: &Graph, active: &[usize], opts: &RobotOptions, robot: &str) -> Resu
             return Err(bad("is an active joint"));
         }
         if !value.is_finite() {
-            return Err(FabricError::NonFinite { what: format!("locked position of joint '{name}'") });
+            return Err(FabricError::NonFinite {
+                what: format!("locked position of joint '{name}'"),
+            });
         }
         locked.insert(j, *value);
     }
@@ -307,11 +392,16 @@ fn drives(g: &Graph, active: &[usize], opts: &RobotOptions, robot: &str) -> Resu
             return (Some(c), 1.0, 0.0);
         }
         let joint = &joints[j];
-        let value = locked.get(&j).copied().unwrap_or_else(|| match joint.joint_type {
-            JointType::Continuous => 0.0,
-            _ if joint.limit.lower <= joint.limit.upper => 0.0_f64.clamp(joint.limit.lower, joint.limit.upper),
-            _ => 0.0,
-        });
+        let value = locked
+            .get(&j)
+            .copied()
+            .unwrap_or_else(|| match joint.joint_type {
+                JointType::Continuous => 0.0,
+                _ if joint.limit.lower <= joint.limit.upper => {
+                    0.0_f64.clamp(joint.limit.lower, joint.limit.upper)
+                }
+                _ => 0.0,
+            });
         (None, 1.0, value)
     };
     let mut out = Vec::with_capacity(joints.len());
@@ -324,15 +414,37 @@ fn drives(g: &Graph, active: &[usize], opts: &RobotOptions, robot: &str) -> Resu
         let (mut k, mut o, mut cur) = (1.0, 0.0, j);
         let mut steps = 0;
         while let Some(m) = &joints[cur].mimic {
-            let src = g.joint_index.get(m.joint.as_str()).copied().ok_or_else(|| {
-                urdf_err(g.source, format!("joint '{}' mimics unknown joint '{}'", joints[cur].name, m.joint))
-            })?;
+            let src = g
+                .joint_index
+                .get(m.joint.as_str())
+                .copied()
+                .ok_or_else(|| {
+                    urdf_err(
+                        g.source,
+                        format!(
+                            "joint '{}' mimics unknown joint '{}'",
+                            joints[cur].name, m.joint
+                        ),
+                    )
+                })?;
             if !is_movable(&joints[src].joint_type) {
-                return Err(urdf_err(g.source, format!("joint '{}' mimics fixed joint '{}'", joints[cur].name, m.joint)));
+                return Err(urdf_err(
+                    g.source,
+                    format!(
+                        "joint '{}' mimics fixed joint '{}'",
+                        joints[cur].name, m.joint
+                    ),
+                ));
             }
             let (mult, off) = (m.multiplier.unwrap_or(1.0), m.offset.unwrap_or(0.0));
             if !mult.is_finite() || !off.is_finite() {
-                return Err(urdf_err(g.source, format!("joint '{}': mimic multiplier/offset not finite", joints[cur].name)));
+                return Err(urdf_err(
+                    g.source,
+                    format!(
+                        "joint '{}': mimic multiplier/offset not finite",
+                        joints[cur].name
+                    ),
+                ));
             }
             // q_cur = mult·q_src + off, and q_j = k·q_cur + o.
             o += k * off;
@@ -340,7 +452,10 @@ fn drives(g: &Graph, active: &[usize], opts: &RobotOptions, robot: &str) -> Resu
             cur = src;
             steps += 1;
             if steps > joints.len() {
-                return Err(urdf_err(g.source, format!("joint '{}': mimic cycle", joint.name)));
+                return Err(urdf_err(
+                    g.source,
+                    format!("joint '{}': mimic cycle", joint.name),
+                ));
             }
         }
         let (c, s, off) = own(cur);
@@ -356,7 +471,11 @@ fn limits(g: &Graph, active: &[usize]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)>
         let joint = &g.urdf.joints[j];
         let lim = &joint.limit;
         let continuous = joint.joint_type == JointType::Continuous;
-        let (l, u) = if continuous { (-TAU, TAU) } else { (lim.lower, lim.upper) };
+        let (l, u) = if continuous {
+            (-TAU, TAU)
+        } else {
+            (lim.lower, lim.upper)
+        };
         if !(l.is_finite() && u.is_finite() && l < u) {
             return Err(urdf_err(
                 g.source,
@@ -368,7 +487,13 @@ fn limits(g: &Graph, active: &[usize]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)>
         } else if continuous && lim.velocity == 0.0 {
             f64::INFINITY
         } else {
-            return Err(urdf_err(g.source, format!("joint '{}': velocity limit {} is not > 0", joint.name, lim.velocity)));
+            return Err(urdf_err(
+                g.source,
+                format!(
+                    "joint '{}': velocity limit {} is not > 0",
+                    joint.name, lim.velocity
+                ),
+            ));
         };
         lo.push(l);
         hi.push(u);
@@ -378,7 +503,11 @@ fn limits(g: &Graph, active: &[usize]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)>
 }
 
 /// Tree joints (indexed by child tree link) from the re-rooted graph and the joint drives.
-fn tree_joints(g: &Graph, t: &Rooted, drive: &[(Option<usize>, f64, f64)]) -> Result<Vec<Option<TreeJoint>>> {
+fn tree_joints(
+    g: &Graph,
+    t: &Rooted,
+    drive: &[(Option<usize>, f64, f64)],
+) -> Result<Vec<Option<TreeJoint>>> {
     let mut out = Vec::with_capacity(t.order.len());
     for edge in &t.edge {
         let Some((j, parent, reversed)) = *edge else {
@@ -391,7 +520,13 @@ fn tree_joints(g: &Graph, t: &Rooted, drive: &[(Option<usize>, f64, f64)]) -> Re
             let a = Vector3::from(joint.axis.xyz.0);
             let norm = a.norm();
             if !(norm.is_finite() && norm > 1e-12) {
-                return Err(urdf_err(g.source, format!("joint '{}': axis {:?} has no direction", joint.name, joint.axis.xyz.0)));
+                return Err(urdf_err(
+                    g.source,
+                    format!(
+                        "joint '{}': axis {:?} has no direction",
+                        joint.name, joint.axis.xyz.0
+                    ),
+                ));
             }
             let axis = Unit::new_unchecked(if reversed { -a / norm } else { a / norm });
             match joint.joint_type {
@@ -402,8 +537,21 @@ fn tree_joints(g: &Graph, t: &Rooted, drive: &[(Option<usize>, f64, f64)]) -> Re
             Motion::Fixed
         };
         let (coord, scale, offset) = drive[j];
-        let (pre, post) = if reversed { (Isometry3::identity(), Some(origin.inverse())) } else { (origin, None) };
-        let mut tj = TreeJoint { name: joint.name.clone(), parent, pre, post, motion, coord, scale, offset };
+        let (pre, post) = if reversed {
+            (Isometry3::identity(), Some(origin.inverse()))
+        } else {
+            (origin, None)
+        };
+        let mut tj = TreeJoint {
+            name: joint.name.clone(),
+            parent,
+            pre,
+            post,
+            motion,
+            coord,
+            scale,
+            offset,
+        };
         if coord.is_none() && motion != Motion::Fixed {
             // A locked joint is a fixed transform: fold its constant motion into `pre`.
             let rigid = tj.moved_frame(offset);
@@ -417,7 +565,11 @@ fn tree_joints(g: &Graph, t: &Rooted, drive: &[(Option<usize>, f64, f64)]) -> Re
 }
 
 /// Collision spheres and collision geometry of every link.
-fn collisions(g: &Graph, t: &Rooted, mesh_dir: Option<&Path>) -> Result<(Vec<CollisionSphere>, Vec<LinkGeometry>)> {
+fn collisions(
+    g: &Graph,
+    t: &Rooted,
+    mesh_dir: Option<&Path>,
+) -> Result<(Vec<CollisionSphere>, Vec<LinkGeometry>)> {
     let (mut spheres, mut geometry) = (Vec::new(), Vec::new());
     for (ti, &ul) in t.order.iter().enumerate() {
         let link = &g.urdf.links[ul];
@@ -427,29 +579,59 @@ fn collisions(g: &Graph, t: &Rooted, mesh_dir: Option<&Path>) -> Result<(Vec<Col
             let positive = |v: f64| v.is_finite() && v > 0.0;
             let kind = match &c.geometry {
                 Geometry::Sphere { radius } if positive(*radius) => {
-                    spheres.push(CollisionSphere { link: ti, center: origin.translation.vector, radius: *radius });
+                    spheres.push(CollisionSphere {
+                        link: ti,
+                        center: origin.translation.vector,
+                        radius: *radius,
+                    });
                     GeometryKind::Sphere { radius: *radius }
                 }
-                Geometry::Box { size } if size.iter().all(|&v| positive(v)) => {
-                    GeometryKind::Box { size: Vector3::from(size.0) }
-                }
+                Geometry::Box { size } if size.iter().all(|&v| positive(v)) => GeometryKind::Box {
+                    size: Vector3::from(size.0),
+                },
                 Geometry::Cylinder { radius, length } if positive(*radius) && positive(*length) => {
-                    GeometryKind::Cylinder { radius: *radius, length: *length }
+                    GeometryKind::Cylinder {
+                        radius: *radius,
+                        length: *length,
+                    }
                 }
-                Geometry::Capsule { radius, length } if positive(*radius) && length.is_finite() && *length >= 0.0 => {
-                    GeometryKind::Capsule { radius: *radius, length: *length }
+                Geometry::Capsule { radius, length }
+                    if positive(*radius) && length.is_finite() && *length >= 0.0 =>
+                {
+                    GeometryKind::Capsule {
+                        radius: *radius,
+                        length: *length,
+                    }
                 }
                 Geometry::Mesh { filename, scale } => {
-                    let scale = scale.map(|s| Vector3::from(s.0)).unwrap_or_else(|| Vector3::repeat(1.0));
+                    let scale = scale
+                        .map(|s| Vector3::from(s.0))
+                        .unwrap_or_else(|| Vector3::repeat(1.0));
                     if scale.iter().any(|v| !v.is_finite()) {
-                        return Err(urdf_err(g.source, format!("{what}: mesh scale is not finite")));
+                        return Err(urdf_err(
+                            g.source,
+                            format!("{what}: mesh scale is not finite"),
+                        ));
                     }
                     let (path, exists) = resolve_mesh_path(filename, mesh_dir);
-                    GeometryKind::Mesh { path, scale, exists }
+                    GeometryKind::Mesh {
+                        path,
+                        scale,
+                        exists,
+                    }
                 }
-                other => return Err(urdf_err(g.source, format!("{what}: sizes must be finite and > 0, got {other:?}"))),
+                other => {
+                    return Err(urdf_err(
+                        g.source,
+                        format!("{what}: sizes must be finite and > 0, got {other:?}"),
+                    ))
+                }
             };
-            geometry.push(LinkGeometry { link: ti, origin, kind });
+            geometry.push(LinkGeometry {
+                link: ti,
+                origin,
+                kind,
+            });
         }
     }
     Ok((spheres, geometry))
@@ -462,10 +644,15 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
     let find_link = |l: &Option<String>, default: usize| -> Result<usize> {
         match l {
             None => Ok(default),
-            Some(n) => g.link_index.get(n.as_str()).copied().ok_or_else(|| FabricError::MissingLink {
-                robot: name.clone(),
-                link: n.clone(),
-            }),
+            Some(n) => {
+                g.link_index
+                    .get(n.as_str())
+                    .copied()
+                    .ok_or_else(|| FabricError::MissingLink {
+                        robot: name.clone(),
+                        link: n.clone(),
+                    })
+            }
         }
     };
     let base = find_link(&opts.base_link, g.root())?;
@@ -475,7 +662,12 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
         tree_of[ul] = ti;
     }
     let explicit_active = match &opts.active_joints {
-        Some(names) => Some(names.iter().map(|n| g.joint(n, &name)).collect::<Result<Vec<_>>>()?),
+        Some(names) => Some(
+            names
+                .iter()
+                .map(|n| g.joint(n, &name))
+                .collect::<Result<Vec<_>>>()?,
+        ),
         None => None,
     };
     let ee = match &opts.ee_link {
@@ -497,7 +689,11 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
             match (j.coord, j.motion) {
                 (Some(coord), Motion::Revolute(_) | Motion::Prismatic(_)) => {
                     let revolute = matches!(j.motion, Motion::Revolute(_));
-                    chains[i].push(ChainEntry { link: i, coord, revolute });
+                    chains[i].push(ChainEntry {
+                        link: i,
+                        coord,
+                        revolute,
+                    });
                     bodies[i] = i;
                 }
                 _ => bodies[i] = bodies[j.parent],
@@ -507,12 +703,19 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
     let mut robot = Robot {
         name,
         source: source.to_string(),
-        link_names: t.order.iter().map(|&l| urdf.links[l].name.clone()).collect(),
+        link_names: t
+            .order
+            .iter()
+            .map(|&l| urdf.links[l].name.clone())
+            .collect(),
         joints,
         chains,
         bodies,
         ee,
-        joint_names: active.iter().map(|&j| urdf.joints[j].name.clone()).collect(),
+        joint_names: active
+            .iter()
+            .map(|&j| urdf.joints[j].name.clone())
+            .collect(),
         lower,
         upper,
         velocity_limits,
@@ -523,4 +726,61 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
     };
     robot.recompute_self_pairs();
     Ok(robot)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CHAIN: &str = r#"<robot name="chain">
+      <link name="a"/><link name="b"/><link name="c"/>
+      <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0 0 0.1"/>
+        <axis xyz="0 0 2"/><limit lower="-1" upper="1" velocity="1"/></joint>
+      <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0.2 0 0"/>
+        <axis xyz="1 0 0"/><limit lower="0.3" upper="1" velocity="1"/></joint>
+    </robot>"#;
+
+    #[test]
+    fn locked_joints_fold_into_fixed_transforms() {
+        let opts = RobotOptions {
+            active_joints: Some(vec!["j1".into()]),
+            ..Default::default()
+        };
+        let robot = Robot::from_urdf_str(CHAIN, "chain", &opts).unwrap();
+        let j1 = robot.joints[1].as_ref().unwrap();
+        assert_eq!(j1.motion, Motion::Revolute(Vector3::z_axis())); // axis normalised
+        let j2 = robot.joints[2].as_ref().unwrap();
+        assert_eq!((j2.motion, j2.coord), (Motion::Fixed, None));
+        // Locked at 0 clamped into [0.3, 1]: a rotation of 0.3 rad about x after the origin.
+        let expect = Isometry3::from_parts(
+            Translation3::new(0.2, 0.0, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.3),
+        );
+        assert!((j2.pre.to_homogeneous() - expect.to_homogeneous()).norm() < 1e-15);
+        assert_eq!(robot.bodies, [0, 1, 1]);
+        assert_eq!(
+            robot.chains[2],
+            [ChainEntry {
+                link: 1,
+                coord: 0,
+                revolute: true
+            }]
+        );
+    }
+
+    #[test]
+    fn reversed_joints_swap_origin_and_negate_axis() {
+        let opts = RobotOptions {
+            base_link: Some("c".into()),
+            ee_link: Some("a".into()),
+            ..Default::default()
+        };
+        let robot = Robot::from_urdf_str(CHAIN, "chain", &opts).unwrap();
+        assert_eq!(robot.link_names(), ["c", "b", "a"]);
+        assert_eq!(robot.joint_names(), ["j2", "j1"]);
+        let j = robot.joints[1].as_ref().unwrap();
+        assert_eq!(j.motion, Motion::Revolute(-Vector3::x_axis()));
+        assert_eq!(j.pre, Isometry3::identity());
+        assert_eq!(j.post, Some(Isometry3::translation(-0.2, 0.0, 0.0)));
+    }
 }

@@ -9,7 +9,9 @@ use crate::fabric::{Fabric, FabricWorkspace};
 use crate::scene::Scene;
 
 /// A fabric in a fixed scene seen as a [`System`]: q̈ = `fabric.acceleration(scene, q, q̇, q_g)`, with the
-/// clearance monitor `Diagnostics::min_clearance` (m, negative in collision) of each evaluation.
+/// clearance monitor min(`Diagnostics::min_clearance`, `Diagnostics::min_self_clearance`) (m, negative in
+/// collision with an obstacle or with the robot itself, measured with the collision spheres) of each
+/// evaluation. Obstacle clearance is +∞ while no sphere is within the obstacle influence radius.
 ///
 /// The rollout validates lengths and finiteness before every evaluation, so a `NonFinite` or `Value`
 /// error of the fabric at a state means its dynamics broke down there (non-finite q̈, root metric M̃ not
@@ -53,7 +55,8 @@ impl System for FabricSystem<'_> {
     }
 
     fn clearance(&self, ws: &FabricWorkspace) -> f64 {
-        self.fabric.diagnostics(ws).min_clearance
+        let d = self.fabric.diagnostics(ws);
+        d.min_clearance.min(d.min_self_clearance)
     }
 }
 

@@ -23,9 +23,14 @@ pub struct SequenceOptions {
     /// Penalty p of eq. 4 (s) when the goal is not reached, ≥ 0. Default 100 s. Every failure costs more
     /// than every success when p > n·t_max (14 s at the defaults).
     pub penalty: f64,
-    /// Extension of eq. 4 (s), ≥ 0: added when the minimum clearance over the whole sequence is negative
-    /// (a collision), so that success requires reaching the goal without collision. Default 100 s.
+    /// Extension of eq. 4 (s), ≥ 0: added when the sequence collides (minimum clearance below
+    /// −`collision_tol`), so that costs rank collision-free sequences first. Default 0 (the paper's cost,
+    /// eq. 4, unchanged): the clearance comes from conservative collision spheres, and goals in contact
+    /// with objects (e.g. MotionBenchMaker grasps) sit at slightly negative sphere clearance.
     pub collision_penalty: f64,
+    /// Penetration depth (m), ≥ 0, tolerated before a negative clearance counts as a collision.
+    /// Default 0.
+    pub collision_tol: f64,
 }
 
 impl Default for SequenceOptions {
@@ -35,7 +40,8 @@ impl Default for SequenceOptions {
             n_commands: 1,
             waypoint_tol: 0.1,
             penalty: 100.0,
-            collision_penalty: 100.0,
+            collision_penalty: 0.0,
+            collision_tol: 0.0,
         }
     }
 }
@@ -49,19 +55,20 @@ fn check_non_negative(what: &str, v: f64) -> Result<()> {
 }
 
 impl SequenceOptions {
-    /// Check the rollout options, waypoint_tol > 0 and both penalties finite and ≥ 0.
+    /// Check the rollout options, waypoint_tol > 0, both penalties and collision_tol finite and ≥ 0.
     pub fn validate(&self) -> Result<()> {
         self.rollout.validate()?;
         check_positive("SequenceOptions.waypoint_tol", self.waypoint_tol)?;
         check_non_negative("SequenceOptions.penalty", self.penalty)?;
-        check_non_negative("SequenceOptions.collision_penalty", self.collision_penalty)
+        check_non_negative("SequenceOptions.collision_penalty", self.collision_penalty)?;
+        check_non_negative("SequenceOptions.collision_tol", self.collision_tol)
     }
 }
 
 /// Outcome of one command sequence (one GFCOP candidate).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SequenceResult {
-    /// Σᵢ tᵢ* + p·1[goal not reached] (eq. 4, 8) + collision_penalty·1[min_clearance < 0] (s).
+    /// Σᵢ tᵢ* + p·1[goal not reached] (eq. 4, 8) + collision_penalty·1[collided] (s).
     pub cost: f64,
     /// tᵢ* of every command, i = 1 … n + 1 (eq. 5), shape (n + 1,). A diverged rollout ends the sequence:
     /// it and every later command count t_max.
@@ -73,6 +80,8 @@ pub struct SequenceResult {
     pub reached: bool,
     /// Minimum clearance (m) over every step of every rollout (+∞ without a monitor).
     pub min_clearance: f64,
+    /// min_clearance < −collision_tol: the sequence went through a collision.
+    pub collided: bool,
     /// Final configuration (dof,).
     pub q: Vec<f64>,
     /// Final velocity (dof,).
@@ -84,9 +93,9 @@ pub struct SequenceResult {
 }
 
 impl SequenceResult {
-    /// Reached the goal with no collision (min clearance ≥ 0).
+    /// Reached the goal without collision.
     pub fn success(&self) -> bool {
-        self.reached && self.min_clearance >= 0.0
+        self.reached && !self.collided
     }
 }
 
@@ -163,10 +172,11 @@ pub(crate) fn run_sequence<S: System>(
     if !reached {
         cost += opts.penalty;
     }
-    if min_clearance < 0.0 {
+    let collided = min_clearance < -opts.collision_tol;
+    if collided {
         cost += opts.collision_penalty;
     }
-    Ok(SequenceResult { cost, t_stars, reasons, reached, min_clearance, q, qd, trajectory })
+    Ok(SequenceResult { cost, t_stars, reasons, reached, min_clearance, collided, q, qd, trajectory })
 }
 
 /// Roll out the command sequence (q_g¹ … q_gⁿ, goal) from (`q0`, `qd0`) for any [`System`]

@@ -98,6 +98,49 @@ pub(crate) fn eval_world(
     Some(SurfaceDistance { distance: l.d, gradient: rot * l.g, hessian })
 }
 
+/// Signed distance only (no derivatives), when it is `<= max_distance`: the cheap test used by the
+/// broadphase before [`eval_world`]. Same value as `eval_world(..).distance`.
+pub(crate) fn distance_world(
+    shape: &Shape,
+    rot: &Matrix3<f64>,
+    trans: &Vector3<f64>,
+    p: &Vector3<f64>,
+    max_distance: f64,
+) -> Option<f64> {
+    let d = match shape {
+        Shape::Sphere { radius } => (p - trans).norm() - radius,
+        Shape::Cuboid { half_extents } => {
+            let q = rot.tr_mul(&(p - trans)).abs() - half_extents;
+            let outside = q.sup(&Vector3::zeros()).norm_squared();
+            if outside > 0.0 {
+                outside.sqrt()
+            } else {
+                q.max()
+            }
+        }
+        Shape::Cylinder { half_height, radius } => {
+            let l = rot.tr_mul(&(p - trans));
+            let a = l.x.hypot(l.y) - radius;
+            let b = l.z.abs() - half_height;
+            if a > 0.0 && b > 0.0 {
+                a.hypot(b)
+            } else {
+                a.max(b)
+            }
+        }
+        Shape::Capsule { half_height, radius } => {
+            let l = rot.tr_mul(&(p - trans));
+            let v = Vector3::new(l.x, l.y, l.z - l.z.clamp(-half_height, *half_height));
+            v.norm() - radius
+        }
+        Shape::HalfSpace => rot.column(2).dot(&(p - trans)),
+        Shape::TriMesh(_) | Shape::PointCloud(_) => {
+            return eval_world(shape, rot, trans, p, max_distance).map(|s| s.distance)
+        }
+    };
+    (d <= max_distance).then_some(d)
+}
+
 /// Result in the obstacle frame. `curved == false` means the Hessian is exactly 0.
 #[derive(Clone, Copy, Debug)]
 struct Local {

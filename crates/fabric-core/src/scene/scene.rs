@@ -15,7 +15,7 @@ use parry3d_f64::partitioning::{Bvh, BvhNode, BvhWorkspace, TraversalAction};
 use parry3d_f64::query;
 use parry3d_f64::shape::{Ball, Capsule, Cuboid, Cylinder, HalfSpace};
 
-use super::distance::{eval_world, DistanceSample};
+use super::distance::{distance_world, eval_world, DistanceSample};
 use super::shape::{aabb_signed_distance, check_pose, Obstacle, Shape};
 use crate::error::{FabricError, Result};
 
@@ -43,6 +43,11 @@ impl Entry {
     fn refresh(&mut self) {
         self.rot = self.obstacle.pose.rotation.to_rotation_matrix().into_inner();
         self.aabb = self.obstacle.shape.aabb(&self.obstacle.pose);
+    }
+
+    /// Signed distance only, when `<= max_distance`.
+    fn distance(&self, p: &Vector3<f64>, max_distance: f64) -> Option<f64> {
+        distance_world(&self.obstacle.shape, &self.rot, &self.obstacle.pose.translation.vector, p, max_distance)
     }
 
     fn sample(&self, p: &Vector3<f64>, max_distance: f64) -> Option<DistanceSample> {
@@ -234,9 +239,12 @@ impl Scene {
             if aabb_signed_distance(&node.mins(), &node.maxs(), &pt) > max_distance {
                 return TraversalAction::Prune;
             }
-            if let Some(slot) = node.leaf_data() {
-                if let Some(s) = self.entry(slot).and_then(|e| e.sample(p, max_distance)) {
-                    out.push(s);
+            if let Some(e) = node.leaf_data().and_then(|slot| self.entry(slot)) {
+                // Cheap exact distance first: derivatives only for obstacles in range.
+                if e.distance(p, max_distance).is_some() {
+                    if let Some(s) = e.sample(p, max_distance) {
+                        out.push(s);
+                    }
                 }
             }
             TraversalAction::Continue
@@ -260,16 +268,14 @@ impl Scene {
         }
         let bound = best.map_or(f64::INFINITY, |b| b.distance);
         let pt = Point3::from(*p);
+        // Best-first search on distances only; derivatives for the winner alone.
         let found = self.bvh.find_best(
             bound,
             |node: &BvhNode, _| aabb_signed_distance(&node.mins(), &node.maxs(), &pt),
-            |slot, best_so_far| {
-                let s = self.entry(slot)?.sample(p, best_so_far)?;
-                Some((s.distance, s))
-            },
+            |slot, best_so_far| self.entry(slot)?.distance(p, best_so_far),
         );
         match found {
-            Some((_, (_, s))) => Some(s),
+            Some((slot, _)) => self.entry(slot).and_then(|e| e.sample(p, f64::INFINITY)).or(best),
             None => best,
         }
     }
@@ -378,9 +384,9 @@ fn pair_distance(
             let mut best: Option<f64> = None;
             for i in pc.points_in(&region) {
                 let Some(pt) = pc.points().get(i) else { continue };
-                let proj = shape.project_point(&local_pose, pt, false);
-                let r = (pt - proj.point).norm();
-                let d = if proj.is_inside { -r } else { r } - pc.radius();
+                // `contains_point` is the reliable inside test (meshes use their pseudo-normals).
+                let r = (pt - shape.project_point(&local_pose, pt, false).point).norm();
+                let d = if shape.contains_point(&local_pose, pt) { -r } else { r } - pc.radius();
                 if best.map_or(true, |b| d < b) {
                     best = Some(d);
                 }

@@ -19,9 +19,15 @@ pub fn shared_dir() -> Option<PathBuf> {
         return Some(dir);
     }
     if std::env::var("CI").as_deref() == Ok("true") {
-        panic!("shared data directory {} is missing and CI=true", dir.display());
+        panic!(
+            "shared data directory {} is missing and CI=true",
+            dir.display()
+        );
     }
-    eprintln!("skipping: shared data directory {} not found (set GFCS_SHARED)", dir.display());
+    eprintln!(
+        "skipping: shared data directory {} not found (set GFCS_SHARED)",
+        dir.display()
+    );
     None
 }
 
@@ -33,12 +39,20 @@ pub fn mbm_panda_dir() -> Option<PathBuf> {
 /// The spherized MBM Panda with default options, or `None` (skip rule).
 pub fn mbm_spherized() -> Option<Robot> {
     let dir = mbm_panda_dir()?;
-    Some(Robot::from_urdf_file(&dir.join("panda_spherized.urdf"), &RobotOptions::default()).expect("MBM Panda"))
+    Some(
+        Robot::from_urdf_file(&dir.join("panda_spherized.urdf"), &RobotOptions::default())
+            .expect("MBM Panda"),
+    )
 }
 
 /// Uniform q inside the limits, and q̇ uniform in [-2, 2] per coordinate.
 pub fn random_state(robot: &Robot, rng: &mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>) {
-    let q = robot.lower().iter().zip(robot.upper()).map(|(&l, &u)| rng.gen_range(l..u)).collect();
+    let q = robot
+        .lower()
+        .iter()
+        .zip(robot.upper())
+        .map(|(&l, &u)| rng.gen_range(l..u))
+        .collect();
     let qd = (0..robot.dof()).map(|_| rng.gen_range(-2.0..2.0)).collect();
     (q, qd)
 }
@@ -70,7 +84,13 @@ impl Task {
     }
 
     /// Analytic kinematics at (q, q̇) from `point` / `axis`.
-    pub fn analytic(&self, robot: &Robot, ws: &mut KinematicsWorkspace, q: &[f64], qd: &[f64]) -> TaskPoint {
+    pub fn analytic(
+        &self,
+        robot: &Robot,
+        ws: &mut KinematicsWorkspace,
+        q: &[f64],
+        qd: &[f64],
+    ) -> TaskPoint {
         robot.update(q, qd, ws).expect("update");
         let mut out = TaskPoint::new(robot.dof());
         match *self {
@@ -98,7 +118,12 @@ fn richardson(mut f: impl FnMut(f64) -> Vector3<f64>, h: f64) -> Vector3<f64> {
 const H: f64 = 1e-3;
 
 /// Jacobian ∂x/∂q of the forward kinematics by finite differences, column by column.
-pub fn fd_jacobian(task: &Task, robot: &Robot, ws: &mut KinematicsWorkspace, q: &[f64]) -> Matrix3xX<f64> {
+pub fn fd_jacobian(
+    task: &Task,
+    robot: &Robot,
+    ws: &mut KinematicsWorkspace,
+    q: &[f64],
+) -> Matrix3xX<f64> {
     let mut jac = Matrix3xX::zeros(robot.dof());
     for c in 0..robot.dof() {
         let mut e = vec![0.0; robot.dof()];
@@ -110,14 +135,29 @@ pub fn fd_jacobian(task: &Task, robot: &Robot, ws: &mut KinematicsWorkspace, q: 
 }
 
 /// J̇q̇ as d/dt (J(q + t q̇) q̇) at t = 0, by finite differences of the analytic J.
-pub fn fd_jdot_qdot(task: &Task, robot: &Robot, ws: &mut KinematicsWorkspace, q: &[f64], qd: &[f64]) -> Vector3<f64> {
+pub fn fd_jdot_qdot(
+    task: &Task,
+    robot: &Robot,
+    ws: &mut KinematicsWorkspace,
+    q: &[f64],
+    qd: &[f64],
+) -> Vector3<f64> {
     let v = nalgebra::DVector::from_column_slice(qd);
-    richardson(|h| task.analytic(robot, ws, &shifted(q, qd, h), qd).jac * &v, H)
+    richardson(
+        |h| task.analytic(robot, ws, &shifted(q, qd, h), qd).jac * &v,
+        H,
+    )
 }
 
 /// ẍ along q(t) = q + t q̇ (q̈ = 0) from the forward kinematics only: second central differences with
 /// steps 2e-3 and 1e-3 combined by Richardson extrapolation (error O(h⁴), about 1e-9 m/s² here).
-pub fn fd_second(task: &Task, robot: &Robot, ws: &mut KinematicsWorkspace, q: &[f64], qd: &[f64]) -> Vector3<f64> {
+pub fn fd_second(
+    task: &Task,
+    robot: &Robot,
+    ws: &mut KinematicsWorkspace,
+    q: &[f64],
+    qd: &[f64],
+) -> Vector3<f64> {
     let x0 = task.eval(robot, ws, q);
     let mut second = |h: f64| {
         let xp = task.eval(robot, ws, &shifted(q, qd, h));
@@ -129,7 +169,13 @@ pub fn fd_second(task: &Task, robot: &Robot, ws: &mut KinematicsWorkspace, q: &[
 }
 
 /// ẋ along q̇ by finite differences of the forward kinematics.
-pub fn fd_velocity(task: &Task, robot: &Robot, ws: &mut KinematicsWorkspace, q: &[f64], qd: &[f64]) -> Vector3<f64> {
+pub fn fd_velocity(
+    task: &Task,
+    robot: &Robot,
+    ws: &mut KinematicsWorkspace,
+    q: &[f64],
+    qd: &[f64],
+) -> Vector3<f64> {
     richardson(|h| task.eval(robot, ws, &shifted(q, qd, h)), H)
 }
 
@@ -142,13 +188,19 @@ pub fn check_task(task: &Task, robot: &Robot, q: &[f64], qd: &[f64]) -> (f64, f6
     let x = task.eval(robot, &mut ws, q);
     assert!((tp.x - x).norm() < 1e-12, "x mismatch {task:?}");
     let jq = &tp.jac * nalgebra::DVector::from_column_slice(qd);
-    assert!((tp.xd - jq).norm() <= 1e-12 * (1.0 + jq.norm()), "xd != J qd for {task:?}");
+    assert!(
+        (tp.xd - jq).norm() <= 1e-12 * (1.0 + jq.norm()),
+        "xd != J qd for {task:?}"
+    );
     let j_fd = fd_jacobian(task, robot, &mut ws, q);
     let jd_fd = fd_jdot_qdot(task, robot, &mut ws, q, qd);
     let xd_fd = fd_velocity(task, robot, &mut ws, q, qd);
     let e = rel_err(tp.jac.as_slice(), j_fd.as_slice())
         .max(rel_err(tp.jdot_qdot.as_slice(), jd_fd.as_slice()))
         .max(rel_err(tp.xd.as_slice(), xd_fd.as_slice()));
-    let e2 = rel_err(tp.jdot_qdot.as_slice(), fd_second(task, robot, &mut ws, q, qd).as_slice());
+    let e2 = rel_err(
+        tp.jdot_qdot.as_slice(),
+        fd_second(task, robot, &mut ws, q, qd).as_slice(),
+    );
     (e, e2)
 }

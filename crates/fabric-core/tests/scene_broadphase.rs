@@ -1,0 +1,270 @@
+//! Scene editing and the broadphase: `query` and `signed_distance` against brute force over every
+//! obstacle on random scenes, before and after adds, moves, removals and `advance`; `shape_distance`.
+
+mod scene_support;
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use fabric_core::scene::meshio::{build_mesh, parse_obj};
+use fabric_core::scene::{point_distance, DistanceSample, Obstacle, ObstacleId, PointCloud, Scene, Shape};
+use fabric_core::FabricError;
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use parry3d_f64::shape::{Ball, Cuboid};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use scene_support::{random_pose, rng, vec_in, UNIT_CUBE_OBJ};
+
+fn random_obstacle(r: &mut ChaCha8Rng, cube: &Arc<parry3d_f64::shape::TriMesh>, i: usize) -> Obstacle {
+    let shape = match r.gen_range(0..6) {
+        0 => Shape::Sphere { radius: r.gen_range(0.01..0.1) },
+        1 => Shape::Cuboid { half_extents: vec_in(r, 0.01, 0.1) },
+        2 => Shape::Cylinder { half_height: r.gen_range(0.01..0.1), radius: r.gen_range(0.01..0.1) },
+        3 => Shape::Capsule { half_height: r.gen_range(0.0..0.1), radius: r.gen_range(0.01..0.1) },
+        4 => Shape::TriMesh(Arc::new(cube.as_ref().clone().scaled(&vec_in(r, 0.02, 0.2)))),
+        _ => {
+            let pts = (0..20).map(|_| vec_in(r, -0.05, 0.05)).collect();
+            Shape::PointCloud(Arc::new(PointCloud::new(pts, r.gen_range(0.0..0.02)).unwrap()))
+        }
+    };
+    Obstacle::new(format!("o{i}"), shape, random_pose(r, 1.0))
+}
+
+fn cube_mesh() -> Arc<parry3d_f64::shape::TriMesh> {
+    let (v, t) = parse_obj(UNIT_CUBE_OBJ, "cube.obj").unwrap();
+    Arc::new(build_mesh(v, t, "cube.obj").unwrap())
+}
+
+/// Brute force: every obstacle's distance, without the broadphase.
+fn brute(scene: &Scene, p: &Vector3<f64>) -> BTreeMap<ObstacleId, f64> {
+    scene
+        .iter()
+        .map(|(id, o)| (id, point_distance(&o.shape, &o.pose, p, f64::INFINITY).unwrap().distance))
+        .collect()
+}
+
+fn check_against_brute_force(scene: &Scene, r: &mut ChaCha8Rng, points: usize) {
+    let mut out: Vec<DistanceSample> = Vec::new();
+    let mut nonempty = 0;
+    for _ in 0..points {
+        let p = vec_in(r, -1.3, 1.3);
+        let max = r.gen_range(-0.05..0.4);
+        let all = brute(scene, &p);
+        out.clear();
+        scene.query(&p, max, &mut out);
+        let got: BTreeMap<ObstacleId, f64> = out.iter().map(|s| (s.obstacle, s.distance)).collect();
+        assert_eq!(got.len(), out.len(), "an obstacle was reported twice");
+        let expected: BTreeMap<ObstacleId, f64> = all.iter().filter(|(_, &d)| d <= max).map(|(&i, &d)| (i, d)).collect();
+        assert_eq!(got.keys().collect::<Vec<_>>(), expected.keys().collect::<Vec<_>>(), "at {p:?}, max {max}");
+        for (id, d) in &got {
+            assert!((d - expected[id]).abs() < 1e-12);
+        }
+        nonempty += usize::from(!got.is_empty());
+        let best = scene.signed_distance(&p).unwrap();
+        let min = all.values().copied().fold(f64::INFINITY, f64::min);
+        assert!((best.distance - min).abs() < 1e-12, "signed_distance {} vs brute {min}", best.distance);
+        assert_eq!(all[&best.obstacle], best.distance);
+    }
+    assert!(nonempty > points / 10, "test points too far from the obstacles ({nonempty})");
+}
+
+#[test]
+fn query_never_misses_on_random_scenes() {
+    let cube = cube_mesh();
+    for seed in 0..3 {
+        let mut r = rng(100 + seed);
+        let mut scene = Scene::new();
+        let mut ids = Vec::new();
+        for i in 0..200 {
+            ids.push(scene.add(random_obstacle(&mut r, &cube, i)).unwrap());
+        }
+        let floor = Isometry3::translation(0.0, 0.0, -1.2);
+        scene.add(Obstacle::new("floor", Shape::HalfSpace, floor)).unwrap();
+        check_against_brute_force(&scene, &mut r, 150);
+
+        // Remove 50, move 50, add 50: incremental updates only.
+        for _ in 0..50 {
+            let k = r.gen_range(0..ids.len());
+            let id = ids.swap_remove(k);
+            scene.remove(id).unwrap();
+        }
+        for _ in 0..50 {
+            let id = ids[r.gen_range(0..ids.len())];
+            scene.set_pose(id, random_pose(&mut r, 1.0)).unwrap();
+        }
+        for i in 0..50 {
+            ids.push(scene.add(random_obstacle(&mut r, &cube, 1000 + i)).unwrap());
+        }
+        assert_eq!(scene.len(), 201);
+        check_against_brute_force(&scene, &mut r, 150);
+
+        // Velocities and several advance steps (BVH refit).
+        for &id in &ids {
+            scene.set_velocity(id, vec_in(&mut r, -0.5, 0.5)).unwrap();
+        }
+        for _ in 0..5 {
+            scene.advance(0.1);
+        }
+        check_against_brute_force(&scene, &mut r, 150);
+    }
+}
+
+#[test]
+fn add_get_move_remove() {
+    let mut scene = Scene::new();
+    assert!(scene.is_empty());
+    assert!(scene.signed_distance(&Vector3::zeros()).is_none());
+    let a = scene.add(Obstacle::new("a", Shape::Sphere { radius: 0.1 }, Isometry3::identity())).unwrap();
+    let b = scene
+        .add(Obstacle::new("b", Shape::cuboid_from_size(Vector3::new(0.2, 0.2, 0.2)), Isometry3::translation(1.0, 0.0, 0.0)))
+        .unwrap();
+    assert_ne!(a, b);
+    assert_eq!(scene.ids(), vec![a, b]);
+    assert_eq!(scene.len(), 2);
+    assert_eq!(scene.find("b"), Some(b));
+    assert_eq!(scene.get(a).unwrap().name, "a");
+
+    let p = Vector3::new(0.5, 0.0, 0.0);
+    let mut out = Vec::new();
+    scene.query(&p, 0.5, &mut out);
+    assert_eq!(out.len(), 2);
+    assert!((scene.signed_distance(&p).unwrap().distance - 0.4).abs() < 1e-12);
+
+    scene.set_pose(a, Isometry3::translation(3.0, 0.0, 0.0)).unwrap();
+    let s = scene.signed_distance(&p).unwrap();
+    assert_eq!(s.obstacle, b);
+    assert!((s.distance - 0.4).abs() < 1e-12);
+    out.clear();
+    scene.query(&p, 0.45, &mut out);
+    assert_eq!(out.iter().map(|s| s.obstacle).collect::<Vec<_>>(), vec![b]);
+
+    let removed = scene.remove(b).unwrap();
+    assert_eq!(removed.name, "b");
+    assert!(scene.get(b).is_none());
+    assert!(matches!(scene.remove(b), Err(FabricError::Value { .. })));
+    assert!(matches!(scene.set_pose(b, Isometry3::identity()), Err(FabricError::Value { .. })));
+    assert_eq!(scene.signed_distance(&p).unwrap().obstacle, a);
+    // Ids are not reused after a removal.
+    let c = scene.add(Obstacle::new("c", Shape::HalfSpace, Isometry3::identity())).unwrap();
+    assert!(c.0 > b.0);
+    assert!((scene.signed_distance(&Vector3::new(0.0, 0.0, 0.3)).unwrap().distance - 0.3).abs() < 1e-12);
+    scene.remove(c).unwrap();
+    assert!((scene.signed_distance(&p).unwrap().distance - 2.4).abs() < 1e-12);
+}
+
+#[test]
+fn invalid_obstacles_are_rejected() {
+    let mut scene = Scene::new();
+    let id = Isometry3::identity();
+    let bad = [
+        Obstacle::new("s", Shape::Sphere { radius: -0.1 }, id),
+        Obstacle::new("b", Shape::Cuboid { half_extents: Vector3::new(0.1, 0.0, 0.1) }, id),
+        Obstacle::new("c", Shape::Cylinder { half_height: 0.1, radius: f64::NAN }, id),
+        Obstacle::new("k", Shape::Capsule { half_height: -0.1, radius: 0.1 }, id),
+    ];
+    for o in bad {
+        assert!(matches!(scene.add(o), Err(FabricError::Value { .. })));
+    }
+    let nan_pose = Isometry3::translation(f64::NAN, 0.0, 0.0);
+    assert!(matches!(
+        scene.add(Obstacle::new("n", Shape::Sphere { radius: 0.1 }, nan_pose)),
+        Err(FabricError::NonFinite { .. })
+    ));
+    let skew = Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(2.0, 0.0, 0.0, 0.0)),
+    );
+    assert!(matches!(
+        scene.add(Obstacle::new("q", Shape::Sphere { radius: 0.1 }, skew)),
+        Err(FabricError::Value { .. })
+    ));
+    let moving = Obstacle::new("v", Shape::Sphere { radius: 0.1 }, id).with_velocity(Vector3::new(f64::INFINITY, 0.0, 0.0));
+    assert!(matches!(scene.add(moving), Err(FabricError::NonFinite { .. })));
+    assert!(PointCloud::new(vec![], 0.0).is_err());
+    assert!(PointCloud::new(vec![Vector3::zeros()], -1.0).is_err());
+    assert!(scene.is_empty());
+    // Non-finite query points give nothing rather than garbage.
+    let a = scene.add(Obstacle::new("a", Shape::Sphere { radius: 0.1 }, id)).unwrap();
+    let mut out = Vec::new();
+    scene.query(&Vector3::new(f64::NAN, 0.0, 0.0), 1.0, &mut out);
+    assert!(out.is_empty());
+    assert!(scene.signed_distance(&Vector3::new(0.0, f64::INFINITY, 0.0)).is_none());
+    assert!(matches!(scene.set_velocity(a, Vector3::new(0.0, f64::NAN, 0.0)), Err(FabricError::NonFinite { .. })));
+}
+
+#[test]
+fn advance_moves_obstacles_by_their_velocity() {
+    let mut scene = Scene::new();
+    let v = Vector3::new(0.2, -0.1, 0.05);
+    let a = scene
+        .add(Obstacle::new("a", Shape::Sphere { radius: 0.1 }, Isometry3::identity()).with_velocity(v))
+        .unwrap();
+    let b = scene.add(Obstacle::new("b", Shape::HalfSpace, Isometry3::translation(0.0, 0.0, -1.0))).unwrap();
+    scene.set_velocity(b, Vector3::new(0.0, 0.0, 0.5)).unwrap();
+    scene.advance(0.5);
+    scene.advance(f64::NAN);
+    assert!((scene.get(a).unwrap().pose.translation.vector - v * 0.5).norm() < 1e-15);
+    assert!((scene.get(b).unwrap().pose.translation.vector.z + 0.75).abs() < 1e-15);
+    let p = v * 0.5 + Vector3::new(0.3, 0.0, 0.0);
+    let mut out = Vec::new();
+    scene.query(&p, 0.25, &mut out);
+    assert_eq!(out.len(), 1);
+    assert_eq!(out[0].obstacle, a);
+    assert!((out[0].distance - 0.2).abs() < 1e-12);
+    assert_eq!(out[0].velocity, v);
+    // Backwards in time returns to the start.
+    scene.advance(-0.5);
+    assert!(scene.get(a).unwrap().pose.translation.vector.norm() < 1e-15);
+}
+
+#[test]
+fn shape_distance_to_obstacles() {
+    let mut scene = Scene::new();
+    assert!(scene.shape_distance(&Ball::new(0.1), &Isometry3::identity(), 10.0).is_none());
+    scene.add(Obstacle::new("s", Shape::Sphere { radius: 0.2 }, Isometry3::translation(1.0, 0.0, 0.0))).unwrap();
+    scene.add(Obstacle::new("floor", Shape::HalfSpace, Isometry3::translation(0.0, 0.0, -1.0))).unwrap();
+    let (v, t) = parse_obj(UNIT_CUBE_OBJ, "cube.obj").unwrap();
+    let mesh = Arc::new(build_mesh(v, t, "cube.obj").unwrap());
+    scene.add(Obstacle::new("m", Shape::TriMesh(mesh), Isometry3::translation(-3.0, 0.0, 0.0))).unwrap();
+    scene
+        .add(Obstacle::new(
+            "cyl",
+            Shape::Cylinder { half_height: 0.5, radius: 0.1 },
+            Isometry3::translation(0.0, 3.0, 0.0),
+        ))
+        .unwrap();
+    let cloud = PointCloud::new(vec![Vector3::zeros(), Vector3::new(0.0, 0.0, 0.1)], 0.01).unwrap();
+    scene.add(Obstacle::new("pc", Shape::PointCloud(Arc::new(cloud)), Isometry3::translation(0.0, -3.0, 0.0))).unwrap();
+
+    let ball = Ball::new(0.1);
+    // Near the sphere: |c1 - c2| - r1 - r2.
+    let d = scene.shape_distance(&ball, &Isometry3::translation(0.5, 0.0, 0.0), 1.0).unwrap();
+    assert!((d - 0.2).abs() < 1e-9, "{d}");
+    // Penetrating the sphere: negative depth.
+    let d = scene.shape_distance(&ball, &Isometry3::translation(0.75, 0.0, 0.0), 1.0).unwrap();
+    assert!((d + 0.05).abs() < 1e-9, "{d}");
+    // Nothing within `max`.
+    assert!(scene.shape_distance(&ball, &Isometry3::translation(0.0, 0.0, 0.5), 0.1).is_none());
+    // The floor.
+    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, 0.0, -0.7), 0.5).unwrap();
+    assert!((d - 0.2).abs() < 1e-9, "{d}");
+    // The mesh cube (faces at x = -2.5) and a box shape against it.
+    let d = scene.shape_distance(&Cuboid::new(Vector3::repeat(0.1)), &Isometry3::translation(-2.2, 0.0, 0.0), 1.0).unwrap();
+    assert!((d - 0.2).abs() < 1e-9, "{d}");
+    let d = scene.shape_distance(&ball, &Isometry3::translation(-2.45, 0.0, 0.0), 1.0).unwrap();
+    assert!(d <= 0.0, "{d}");
+    // The cylinder, axis along z (parry's is along y): side at y = 2.9.
+    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, 2.6, 0.3), 1.0).unwrap();
+    assert!((d - 0.2).abs() < 1e-9, "{d}");
+    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, 3.0, 0.7), 1.0).unwrap();
+    assert!((d - 0.1).abs() < 1e-9, "{d}");
+    // The point cloud: nearest point (0, -3, 0.1), thickness 0.01; inside the ball -> negative.
+    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, -3.0, 0.4), 1.0).unwrap();
+    assert!((d - (0.3 - 0.1 - 0.01)).abs() < 1e-9, "{d}");
+    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, -3.0, 0.15), 1.0).unwrap();
+    assert!((d - (-(0.1 - 0.05) - 0.01)).abs() < 1e-9, "{d}");
+    // Agrees with the point query for a tiny ball.
+    let p = Vector3::new(0.9, 0.7, 0.2);
+    let tiny = scene.shape_distance(&Ball::new(1e-9), &Isometry3::translation(p.x, p.y, p.z), 5.0).unwrap();
+    assert!((tiny - scene.signed_distance(&p).unwrap().distance).abs() < 1e-7);
+}

@@ -1,0 +1,403 @@
+"""Type stubs of the compiled extension ``gfcs._core`` (Rust, PyO3).
+
+Conventions: SI units (m, rad, s); arrays are float64 numpy arrays, C-contiguous, row-major; any
+array-like convertible to float64 is accepted as input. Shapes are given in the docstrings: ``dof`` is
+``Robot.dof``, ``L`` the number of links, ``S`` the number of collision spheres, ``N`` a batch size.
+Signed distance is positive outside obstacles. A pose is a (4, 4) homogeneous matrix or a pair
+``(position (3,), quaternion (4,) [x, y, z, w])``. Frames: every pose and position is in the robot base
+frame (= world frame of the scene).
+
+Errors (see ``gfcs.errors``): wrong shapes raise ``ShapeError`` naming the argument and the expected
+shape; NaN/inf raise ``NonFiniteError``; unknown links/joints ``LinkError``; malformed files
+``UrdfError`` / ``FormatError`` / ``MeshError`` / ``IoError``; out-of-range values ``InvalidValueError``.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+ArrayLike = npt.ArrayLike
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
+PathLike = Union[str, "os.PathLike[str]"]
+Pose = Union[ArrayLike, Tuple[ArrayLike, ArrayLike]]
+LinkRef = Union[str, int]
+
+__version__: str
+
+# --------------------------------------------------------------------------------------------- errors
+
+class GfcsError(Exception):
+    """Base class of every gfcs error; a Rust panic surfaces as ``GfcsError("internal error: ...")``."""
+
+class UrdfError(GfcsError):
+    """Malformed or inconsistent URDF, unsupported joint type."""
+
+class LinkError(GfcsError, KeyError):
+    """Unknown link or joint name (or link index out of range)."""
+
+class MeshError(GfcsError, OSError):
+    """Missing or unreadable mesh file."""
+
+class ShapeError(GfcsError, ValueError):
+    """Array of the wrong shape (message: ``"<arg>: expected shape (7,) or (N, 7), got (3,)"``)."""
+
+class NonFiniteError(GfcsError, ValueError):
+    """NaN or infinite input (message names the argument)."""
+
+class FormatError(GfcsError, ValueError):
+    """Malformed field in a data file (message: ``"<file>: field '<dotted.path>': ..."``)."""
+
+class InvalidValueError(GfcsError, ValueError):
+    """Value outside its valid range (negative radius, zero time step, unknown option, ...)."""
+
+ConfigError = InvalidValueError
+
+class IoError(GfcsError, OSError):
+    """I/O failure on a path."""
+
+def _raise_internal_panic() -> None:
+    """Test hook: panics in Rust; raises ``GfcsError("internal error: ...")``."""
+
+def _raise_core_error(variant: str) -> None:
+    """Test hook: raises the exception mapped from the core error ``variant`` (e.g. "MissingLink")."""
+
+# ---------------------------------------------------------------------------------------------- robot
+
+def panda_urdf() -> str:
+    """The URDF text of the shipped Panda (``Robot.panda()``; its fingers are locked at 0.04 m there)."""
+
+class Robot:
+    """Immutable robot model: URDF kinematic tree, active joints (q order), limits, collision spheres
+    (centres in link frames) and self-collision sphere pairs."""
+
+    @staticmethod
+    def panda() -> Robot:
+        """The shipped Franka Emika Panda: 7 dof, base ``panda_link0``, end effector ``panda_hand``."""
+    @staticmethod
+    def from_urdf(
+        path_or_xml: Union[PathLike, str],
+        base_link: Optional[str] = None,
+        ee_link: Optional[str] = None,
+        active_joints: Optional[Sequence[str]] = None,
+        mesh_dir: Optional[PathLike] = None,
+        srdf: Optional[Union[PathLike, str]] = None,
+        spheres: Optional[Union[PathLike, Sequence[Tuple[LinkRef, ArrayLike, float]]]] = None,
+    ) -> Robot:
+        """Load from a URDF path or XML text (a string starting with ``<``).
+
+        ``spheres``: JSON sphere file ``{"spheres": [{"link", "center", "radius"}]}`` or a list of
+        ``(link, centre (3,) m in the link frame, radius m)``; replaces URDF ``<collision><sphere>``.
+        ``srdf``: path or XML; its ``<disable_collisions>`` prune the self-collision pairs.
+        """
+    def with_spheres(self, spheres: Union[PathLike, Sequence[Tuple[LinkRef, ArrayLike, float]]]) -> Robot:
+        """A copy with other collision spheres (self-collision pairs recomputed)."""
+    def with_srdf(self, srdf: Union[PathLike, str]) -> Robot:
+        """A copy whose self-collision pairs follow the SRDF (path or XML text)."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def dof(self) -> int:
+        """Number of active joints (length of q)."""
+    @property
+    def joint_names(self) -> List[str]:
+        """Active joint names, in q order."""
+    @property
+    def link_names(self) -> List[str]:
+        """All link names (index = link index; base link first)."""
+    @property
+    def lower(self) -> FloatArray:
+        """(dof,) lower joint limits, rad or m."""
+    @property
+    def upper(self) -> FloatArray:
+        """(dof,) upper joint limits, rad or m."""
+    @property
+    def velocity_limits(self) -> FloatArray:
+        """(dof,) velocity limits, rad/s or m/s (inf when absent)."""
+    @property
+    def ee_link(self) -> str: ...
+    @property
+    def base_link(self) -> str: ...
+    def link_index(self, name: str) -> int:
+        """Index of a link in ``link_names`` (``LinkError`` if absent)."""
+    @property
+    def sphere_radii(self) -> FloatArray:
+        """(S,) collision sphere radii, m."""
+    @property
+    def sphere_links(self) -> List[str]:
+        """Link name of each collision sphere (length S)."""
+    @property
+    def sphere_centers_local(self) -> FloatArray:
+        """(S, 3) sphere centres in their link frames, m."""
+    @property
+    def self_collision_pairs(self) -> IntArray:
+        """(P, 2) int64 sphere index pairs (i < j) checked for self-collision."""
+    def link_poses(self, q: ArrayLike) -> FloatArray:
+        """World poses of every link: (L, 4, 4) for q (dof,), (N, L, 4, 4) for q (N, dof)."""
+    def sphere_centers(self, q: ArrayLike) -> FloatArray:
+        """World sphere centres: (S, 3) for q (dof,), (N, S, 3) for q (N, dof), m."""
+    def ee_position(self, q: ArrayLike) -> FloatArray:
+        """End-effector link origin: (3,) for q (dof,), (N, 3) for q (N, dof), m."""
+    def point_jacobian(self, q: ArrayLike, link: LinkRef, point: Optional[ArrayLike] = None) -> FloatArray:
+        """(3, dof) Jacobian ∂x/∂q of the point ``point`` (3,) (default origin) fixed in ``link``."""
+    def point_jdot_qdot(
+        self, q: ArrayLike, qd: ArrayLike, link: LinkRef, point: Optional[ArrayLike] = None
+    ) -> FloatArray:
+        """(3,) J̇q̇ of a link-fixed point (ẍ = J q̈ + J̇q̇, GF eq. 11-12), m/s²."""
+    def axis_jacobian(self, q: ArrayLike, link: LinkRef, axis: ArrayLike) -> FloatArray:
+        """(3, dof) Jacobian of the world direction R_link · axis."""
+    def axis_jdot_qdot(self, q: ArrayLike, qd: ArrayLike, link: LinkRef, axis: ArrayLike) -> FloatArray:
+        """(3,) J̇q̇ of the world direction R_link · axis."""
+    def collision_geometry(self) -> List[Dict[str, Any]]:
+        """URDF ``<collision>`` elements: dicts ``link`` (str), ``type`` ("mesh" | "box" | "cylinder" |
+        "capsule" | "sphere"), ``origin`` (4, 4) in the link frame, ``size`` ((3,) full box edges;
+        (2,) [length, radius]; (1,) [radius]; None for meshes), ``path`` (resolved mesh path or None),
+        ``scale`` ((3,) or None), ``exists`` (bool)."""
+
+# ---------------------------------------------------------------------------------------------- scene
+
+class Scene:
+    """Obstacles with poses and linear velocities (world frame) and signed-distance queries."""
+
+    def __init__(self) -> None: ...
+    @staticmethod
+    def from_moveit_yaml(path: PathLike) -> Scene:
+        """MoveIt PlanningScene YAML (MotionBenchMaker): box = full sizes, cylinder = [height, radius],
+        quaternions [x, y, z, w]. Objects with several shapes give obstacles ``id/0``, ``id/1``, ..."""
+    @staticmethod
+    def from_moveit_yaml_str(text: str, source: str = "<string>") -> Scene: ...
+    def add_sphere(
+        self, center: ArrayLike, radius: float, name: Optional[str] = None, velocity: Optional[ArrayLike] = None
+    ) -> int:
+        """Sphere of ``radius`` m at ``center`` (3,) m. Returns the obstacle id."""
+    def add_box(
+        self, size: ArrayLike, pose: Optional[Pose] = None, name: Optional[str] = None,
+        velocity: Optional[ArrayLike] = None,
+    ) -> int:
+        """Box of FULL edge lengths ``size`` (3,) m centred at the pose origin."""
+    def add_cylinder(
+        self, height: float, radius: float, pose: Optional[Pose] = None, name: Optional[str] = None,
+        velocity: Optional[ArrayLike] = None,
+    ) -> int:
+        """Cylinder of full ``height`` along the local z axis, centred at the pose origin."""
+    def add_capsule(
+        self, height: float, radius: float, pose: Optional[Pose] = None, name: Optional[str] = None,
+        velocity: Optional[ArrayLike] = None,
+    ) -> int:
+        """Capsule: segment of length ``height`` along local z swept by a ball of ``radius``."""
+    def add_halfspace(
+        self, normal: Optional[ArrayLike] = None, offset: float = 0.0, pose: Optional[Pose] = None,
+        name: Optional[str] = None,
+    ) -> int:
+        """Half-space {p : n·p <= offset} (free side +n), or the solid z <= 0 of ``pose``."""
+    def add_mesh(
+        self, mesh: Union[PathLike, Tuple[ArrayLike, ArrayLike]], pose: Optional[Pose] = None,
+        name: Optional[str] = None, scale: Optional[ArrayLike] = None, velocity: Optional[ArrayLike] = None,
+    ) -> int:
+        """Triangle mesh from an .obj/.stl path or (vertices (V, 3), faces (F, 3)); solid when closed."""
+    def add_point_cloud(
+        self, points: ArrayLike, radius: float = 0.0, pose: Optional[Pose] = None, name: Optional[str] = None,
+        velocity: Optional[ArrayLike] = None,
+    ) -> int:
+        """Point cloud (P, 3) m in the pose frame, each point thickened by ``radius``."""
+    def remove(self, id: int) -> Dict[str, Any]:
+        """Remove an obstacle; returns its description."""
+    def set_pose(self, id: int, pose: Pose) -> None: ...
+    def set_velocity(self, id: int, velocity: ArrayLike) -> None:
+        """Linear velocity (3,) m/s, world frame."""
+    def advance(self, dt: float) -> None:
+        """Move every obstacle by velocity · dt."""
+    def ids(self) -> List[int]: ...
+    def obstacles(self) -> List[Dict[str, Any]]:
+        """Dicts ``id``, ``name``, ``type`` ("sphere" | "box" | "cylinder" | "capsule" | "half_space" |
+        "mesh" | "point_cloud"), ``size`` (box (3,) full edges; cylinder/capsule [height, radius]; sphere
+        [radius]; mesh [vertices, triangles]; point cloud [points, radius]), ``pose`` (4, 4),
+        ``velocity`` (3,)."""
+    def get(self, id: int) -> Dict[str, Any]: ...
+    def __len__(self) -> int: ...
+    def signed_distance(self, points: ArrayLike) -> Union[FloatArray, float]:
+        """Minimum signed distance (m): (N,) for points (N, 3), float for one point (3,); inf if empty."""
+    def distance_details(self, point: ArrayLike, max_distance: float = ...) -> List[Dict[str, Any]]:
+        """Obstacles within ``max_distance`` of ``point`` (3,), sorted: dicts ``obstacle`` (id),
+        ``distance``, ``gradient`` (3,) ∂d/∂p, ``hessian`` (3, 3), ``velocity`` (3,)."""
+    def surface_points(self, spacing: float) -> FloatArray:
+        """(P, 3) points on the obstacle surfaces about ``spacing`` m apart."""
+    def copy(self) -> Scene: ...
+    def __copy__(self) -> Scene: ...
+    def __deepcopy__(self, memo: Any) -> Scene: ...
+
+def load_motion_plan_request(path: PathLike) -> Dict[str, Any]:
+    """MoveIt MotionPlanRequest YAML: ``{"group": str, "start": {joint: pos}, "goal": {joint: pos}}``."""
+
+# --------------------------------------------------------------------------------------------- config
+
+class FabricConfig:
+    """Fabric gains (GF Sec. VII-A, App. E-B). ``FabricConfig(d)`` merges the nested dict ``d`` over the
+    defaults; sections: mode, joint_attraction, ee_position, ee_orientation, joint_limits,
+    self_collision, obstacles, speed."""
+
+    def __init__(self, values: Optional[Dict[str, Any]] = None) -> None: ...
+    @staticmethod
+    def defaults() -> FabricConfig: ...
+    @staticmethod
+    def from_file(path: PathLike) -> FabricConfig:
+        """.toml, .yaml/.yml or .json by extension; missing fields keep their defaults."""
+    @staticmethod
+    def from_dict(values: Dict[str, Any]) -> FabricConfig: ...
+    @staticmethod
+    def from_str(text: str, format: str = "toml", source: str = "<string>") -> FabricConfig: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+    def to_json(self) -> str: ...
+    def replace(self, changes: Optional[Dict[str, Any]] = None, **kwargs: Any) -> FabricConfig:
+        """A copy with nested changes merged in."""
+    def __eq__(self, other: object) -> bool: ...
+
+# ---------------------------------------------------------------------------------------------- fabric
+
+class Rollout:
+    """One rollout toward one command (GFCS eq. 1-3); arrays empty when not recorded."""
+
+    @property
+    def t(self) -> FloatArray:
+        """(T,) times, s."""
+    @property
+    def q(self) -> FloatArray:
+        """(T, dof) configurations."""
+    @property
+    def qd(self) -> FloatArray:
+        """(T, dof) velocities."""
+    @property
+    def qdd(self) -> FloatArray:
+        """(T, dof) accelerations applied from each row to the next."""
+    @property
+    def t_star(self) -> float:
+        """t* = min(t, t_max), s (eq. 2)."""
+    @property
+    def t_end(self) -> float: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def reason(self) -> str:
+        """"reached" | "timeout" | "non_finite"."""
+    @property
+    def reached(self) -> bool: ...
+    @property
+    def min_clearance(self) -> float:
+        """Minimum over the states of min(sphere-obstacle, self-collision) clearance, m (< 0: collision)."""
+    @property
+    def q_final(self) -> FloatArray: ...
+    @property
+    def qd_final(self) -> FloatArray: ...
+    def __len__(self) -> int: ...
+
+class SequenceRollout:
+    """One command sequence (GFCS eq. 4-8): n free commands then the goal."""
+
+    @property
+    def t(self) -> FloatArray: ...
+    @property
+    def q(self) -> FloatArray: ...
+    @property
+    def qd(self) -> FloatArray: ...
+    @property
+    def qdd(self) -> FloatArray: ...
+    @property
+    def cost(self) -> float:
+        """Σ tᵢ* + penalty·[goal not reached] + collision_penalty·[collided], s (eq. 4, 8)."""
+    @property
+    def t_stars(self) -> FloatArray:
+        """(n + 1,) tᵢ*, s."""
+    @property
+    def reasons(self) -> List[str]: ...
+    @property
+    def reached(self) -> bool: ...
+    @property
+    def success(self) -> bool:
+        """Reached without collision."""
+    @property
+    def collided(self) -> bool:
+        """min_clearance < -collision_tol."""
+    @property
+    def min_clearance(self) -> float: ...
+    @property
+    def q_final(self) -> FloatArray: ...
+    @property
+    def qd_final(self) -> FloatArray: ...
+    def __len__(self) -> int: ...
+
+class Fabric:
+    """Geometric fabric of a robot in a scene (held by value)."""
+
+    def __init__(
+        self, robot: Robot, scene: Optional[Scene] = None,
+        config: Optional[Union[FabricConfig, Dict[str, Any], PathLike]] = None,
+    ) -> None: ...
+    @property
+    def robot(self) -> Robot: ...
+    @property
+    def config(self) -> FabricConfig: ...
+    @property
+    def dof(self) -> int: ...
+    @property
+    def scene(self) -> Scene:
+        """A copy of the fabric's scene."""
+    def set_scene(self, scene: Scene) -> None: ...
+    def update_obstacle(self, id: int, pose: Optional[Pose] = None, velocity: Optional[ArrayLike] = None) -> None:
+        """Move / set the velocity of an obstacle of the fabric's scene."""
+    def acceleration(
+        self, q: ArrayLike, qd: ArrayLike, command: ArrayLike, ee_target: Optional[Pose] = None
+    ) -> FloatArray:
+        """(dof,) q̈ = f(q, q̇; command) (GFCS eq. 1), rad/s²."""
+    def diagnostics(self) -> Optional[Dict[str, float]]:
+        """Of the last ``acceleration`` call: energy, exec_energy, potential, min_clearance,
+        min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
+        alpha_boost, alpha_reg, leaves."""
+    def rollout(
+        self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, dt: Optional[float] = None,
+        t_max: Optional[float] = None, tol: Optional[float] = None, integrator: str = "euler",
+        record: bool = True,
+    ) -> Rollout:
+        """rollout_t (GFCS eq. 1-3); defaults dt 0.01 s, t_max 7 s, tol 0.01; integrator "euler" | "rk4"."""
+    def rollout_sequence(
+        self, q0: ArrayLike, qd0: Optional[ArrayLike], commands: ArrayLike, goal: ArrayLike,
+        dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
+        waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
+        collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
+        integrator: str = "euler", record: bool = True,
+    ) -> SequenceRollout:
+        """Commands (n, dof) then the goal (dof,) (GFCS eq. 4-8). Defaults: waypoint_tol 0.1,
+        penalty 100 s, collision_penalty 0 s (added when min_clearance < -collision_tol, default 0 m)."""
+    def evaluate(
+        self, q0: ArrayLike, qd0: Optional[ArrayLike], goal: ArrayLike, candidates: ArrayLike,
+        dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
+        waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
+        collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
+        integrator: str = "euler", threads: Optional[int] = None, return_trajectories: bool = False,
+    ) -> Union[
+        Tuple[FloatArray, BoolArray, FloatArray],
+        Tuple[FloatArray, BoolArray, FloatArray, List[SequenceRollout]],
+    ]:
+        """Candidates (N, n·dof) -> (costs (N,), reached (N,) bool, min_clearance (N,)) [+ N
+        SequenceRollout when ``return_trajectories``]; parallel, deterministic, GIL released."""
+
+# ------------------------------------------------------------------------------------------- particles
+
+def particle_acceleration(
+    variant: str, q: ArrayLike, qd: ArrayLike, speed: Optional[float] = None, **params: Any
+) -> FloatArray:
+    """(2,) q̈ of a GF Sec. VI particle; variant "unbent_riemannian" | "unbent_finsler" |
+    "bent_riemannian" | "bent_finsler"; params override ``particle_defaults()``."""
+
+def particle_rollout(
+    variant: str, speed: float, q0: ArrayLike, qd0: Optional[ArrayLike] = None, dt: Optional[float] = None,
+    t_max: Optional[float] = None, tol: Optional[float] = None, integrator: str = "euler", **params: Any,
+) -> Union[Rollout, List[Rollout]]:
+    """Particles from q0 (2,) -> Rollout, or (N, 2) -> list of N Rollouts, toward the target."""
+
+def particle_defaults() -> Dict[str, Any]:
+    """Default particle parameters (GF Sec. VI set-up)."""
