@@ -35,14 +35,16 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     p.add_argument("--classes", nargs="+", metavar="CLASS", help="only these classes")
     p.add_argument("--limit", type=int, default=None, help="problems per class (generated default: 10)")
     p.add_argument("--problem-seed", type=int, default=0, help="seed of the generated suite")
-    p.add_argument("--methods", nargs="+", choices=["gfcs", "gf"], default=["gfcs", "gf"])
+    p.add_argument("--methods", nargs="+", choices=["gfcs", "gf"], default=["gf", "gfcs"])
     p.add_argument("--batches", type=int, default=5)
     p.add_argument("--population", type=int, default=32)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--config", metavar="FILE", help="fabric configuration file")
-    p.add_argument("--robot", choices=["panda", "mbm"], default="panda",
-                   help="shipped Panda (default) or the MotionBenchMaker Panda from <shared>")
+    p.add_argument("--robot", choices=["auto", "panda", "mbm"], default="auto",
+                   help="shipped Panda, or the MotionBenchMaker Panda from <shared> (auto, the default: the "
+                        "MBM Panda for MotionBenchMaker files, whose goals collide with the shipped Panda's "
+                        "more conservative spheres; the shipped Panda for generated problems)")
     p.add_argument("--out", default="benches/results", help="output folder (default benches/results)")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
@@ -54,12 +56,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     from gfcs import cli, problems
     from gfcs.results import format_table, summarize
 
-    robot = problems.mbm_panda() if args.robot == "mbm" else gfcs.Robot.panda()
     source = args.problems
     if source is None and not args.generated:
         shared = problems.shared_dir()
         if shared is not None and (shared / "mbm").is_dir():
             source = str(shared / "mbm")
+    robot_kind = args.robot if args.robot != "auto" else ("mbm" if source else "panda")
+    robot = problems.mbm_panda() if robot_kind == "mbm" else gfcs.Robot.panda()
     suite_args = SimpleNamespace(problems=source, classes=args.classes, limit=args.limit,
                                  problem_seed=args.problem_seed)
     suite = cli.load_problems(suite_args, robot)
@@ -76,7 +79,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         "",
         f"- command: `python benches/bench_suite.py {' '.join(argv if argv is not None else sys.argv[1:])}`",
         f"- problems: {len(suite)} from {source or 'the generated suite (gfcs.generators, seed %d)' % args.problem_seed}",
-        f"- robot: {robot.name} ({args.robot}), methods: {', '.join(args.methods)}, batches {args.batches}, "
+        f"- robot: {robot.name} ({robot_kind}: {len(robot.sphere_radii)} collision spheres), methods: {', '.join(args.methods)}, batches {args.batches}, "
         f"population {args.population}, seed {args.seed}, threads {args.threads or os.cpu_count()}",
         f"- machine: {platform.processor() or platform.machine()}, {os.cpu_count()} logical cores, "
         f"Python {platform.python_version()}, gfcs {gfcs.__version__}",
@@ -85,7 +88,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         "(GF: the rollout)",
         "",
     ]
-    table = "\n".join(header) + format_table(summary, markdown=True)
+    table = "\n".join(header) + "\n" + format_table(summary, markdown=True)
     (out / "table.md").write_text(table)
     print(format_table(summary, markdown=False))
     print(f"rows: {out / 'results.jsonl'}\ntable: {out / 'table.md'}")

@@ -1,6 +1,5 @@
 """The `gfcs` command line: help everywhere, a small solve with JSON on stdout, bench, generate, errors."""
 
-import json
 import subprocess
 import sys
 
@@ -39,7 +38,7 @@ def test_solve_json_to_stdout():
     r = run("solve", "--json", "-", *SMALL)
     assert r.returncode in (0, 1), r.stderr
     result = SolveResult.from_json(r.stdout)
-    assert result.method == "gfcs" and result.problem.startswith("bookshelf_small/")
+    assert result.method == "gfcs" and result.problem.startswith(cli.DEFAULT_DEMO_CLASS + "/")
     assert result.trajectory.q.shape[1] == 7 and len(result.trajectory) > 1
     assert "cost" in r.stderr and "EE length" in r.stderr  # the summary went to stderr
     assert r.returncode == (0 if result.success else 1)
@@ -83,10 +82,16 @@ def test_generate_then_bench(tmp_path):
 
 
 def test_missing_external_command_is_one_line(monkeypatch, capsys):
-    monkeypatch.setitem(cli.EXTERNAL_COMMANDS, "ghost", (("gfcs.no_such_module",), "register", "a ghost", "ghost"))
+    # a missing optional dependency: the message names it and the extra to install
+    monkeypatch.setitem(cli.EXTERNAL_COMMANDS, "ghost", (("no_such_dependency_xyz",), "register", "a ghost", "ghost"))
     assert cli.main(["ghost", "--help"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "gfcs[ghost]" in err and "no_such_module" in err
+    assert err.count("\n") == 1 and "gfcs[ghost]" in err and "no_such_dependency_xyz" in err
+    # a gfcs module absent from this installation: no misleading extra hint
+    monkeypatch.setitem(cli.EXTERNAL_COMMANDS, "ghost", (("gfcs.no_such_module",), "register", "a ghost", "ghost"))
+    assert cli.main(["ghost"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "gfcs[ghost]" not in err and "gfcs.no_such_module" in err
 
 
 def test_external_command_registration_is_lazy(monkeypatch):
@@ -94,3 +99,15 @@ def test_external_command_registration_is_lazy(monkeypatch):
     # building the parser for another command never imports the ghost module
     parser = cli.build_parser(["solve"])
     assert parser.parse_args(["solve"]).command == "solve"
+
+
+def test_solve_rrd_hook(tmp_path):
+    out = tmp_path / "run.rrd"
+    r = run("solve", "--rrd", str(out), *SMALL)
+    try:
+        import gfcs.viz  # noqa: F401
+    except ImportError:
+        assert r.returncode == 2 and "--rrd needs the 'viz' extra" in r.stderr and "Traceback" not in r.stderr
+    else:
+        assert r.returncode in (0, 1), r.stderr
+        assert out.is_file() and out.stat().st_size > 0

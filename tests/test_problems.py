@@ -1,8 +1,6 @@
 """gfcs.problems (Problem, MotionBenchMaker loading) and gfcs.generators (seeded problem generators)."""
 
 import math
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,17 +8,6 @@ import pytest
 import gfcs
 from gfcs import generators, metrics, problems
 from gfcs.problems import CLASSES, Problem, canonical_class
-
-
-def shared_dir():
-    """The shared data folder, or skip (fail under CI=true) when it is absent."""
-    env = os.environ.get("GFCS_SHARED")
-    path = Path(env) if env else Path(__file__).resolve().parents[1].parent / "shared"
-    if not path.is_dir():
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"shared data folder {path} is missing (CI=true)")
-        pytest.skip(f"shared data folder {path} is absent")
-    return path
 
 
 @pytest.fixture(scope="module")
@@ -142,8 +129,8 @@ def test_load_errors_name_the_culprit(generated, panda, tmp_path):
 
 
 # ----------------------------------------------------------------------- MotionBenchMaker (shared)
-def test_load_mbm_bookshelf_small_with_both_robots(panda):
-    root = shared_dir()
+def test_load_mbm_bookshelf_small_with_both_robots(panda, shared_dir):
+    root = shared_dir  # conftest fixture: skipped when absent, a failure under CI=true
     folder = root / "mbm" / "bookshelf_small"
     p = problems.load_mbm(folder / "scene0001.yaml", folder / "request0001.yaml", robot=panda)
     assert p.name == "bookshelf_small/0001" and p.cls == "bookshelf_small" and len(p.scene) == 7

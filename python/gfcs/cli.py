@@ -28,9 +28,8 @@ import json
 import math
 import os
 import sys
-import time
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 __all__ = [
     "main",
@@ -52,7 +51,7 @@ EXTERNAL_COMMANDS: Dict[str, Tuple[Tuple[str, ...], str, str, Optional[str]]] = 
 }
 
 #: Class of the built-in problem ``gfcs solve`` uses without --scene.
-DEFAULT_DEMO_CLASS = "bookshelf_small"
+DEFAULT_DEMO_CLASS = "table_under_pick"
 
 EXIT_USER_ERROR = 2
 
@@ -73,8 +72,8 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
 def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str] = None) -> None:
     g = p.add_argument_group("solver (GFCS Alg. 1)")
     if methods_nargs:
-        g.add_argument("--method", nargs=methods_nargs, choices=["gfcs", "gf"], default=["gfcs", "gf"],
-                       help="methods to run (default: gfcs gf)")
+        g.add_argument("--method", nargs=methods_nargs, choices=["gfcs", "gf"], default=["gf", "gfcs"],
+                       help="methods to run, in table order (default: gf gfcs)")
     else:
         g.add_argument("--method", choices=["gfcs", "gf"], default="gfcs",
                        help="gfcs: optimise commands with CMA-ES; gf: local fabric only (default gfcs)")
@@ -153,7 +152,12 @@ def summary_text(result: Any, problem: Any) -> str:
     else:
         lines.append("method    gf: local geometric fabric toward the goal")
     t_stars = " + ".join(f"{t:.2f}" for t in result.t_stars)
-    lines.append(f"result    {'SUCCESS' if result.success else 'FAILURE'}: cost {_fmt(result.cost, ' s')} "
+    why = [text for bad, text in ((not result.reached, "goal not reached"),
+                                  (m["min_clearance"] < 0, "collision with obstacles"),
+                                  (m["min_self_clearance"] < 0, "self-collision"),
+                                  (not m["within_limits"], "joint limits violated")) if bad]
+    verdict = "SUCCESS" if result.success else f"FAILURE ({', '.join(why) or 'goal tolerance'})"
+    lines.append(f"result    {verdict}: cost {_fmt(result.cost, ' s')} "
                  f"(t* = {t_stars} s), goal error {_fmt(m['final_error'], ' rad')}, "
                  f"reached {result.reached}")
     lines.append(f"quality   EE length {_fmt(m['ee_length'], ' m')}, C-space length "
@@ -185,17 +189,25 @@ def _write_json(text: str, target: str) -> None:
         Path(target).write_text(text + "\n")
 
 
-def _record(problem: Any, results: Any, path: str) -> None:
+def _viz() -> Any:
+    """``gfcs.viz`` (imports rerun), or a one-line error naming the extra."""
     try:
         from gfcs import viz
     except ImportError as e:
         raise _MissingExtra(f"--rrd needs the 'viz' extra (pip install 'gfcs[viz]'): {e}") from e
-    viz.record(problem, results, path)
+    return viz
+
+
+def _record(problem: Any, results: Any, path: str) -> None:
+    _viz().record(problem, results, path)
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
+    """`gfcs solve`: exit 0 when the problem is solved, 1 when not."""
     from gfcs import optimize
 
+    if args.rrd:
+        _viz()  # fail before solving when the extra is missing
     problem = _solve_problem(args)
     result = optimize.solve(
         problem, method=args.method, batches=args.batches, population=args.population,
@@ -295,9 +307,10 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
     from gfcs.results import _enc
 
     rows: List[Dict[str, Any]] = []
-    out = open(jsonl, "w") if jsonl else None
     if rrd_dir:
+        _viz()  # fail before the first problem when the extra is missing
         Path(rrd_dir).mkdir(parents=True, exist_ok=True)
+    out = open(jsonl, "w") if jsonl else None
     try:
         bar = tqdm(problems, desc="bench", unit="problem", disable=not progress)
         for problem in bar:
@@ -318,6 +331,7 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    """`gfcs bench`: run the suite, print the tables (and write rows / markdown)."""
     from gfcs.results import format_table, summarize
 
     robot = _robot(args)
@@ -358,6 +372,7 @@ def _register_bench(sub: Any) -> None:
 
 # ------------------------------------------------------------------------------------------ generate
 def cmd_generate(args: argparse.Namespace) -> int:
+    """`gfcs generate`: write generated problems as MotionBenchMaker files."""
     from gfcs import generators, problems
 
     robot = _robot(args)
@@ -476,6 +491,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         args = parser.parse_args(argv)
         code = args.func(args)
         return int(code or 0)
+    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly (Python docs, signal notes)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except errors as e:
         if os.environ.get("GFCS_DEBUG"):
             raise

@@ -16,7 +16,7 @@ import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Dict, Iterable, List, Optional, Sequence, Union
+from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -151,7 +151,10 @@ def load_mbm(
         request_yaml: MoveIt MotionPlanRequest YAML (``requestNNNN.yaml``): start joint state and a
             joint-space goal.
         robot: the robot (default :meth:`gfcs.Robot.panda`); its active joints are looked up by name in
-            the request's start state and goal constraints.
+            the request's start state and goal constraints. For the MotionBenchMaker files prefer
+            :func:`mbm_panda`: their goals sit 1-3 cm from the obstacles for that robot's spheres, and
+            most of them (all of the box and cage goals) collide with the shipped Panda's more
+            conservative spheres.
         name: problem name (default ``"<folder>/<NNNN>"``).
         cls: problem class (default: the folder name).
 

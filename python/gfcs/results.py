@@ -121,6 +121,7 @@ class Trajectory:
             raise ValueError(f"qd: expected shape {self.q.shape}, got {self.qd.shape}")
 
     def __len__(self) -> int:
+        """Number of samples T."""
         return int(self.t.shape[0])
 
     def to_dict(self) -> Dict[str, Any]:

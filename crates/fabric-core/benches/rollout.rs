@@ -72,8 +72,7 @@ fn batch(c: &mut Criterion) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     // 64 candidates: one free command each, uniform within the joint limits (a first, unguided CMA-ES
     // batch of Alg. 1).
-    let candidates: Vec<f64> =
-        (0..64 * 7).map(|k| rng.gen_range(robot.lower()[k % 7]..robot.upper()[k % 7])).collect();
+    let candidates: Vec<f64> = (0..64 * 7).map(|k| rng.gen_range(robot.lower()[k % 7]..robot.upper()[k % 7])).collect();
     let opts = SequenceOptions::default();
     let results =
         evaluate_batch(&fabric, &scene, &READY, &[0.0; 7], &GOAL, &candidates, &opts, Some(1)).expect("batch");

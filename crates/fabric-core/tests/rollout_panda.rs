@@ -71,7 +71,14 @@ fn joint_limits_hold_over_long_rollouts() {
         for k in 0..tr.len() {
             let q = tr.q_row(k).unwrap();
             for i in 0..7 {
-                assert!(q[i] >= lo[i] && q[i] <= up[i], "joint {i} = {} outside [{}, {}] at t = {}", q[i], lo[i], up[i], tr.t[k]);
+                assert!(
+                    q[i] >= lo[i] && q[i] <= up[i],
+                    "joint {i} = {} outside [{}, {}] at t = {}",
+                    q[i],
+                    lo[i],
+                    up[i],
+                    tr.t[k]
+                );
             }
         }
         reached += usize::from(r.reason == StopReason::Reached);
@@ -88,7 +95,15 @@ fn joint_limits_hold_over_long_rollouts() {
 fn start_inside_the_joint_limit_margin_stays_finite() {
     let fabric = panda_fabric();
     let (lo, up) = (fabric.robot().lower().to_vec(), fabric.robot().upper().to_vec());
-    let q0 = [-2.020942649826434, -1.7589195031101879, 2.03952456737755, -1.897662497382436, 2.7103742052398814, 3.09583235350066, 1.492220924912218];
+    let q0 = [
+        -2.020942649826434,
+        -1.7589195031101879,
+        2.03952456737755,
+        -1.897662497382436,
+        2.7103742052398814,
+        3.09583235350066,
+        1.492220924912218,
+    ];
     let qd0 = [-0.0938, -0.4375, -0.0746, 0.4667, -0.3338, 0.2499, 0.3490];
     let command = [0.7966, -0.9874, -2.1507, -0.0186, 0.1404, 1.4506, 0.2168];
     let opts = RolloutOptions { record: true, ..RolloutOptions::default() };
@@ -144,7 +159,12 @@ fn clearance_monitor_matches_brute_force() {
     let ob = &fabric.config().obstacles;
     assert!(obstacle < ob.margin + ob.influence, "the scenario must come within the influence radius");
     assert!(obstacle < 0.1);
-    assert!((r.min_clearance - obstacle.min(own)).abs() < 1e-9, "monitor {} brute force {}", r.min_clearance, obstacle.min(own));
+    assert!(
+        (r.min_clearance - obstacle.min(own)).abs() < 1e-9,
+        "monitor {} brute force {}",
+        r.min_clearance,
+        obstacle.min(own)
+    );
 }
 
 fn bits(r: &SequenceResult) -> Vec<u64> {
@@ -162,15 +182,26 @@ fn batch_is_identical_on_one_and_two_threads() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     let n = 12;
     let candidates: Vec<f64> = (0..n * 7).map(|k| rng.gen_range(robot.lower()[k % 7]..robot.upper()[k % 7])).collect();
-    let opts = SequenceOptions { rollout: RolloutOptions { t_max: 3.0, ..RolloutOptions::default() }, ..SequenceOptions::default() };
+    let opts = SequenceOptions {
+        rollout: RolloutOptions { t_max: 3.0, ..RolloutOptions::default() },
+        ..SequenceOptions::default()
+    };
     let one = evaluate_batch(&fabric, &scene, &READY, &[0.0; 7], &goal, &candidates, &opts, Some(1)).unwrap();
     let two = evaluate_batch(&fabric, &scene, &READY, &[0.0; 7], &goal, &candidates, &opts, Some(2)).unwrap();
     assert_eq!(one.len(), n);
     let mut ws = FabricWorkspace::new(&fabric);
     for j in 0..n {
-        let single =
-            rollout_sequence(&fabric, &scene, &READY, &[0.0; 7], &candidates[j * 7..(j + 1) * 7], &goal, &opts, &mut ws)
-                .unwrap();
+        let single = rollout_sequence(
+            &fabric,
+            &scene,
+            &READY,
+            &[0.0; 7],
+            &candidates[j * 7..(j + 1) * 7],
+            &goal,
+            &opts,
+            &mut ws,
+        )
+        .unwrap();
         assert_eq!(bits(&one[j]), bits(&single), "candidate {j}");
         assert_eq!(bits(&two[j]), bits(&single), "candidate {j}");
     }

@@ -252,7 +252,14 @@ fn sequence_cost_matches_closed_form() {
     // From 0 toward (1, 0) at speed 1: within waypoint_tol 0.105 after 90 steps, at (0.9, 0). Then toward
     // the goal (1, 1) from distance √(0.1² + 1) = 1.00499: within tol 0.005 after 100 steps.
     let sys = Kinematic { dof: 2, speed: 1.0, dt: 0.01 };
-    let so = SequenceOptions { rollout: opts(0.01, 7.0, 0.005), n_commands: 1, waypoint_tol: 0.105, penalty: 50.0, collision_penalty: 3.0, collision_tol: 0.0 };
+    let so = SequenceOptions {
+        rollout: opts(0.01, 7.0, 0.005),
+        n_commands: 1,
+        waypoint_tol: 0.105,
+        penalty: 50.0,
+        collision_penalty: 3.0,
+        collision_tol: 0.0,
+    };
     let r = rollout_sequence_system(&sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &[1.0, 1.0], &so).unwrap();
     assert_eq!(r.reasons, vec![StopReason::Reached, StopReason::Reached]);
     assert!((r.t_stars[0] - 0.9).abs() < 1e-12 && (r.t_stars[1] - 1.0).abs() < 1e-12, "{:?}", r.t_stars);
@@ -283,7 +290,14 @@ fn sequence_cost_matches_closed_form() {
 fn sequence_penalties() {
     // Budget too short for either leg: both time out (the first hands over anyway, eq. 7), penalty p.
     let sys = Kinematic { dof: 2, speed: 1.0, dt: 0.01 };
-    let so = SequenceOptions { rollout: opts(0.01, 0.5, 0.005), n_commands: 1, waypoint_tol: 0.1, penalty: 50.0, collision_penalty: 3.0, collision_tol: 0.0 };
+    let so = SequenceOptions {
+        rollout: opts(0.01, 0.5, 0.005),
+        n_commands: 1,
+        waypoint_tol: 0.1,
+        penalty: 50.0,
+        collision_penalty: 3.0,
+        collision_tol: 0.0,
+    };
     let r = rollout_sequence_system(&sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &[1.0, 1.0], &so).unwrap();
     assert_eq!(r.reasons, vec![StopReason::Timeout, StopReason::Timeout]);
     assert_eq!(r.t_stars, vec![0.5, 0.5]);
@@ -319,7 +333,14 @@ fn sequence_is_a_chain_of_rollouts() {
     let (q0, qd0) = ([0.3, -0.2, 0.1], [0.5, 0.0, -0.4]);
     let commands = [1.0, 0.5, -0.5, -0.6, 0.8, 0.2];
     let goal = [0.0, 0.0, 1.0];
-    let so = SequenceOptions { rollout: opts(0.01, 7.0, 0.01), n_commands: 2, waypoint_tol: 0.15, penalty: 10.0, collision_penalty: 1.0, collision_tol: 0.0 };
+    let so = SequenceOptions {
+        rollout: opts(0.01, 7.0, 0.01),
+        n_commands: 2,
+        waypoint_tol: 0.15,
+        penalty: 10.0,
+        collision_penalty: 1.0,
+        collision_tol: 0.0,
+    };
     let seq = rollout_sequence_system(&sys, &mut sys.workspace(), &q0, &qd0, &commands, &goal, &so).unwrap();
 
     // Chain rollout_system by hand (eq. 7: state and velocity carried over).
@@ -328,7 +349,8 @@ fn sequence_is_a_chain_of_rollouts() {
     let mut sum = 0.0;
     for (i, cmd) in [&commands[0..3], &commands[3..6], &goal[..]].into_iter().enumerate() {
         let tol = if i < 2 { 0.15 } else { 0.01 };
-        let r = rollout_system(&sys, &mut sys.workspace(), &q, &qd, cmd, &RolloutOptions { tol, ..so.rollout.clone() }).unwrap();
+        let r = rollout_system(&sys, &mut sys.workspace(), &q, &qd, cmd, &RolloutOptions { tol, ..so.rollout.clone() })
+            .unwrap();
         assert_eq!(r.t_star, seq.t_stars[i]);
         assert_eq!(r.reason, seq.reasons[i]);
         rows += r.trajectory.unwrap().len() - usize::from(i > 0);
@@ -438,7 +460,9 @@ fn invalid_inputs_name_the_culprit() {
     }
 
     let so = SequenceOptions::default();
-    let seq = |c: &[f64], g: &[f64], so: &SequenceOptions| rollout_sequence_system(&sys, &mut sys.workspace(), &z, &z, c, g, so);
+    let seq = |c: &[f64], g: &[f64], so: &SequenceOptions| {
+        rollout_sequence_system(&sys, &mut sys.workspace(), &z, &z, c, g, so)
+    };
     assert_eq!(what(seq(&[0.0; 3], &z, &so).unwrap_err()), "commands");
     assert_eq!(what(seq(&z, &[0.0], &so).unwrap_err()), "goal");
     assert_eq!(what(seq(&[0.0, f64::NAN], &z, &so).unwrap_err()), "commands");

@@ -31,9 +31,13 @@ Reproducibility: every random draw is a function of ``(seed, step)``: solve ``se
 the training generator come from ``numpy.random.SeedSequence([seed, s, …])``, and networks are
 initialised under a seeded, forked torch RNG (the global RNGs are neither used nor changed). The RNG
 state of a run is therefore ``(seed, step)``, both stored in the checkpoint. A checkpoint (model,
-optimiser with its Adam moments, buffer, encoder with its autoencoder, config, step, history) is written after every ``checkpoint_every`` problems and after every
-training, so a resumed run ends with the same weights as an uninterrupted one (same device and thread
-count, since floating-point reductions depend on them).
+optimiser with its Adam moments, buffer, encoder with its autoencoder, config, step, history) is
+written after every ``checkpoint_every`` problems and after every training, so a resumed run ends with
+the same weights as an uninterrupted one (same device and thread count, since floating-point
+reductions depend on them).
+
+Contexts are standardised with the statistics of all training problems' contexts before the first
+training (see :class:`~gfcs.learning.ebm.EnergyModel`); the statistics are part of the model weights.
 """
 
 from __future__ import annotations

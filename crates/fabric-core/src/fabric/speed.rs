@@ -144,7 +144,16 @@ mod tests {
     use super::*;
 
     fn cfg() -> SpeedConfig {
-        SpeedConfig { boost_gain: 2.0, goal_damping_form: GoalDampingForm::Velocity, ..SpeedConfig::default() }
+        SpeedConfig {
+            boost_gain: 2.0,
+            goal_damping_form: GoalDampingForm::Velocity,
+            desired_speed: 1.2,
+            goal_damping: 8.0,
+            base_damping: 0.5,
+            goal_switch_sharpness: 10.0,
+            goal_switch_radius: 0.3,
+            ..SpeedConfig::default()
+        }
     }
 
     #[test]

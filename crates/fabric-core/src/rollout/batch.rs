@@ -12,7 +12,7 @@ use crate::error::{check_finite, check_len, FabricError, Result};
 
 /// Run `f` on a rayon pool of `threads` threads, or on the current pool (rayon's default, one thread per
 /// core unless configured) when `None`. `Some(0)` is an error.
-pub(crate) fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
+fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
     match threads {
         None => Ok(f()),
         Some(0) => Err(FabricError::Value { what: "threads".to_string(), message: "must be >= 1".to_string() }),
@@ -61,7 +61,7 @@ pub fn evaluate_batch_system<S: System>(
         what: "SequenceOptions.n_commands".to_string(),
         message: format!("{} commands of {dof} values give no valid row length", opts.n_commands),
     })?;
-    if candidates.len() % row != 0 {
+    if !candidates.chunks_exact(row).remainder().is_empty() {
         return Err(FabricError::Shape {
             what: "candidates".to_string(),
             expected: format!("(N, {row}) row-major, length a multiple of {row}"),

@@ -221,12 +221,7 @@ fn distance_squared(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Check q0, qd0 and `command` against the system's dof and for finiteness, plus the options.
-pub(crate) fn validate_start<S: System>(
-    system: &S,
-    q0: &[f64],
-    qd0: &[f64],
-    opts: &RolloutOptions,
-) -> Result<()> {
+pub(crate) fn validate_start<S: System>(system: &S, q0: &[f64], qd0: &[f64], opts: &RolloutOptions) -> Result<()> {
     let dof = system.dof();
     check_len("q0", q0.len(), dof)?;
     check_len("qd0", qd0.len(), dof)?;
@@ -296,16 +291,7 @@ pub(crate) fn run<S: System>(
         StopReason::Reached => t_end.min(opts.t_max),
         StopReason::Timeout | StopReason::NonFinite => opts.t_max,
     };
-    Ok(RolloutResult {
-        t_star,
-        t_end,
-        steps: k,
-        q: b.q.clone(),
-        qd: b.qd.clone(),
-        reason,
-        min_clearance,
-        trajectory,
-    })
+    Ok(RolloutResult { t_star, t_end, steps: k, q: b.q.clone(), qd: b.qd.clone(), reason, min_clearance, trajectory })
 }
 
 /// rollout_t of GFCS eq. 1–3 for any [`System`]: integrate from (`q0`, `qd0`) toward `command` (all

@@ -68,7 +68,7 @@ impl SequenceOptions {
 /// Outcome of one command sequence (one GFCOP candidate).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SequenceResult {
-    /// Σᵢ tᵢ* + p·1[goal not reached] (eq. 4, 8) + collision_penalty·1[collided] (s).
+    /// Σᵢ tᵢ* + p·𝟙(goal not reached) (eq. 4, 8) + collision_penalty·𝟙(collided) (s).
     pub cost: f64,
     /// tᵢ* of every command, i = 1 … n + 1 (eq. 5), shape (n + 1,). A diverged rollout ends the sequence:
     /// it and every later command count t_max.
@@ -100,7 +100,7 @@ impl SequenceResult {
 }
 
 /// Check commands (n_commands·dof,) and goal (dof,) for shape and finiteness.
-pub(crate) fn validate_commands(dof: usize, n_commands: usize, commands: &[f64], goal: &[f64]) -> Result<()> {
+fn validate_commands(dof: usize, n_commands: usize, commands: &[f64], goal: &[f64]) -> Result<()> {
     let expected = n_commands.checked_mul(dof).ok_or_else(|| FabricError::Value {
         what: "SequenceOptions.n_commands".to_string(),
         message: format!("{n_commands} commands of {dof} values overflow"),
@@ -140,7 +140,8 @@ pub(crate) fn run_sequence<S: System>(
     let mut q = q0.to_vec();
     let mut qd = qd0.to_vec();
     for i in 0..=n {
-        let (command, tol) = if i < n { (&commands[i * dof..(i + 1) * dof], opts.waypoint_tol) } else { (goal, ro.tol) };
+        let (command, tol) =
+            if i < n { (&commands[i * dof..(i + 1) * dof], opts.waypoint_tol) } else { (goal, ro.tol) };
         let r = run(system, ws, b, &q, &qd, command, ro, tol)?;
         t_stars.push(r.t_star);
         reasons.push(r.reason);

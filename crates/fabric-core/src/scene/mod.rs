@@ -25,5 +25,5 @@ pub mod shape;
 
 pub use distance::{point_distance, DistanceSample, SurfaceDistance};
 pub use moveit::MotionPlanRequest;
-pub use scene::{ObstacleId, Scene};
+pub use scene::{ObstacleId, Scene, LINEAR_SCAN_MAX};
 pub use shape::{Obstacle, PointCloud, Shape};

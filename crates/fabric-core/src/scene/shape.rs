@@ -332,13 +332,39 @@ pub(crate) fn aabb_distance(mins: &Point3<f64>, maxs: &Point3<f64>, p: &Point3<f
 /// nearest face inside. For any solid S inside the box, `aabb_signed_distance <= d_S(p)`, so it is a
 /// valid lower bound for pruning signed-distance searches.
 pub(crate) fn aabb_signed_distance(mins: &Point3<f64>, maxs: &Point3<f64>, p: &Point3<f64>) -> f64 {
-    let e = Vector3::from_fn(|i, _| (mins[i] - p[i]).max(p[i] - maxs[i]));
-    let outside = e.map(|v| v.max(0.0));
-    let o2 = outside.norm_squared();
-    if o2 > 0.0 {
-        o2.sqrt()
+    // Scalar code with plain comparisons (`fmax` compiles to one instruction; `f64::max` handles NaN
+    // and costs several): this runs for every box visited. Inputs are finite (checked by the callers).
+    let ex = fmax(mins.x - p.x, p.x - maxs.x);
+    let ey = fmax(mins.y - p.y, p.y - maxs.y);
+    let ez = fmax(mins.z - p.z, p.z - maxs.z);
+    if ex <= 0.0 && ey <= 0.0 && ez <= 0.0 {
+        return fmax(fmax(ex, ey), ez);
+    }
+    let (ox, oy, oz) = (fmax(ex, 0.0), fmax(ey, 0.0), fmax(ez, 0.0));
+    (ox * ox + oy * oy + oz * oz).sqrt()
+}
+
+/// `max(a, b)` for non-NaN inputs, as a single comparison.
+#[inline(always)]
+pub(crate) fn fmax(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
     } else {
-        e.max()
+        b
+    }
+}
+
+/// Whether anything inside the box `[mins, maxs]` may be within signed distance `max` of `p`
+/// (squared outside distance when `max >= 0`, signed box distance otherwise).
+#[inline]
+pub(crate) fn box_within(mins: &Point3<f64>, maxs: &Point3<f64>, p: &Point3<f64>, max: f64) -> bool {
+    if max >= 0.0 {
+        let ox = fmax(fmax(mins.x - p.x, p.x - maxs.x), 0.0);
+        let oy = fmax(fmax(mins.y - p.y, p.y - maxs.y), 0.0);
+        let oz = fmax(fmax(mins.z - p.z, p.z - maxs.z), 0.0);
+        ox * ox + oy * oy + oz * oz <= max * max
+    } else {
+        aabb_signed_distance(mins, maxs, p) <= max
     }
 }
 
