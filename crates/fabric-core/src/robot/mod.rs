@@ -15,6 +15,7 @@ mod model;
 mod panda;
 mod spheres;
 mod srdf;
+mod tree;
 mod urdf;
 
 pub use geometry::{GeometryKind, LinkGeometry};

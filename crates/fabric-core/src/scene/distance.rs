@@ -94,8 +94,7 @@ pub(crate) fn eval_world(
     if l.d.is_nan() || l.d > max_distance {
         return None;
     }
-    let hessian = if l.curved { rot * l.h * rot.transpose() } else { Matrix3::zeros() };
-    Some(SurfaceDistance { distance: l.d, gradient: rotate(rot, &l.g), hessian })
+    Some(SurfaceDistance { distance: l.d, gradient: rotate(rot, &l.g), hessian: l.h.world(rot) })
 }
 
 /// `Rᵀ (p - t)`: world point to obstacle frame, written out (the generic nalgebra product is several
@@ -164,17 +163,56 @@ pub(crate) fn distance_world(
     (d <= max_distance).then_some(d)
 }
 
-/// Result in the obstacle frame. `curved == false` means the Hessian is exactly 0.
+/// Result in the obstacle frame.
 #[derive(Clone, Copy, Debug)]
 struct Local {
     d: f64,
     g: Vector3<f64>,
-    h: Matrix3<f64>,
-    curved: bool,
+    h: Curvature,
+}
+
+/// A Hessian `α I + Σ_k β_k v_k v_kᵀ` (at most two terms, obstacle frame). Every closed form of this
+/// module has this shape, and it rotates to the world frame by rotating the vectors only
+/// (`R (α I + β v vᵀ) Rᵀ = α I + β (Rv)(Rv)ᵀ`), which is cheaper than `R H Rᵀ`.
+#[derive(Clone, Copy, Debug)]
+struct Curvature {
+    alpha: f64,
+    terms: [(f64, Vector3<f64>); 2],
+    n: usize,
+}
+
+impl Curvature {
+    const ZERO: Curvature = Curvature { alpha: 0.0, terms: [(0.0, Vector3::new(0.0, 0.0, 0.0)); 2], n: 0 };
+
+    fn new(alpha: f64, terms: &[(f64, Vector3<f64>)]) -> Curvature {
+        let mut c = Curvature { alpha, ..Curvature::ZERO };
+        for (slot, t) in c.terms.iter_mut().zip(terms) {
+            *slot = *t;
+            c.n += 1;
+        }
+        c
+    }
+
+    /// The Hessian in the world frame, `rot` mapping obstacle to world.
+    fn world(&self, rot: &Matrix3<f64>) -> Matrix3<f64> {
+        // Upper triangle xx, xy, xz, yy, yz, zz.
+        let mut h = [self.alpha, 0.0, 0.0, self.alpha, 0.0, self.alpha];
+        for (b, v) in self.terms.iter().take(self.n) {
+            let w = rotate(rot, v);
+            let (bx, by, bz) = (b * w.x, b * w.y, b * w.z);
+            h[0] += bx * w.x;
+            h[1] += bx * w.y;
+            h[2] += bx * w.z;
+            h[3] += by * w.y;
+            h[4] += by * w.z;
+            h[5] += bz * w.z;
+        }
+        Matrix3::new(h[0], h[1], h[2], h[1], h[3], h[4], h[2], h[4], h[5])
+    }
 }
 
 fn flat(d: f64, g: Vector3<f64>) -> Local {
-    Local { d, g, h: Matrix3::zeros(), curved: false }
+    Local { d, g, h: Curvature::ZERO }
 }
 
 /// `d = s|v| - offset` about a point feature (`v = p - c`).
@@ -183,9 +221,10 @@ fn about_point(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) ->
     if r <= SINGULAR_EPS {
         return flat(s * r - offset, fallback);
     }
-    let u = v / r;
-    let h = (Matrix3::identity() - u * u.transpose()) * (s / r);
-    Local { d: s * r - offset, g: u * s, h, curved: true }
+    let inv = 1.0 / r;
+    let u = v * inv;
+    let k = s * inv;
+    Local { d: s * r - offset, g: u * s, h: Curvature::new(k, &[(-k, u)]) }
 }
 
 /// `d = s|v| - offset` about a straight line of unit direction `e` (`v = p - c ⟂ e`).
@@ -194,9 +233,10 @@ fn about_line(v: &Vector3<f64>, e: &Vector3<f64>, s: f64, offset: f64, fallback:
     if r <= SINGULAR_EPS {
         return flat(s * r - offset, fallback);
     }
-    let u = v / r;
-    let h = (Matrix3::identity() - u * u.transpose() - e * e.transpose()) * (s / r);
-    Local { d: s * r - offset, g: u * s, h, curved: true }
+    let inv = 1.0 / r;
+    let u = v * inv;
+    let k = s * inv;
+    Local { d: s * r - offset, g: u * s, h: Curvature::new(k, &[(-k, u), (-k, *e)]) }
 }
 
 /// Widen a search limit so that features at exactly `max` are not lost to strict comparisons.
@@ -259,10 +299,11 @@ fn cuboid(p: &Vector3<f64>, h: &Vector3<f64>) -> Local {
 fn cylinder(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
     let rho = (p.x * p.x + p.y * p.y).sqrt();
     let on_axis = rho <= SINGULAR_EPS;
+    let inv_rho = if on_axis { 0.0 } else { 1.0 / rho };
     let (er, eth) = if on_axis {
         (Vector3::x(), Vector3::y())
     } else {
-        (Vector3::new(p.x / rho, p.y / rho, 0.0), Vector3::new(-p.y / rho, p.x / rho, 0.0))
+        (Vector3::new(p.x * inv_rho, p.y * inv_rho, 0.0), Vector3::new(-p.y * inv_rho, p.x * inv_rho, 0.0))
     };
     let a = rho - radius;
     let sz = sign_of(p.z);
@@ -271,16 +312,16 @@ fn cylinder(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
     if a > 0.0 && b > 0.0 {
         // Rim: distance to a circle. ∇²d = t tᵀ/d + (a/d) ∇²ρ with ∇²ρ = e_θ e_θᵀ/ρ.
         let d = (a * a + b * b).sqrt();
-        let g = (er * a + z * (b * sz)) / d;
-        let t = (er * (-b) + z * (a * sz)) / d;
-        let h = t * t.transpose() / d + eth * eth.transpose() * (a / (d * rho));
-        Local { d, g, h, curved: true }
+        let inv_d = 1.0 / d;
+        let g = (er * a + z * (b * sz)) * inv_d;
+        let t = (er * (-b) + z * (a * sz)) * inv_d;
+        Local { d, g, h: Curvature::new(0.0, &[(inv_d, t), (a * inv_d * inv_rho, eth)]) }
     } else if a > 0.0 || (b <= 0.0 && a > b) {
         // Side (outside, or inside nearer to the side than to a cap).
         if on_axis {
             flat(a, er)
         } else {
-            Local { d: a, g: er, h: eth * eth.transpose() / rho, curved: true }
+            Local { d: a, g: er, h: Curvature::new(0.0, &[(inv_rho, eth)]) }
         }
     } else {
         flat(b, z * sz)

@@ -16,7 +16,7 @@ use parry3d_f64::query;
 use parry3d_f64::shape::{Ball, Capsule, Cuboid, Cylinder, HalfSpace};
 
 use super::distance::{distance_world, eval_world, DistanceSample};
-use super::shape::{aabb_signed_distance, box_within, check_pose, Obstacle, Shape};
+use super::shape::{aabb_signed_distance, box_within, check_pose, fmax, Obstacle, Shape};
 use crate::error::{FabricError, Result};
 
 /// Identifier of an obstacle in a [`Scene`]; never reused within one scene.
@@ -62,13 +62,6 @@ impl Entry {
         distance_world(&self.obstacle.shape, &self.rot, &self.obstacle.pose.translation.vector, p, max_distance)
     }
 
-    /// World box for the linear scan: the AABB, or all of space for unbounded shapes.
-    fn bounds(&self) -> Aabb {
-        self.aabb.unwrap_or_else(|| {
-            Aabb::new(Point3::from(Vector3::repeat(f64::NEG_INFINITY)), Point3::from(Vector3::repeat(f64::INFINITY)))
-        })
-    }
-
     fn sample(&self, p: &Vector3<f64>, max_distance: f64) -> Option<DistanceSample> {
         let s = eval_world(
             &self.obstacle.shape,
@@ -93,8 +86,8 @@ impl Entry {
 pub struct Scene {
     /// Dense storage (insertion order, with swap-removal).
     entries: Vec<Entry>,
-    /// `entries[i].bounds()`, contiguous for the linear scan.
-    bounds: Vec<Aabb>,
+    /// Boxes of the entries for the linear scan (valid when `entries.len() <= LINEAR_SCAN_MAX`).
+    linear: LinearBoxes,
     /// Slot (stable BVH leaf index) to position in `entries`, [`FREE`] when unused.
     slot_to_entry: Vec<u32>,
     free: Vec<u32>,
@@ -145,10 +138,10 @@ impl Scene {
             }
             None => self.unbounded.push(slot),
         }
-        self.bounds.push(entry.bounds());
         self.entries.push(entry);
         self.slot_to_entry[slot as usize] = position;
         self.index.insert(id, slot);
+        self.linear.sync(&self.entries);
         Ok(id)
     }
 
@@ -157,7 +150,7 @@ impl Scene {
         let slot = self.slot(id)?;
         let position = self.position(slot).ok_or_else(|| unknown(id))?;
         let entry = self.entries.swap_remove(position);
-        self.bounds.swap_remove(position);
+        self.linear.sync(&self.entries);
         if let Some(moved) = self.entries.get(position) {
             self.slot_to_entry[moved.slot as usize] = position as u32;
         }
@@ -182,10 +175,10 @@ impl Scene {
         check_pose(&format!("obstacle '{}'", entry.obstacle.name), &pose)?;
         entry.obstacle.pose = pose;
         entry.refresh();
-        self.bounds[position] = entry.bounds();
         if let Some(aabb) = entry.aabb {
             self.bvh.insert(aabb, slot);
         }
+        self.linear.sync(&self.entries);
         Ok(())
     }
 
@@ -244,13 +237,12 @@ impl Scene {
             return;
         }
         let mut moved = false;
-        for (entry, bounds) in self.entries.iter_mut().zip(self.bounds.iter_mut()) {
+        for entry in &mut self.entries {
             if entry.obstacle.velocity == Vector3::zeros() {
                 continue;
             }
             entry.obstacle.pose.translation.vector += entry.obstacle.velocity * dt;
             entry.refresh();
-            *bounds = entry.bounds();
             if let Some(aabb) = entry.aabb {
                 self.bvh.insert_or_update_partially(aabb, entry.slot, 0.0);
                 moved = true;
@@ -259,6 +251,7 @@ impl Scene {
         if moved {
             self.bvh.refit(&mut self.bvh_workspace);
         }
+        self.linear.sync(&self.entries);
     }
 
     /// Append to `out` a sample for every obstacle whose signed distance to `p` (world, m) is
@@ -282,8 +275,10 @@ impl Scene {
             }
         };
         if self.entries.len() <= LINEAR_SCAN_MAX {
-            for (e, b) in self.entries.iter().zip(&self.bounds) {
-                if box_within(&b.mins, &b.maxs, &pt, max_distance) {
+            let keys = self.linear.bound_keys(&pt, self.entries.len());
+            let max_key = key(max_distance);
+            for (e, k) in self.entries.iter().zip(keys) {
+                if k <= max_key {
                     visit(e);
                 }
             }
@@ -319,20 +314,22 @@ impl Scene {
         if self.entries.len() <= LINEAR_SCAN_MAX {
             // Box bounds of all obstacles; exact distance of the most promising one first, then of
             // the others whose bound is below the best distance so far.
-            let mut lower = [f64::INFINITY; LINEAR_SCAN_MAX];
-            let (mut first, mut first_lb) = (0, f64::INFINITY);
-            for (i, (b, lb)) in self.bounds.iter().zip(lower.iter_mut()).enumerate() {
-                *lb = aabb_signed_distance(&b.mins, &b.maxs, &pt);
-                if *lb < first_lb {
-                    (first, first_lb) = (i, *lb);
-                }
+            let n = self.entries.len();
+            let keys = self.linear.bound_keys(&pt, n);
+            let (mut first, mut first_key) = (0, f64::INFINITY);
+            for (i, &k) in keys.iter().enumerate().take(n) {
+                let better = k < first_key;
+                first = if better { i } else { first };
+                first_key = if better { k } else { first_key };
             }
             if let Some(e) = self.entries.get(first) {
                 consider(e, p, &mut best_d, &mut winner);
             }
-            for (i, (e, lb)) in self.entries.iter().zip(lower).enumerate() {
-                if i != first && lb < best_d {
+            let mut best_key = key(best_d);
+            for (i, (e, k)) in self.entries.iter().zip(keys).enumerate() {
+                if i != first && k < best_key {
                     consider(e, p, &mut best_d, &mut winner);
+                    best_key = key(best_d);
                 }
             }
         } else {
@@ -413,6 +410,68 @@ impl Scene {
 
     fn slot(&self, id: ObstacleId) -> Result<u32> {
         self.index.get(&id).copied().ok_or_else(|| unknown(id))
+    }
+}
+
+/// The boxes of up to [`LINEAR_SCAN_MAX`] entries as a structure of arrays, so that their lower bounds
+/// are computed in one vectorisable loop. Unused lanes hold empty boxes (bound +∞), unbounded obstacles
+/// all of space (bound -∞).
+#[derive(Clone, Debug)]
+struct LinearBoxes {
+    lo: [[f64; LINEAR_SCAN_MAX]; 3],
+    hi: [[f64; LINEAR_SCAN_MAX]; 3],
+}
+
+impl Default for LinearBoxes {
+    fn default() -> Self {
+        LinearBoxes { lo: [[f64::INFINITY; LINEAR_SCAN_MAX]; 3], hi: [[f64::NEG_INFINITY; LINEAR_SCAN_MAX]; 3] }
+    }
+}
+
+impl LinearBoxes {
+    /// Rebuild from the entries (a no-op beyond [`LINEAR_SCAN_MAX`] entries, when the BVH is used).
+    fn sync(&mut self, entries: &[Entry]) {
+        if entries.len() > LINEAR_SCAN_MAX {
+            return;
+        }
+        *self = LinearBoxes::default();
+        for (i, e) in entries.iter().enumerate() {
+            let (lo, hi) = match &e.aabb {
+                Some(a) => (a.mins, a.maxs),
+                None => (Point3::from(Vector3::repeat(f64::NEG_INFINITY)), Point3::from(Vector3::repeat(f64::INFINITY))),
+            };
+            for k in 0..3 {
+                self.lo[k][i] = lo[k];
+                self.hi[k][i] = hi[k];
+            }
+        }
+    }
+
+    /// [`key`] of the signed box distance of `p` (see `aabb_signed_distance`) for the first `n` lanes,
+    /// branch-free and without square roots; the other lanes are +∞.
+    #[inline]
+    fn bound_keys(&self, p: &Point3<f64>, n: usize) -> [f64; LINEAR_SCAN_MAX] {
+        let mut out = [f64::INFINITY; LINEAR_SCAN_MAX];
+        for (i, o) in out.iter_mut().enumerate().take(n) {
+            let ex = fmax(self.lo[0][i] - p.x, p.x - self.hi[0][i]);
+            let ey = fmax(self.lo[1][i] - p.y, p.y - self.hi[1][i]);
+            let ez = fmax(self.lo[2][i] - p.z, p.z - self.hi[2][i]);
+            let (ox, oy, oz) = (fmax(ex, 0.0), fmax(ey, 0.0), fmax(ez, 0.0));
+            let outside2 = ox * ox + oy * oy + oz * oz;
+            let inside = fmax(fmax(ex, ey), ez);
+            *o = if outside2 > 0.0 { outside2 } else { -(inside * inside) };
+        }
+        out
+    }
+}
+
+/// `sign(d) d²`: increasing in `d`, so bounds can be compared without square roots.
+#[inline(always)]
+fn key(d: f64) -> f64 {
+    if d > 0.0 {
+        d * d
+    } else {
+        -(d * d)
     }
 }
 
