@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import subprocess
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -206,8 +207,12 @@ def toy_robot(tmp_path_factory):
     return path, {"base": box, "arm": placed}
 
 
-def run_tool(args: list[str]) -> int:
-    return fs.main([str(a) for a in args])
+def run_tool(args: list) -> int:
+    """Run the tool as a program (as users do: its BLAS thread setting then takes effect); exit status."""
+    done = subprocess.run([sys.executable, str(TOOL), *map(str, args)], capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0 or "fit_spheres: error:" in done.stderr, done.stderr
+    return done.returncode
 
 
 def test_tool_covers_box_and_capsule(toy_robot, tmp_path):
@@ -269,14 +274,16 @@ def test_tool_is_deterministic(toy_robot, tmp_path):
 
 def test_tool_reports_bad_input(toy_robot, tmp_path, capsys):
     urdf, _ = toy_robot
-    assert run_tool([urdf, "--links", "nope", *QUICK]) == 2
+    assert fs.main([str(urdf), "--links", "nope", *QUICK]) == 2
     assert "nope" in capsys.readouterr().err
     broken = tmp_path / "broken.urdf"
     broken.write_text(urdf.read_text().replace("box.obj", "missing.obj"))
-    assert run_tool([broken, "--links", "base", *QUICK]) == 2
+    assert fs.main([str(broken), "--links", "base", *QUICK]) == 2
     assert "missing.obj" in capsys.readouterr().err
-    assert run_tool([urdf, "--max-total", "1", *QUICK]) == 2  # three links cannot share one sphere
+    assert fs.main([str(urdf), "--max-total", "1", *QUICK]) == 2  # three links cannot share one sphere
     assert "--max-total" in capsys.readouterr().err
+    assert fs.main([str(tmp_path / "absent.urdf"), *QUICK]) == 2
+    assert "absent.urdf" in capsys.readouterr().err
 
 
 def test_winding_number_matches_containment():

@@ -39,7 +39,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
+
+# One BLAS thread: the optimisation solves many tiny problems, for which OpenBLAS's thread start-up costs
+# about 30 times the work (measured: 10 ms against 0.3 ms per L-BFGS-B iteration). Only effective when this
+# file is run as a program (numpy not yet imported); the caller's own settings win.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -84,7 +91,7 @@ class FitOptions:
     margin: float = 0.001
     max_per_link: int = 10
     max_total: int = 64
-    min_gain: float = 0.002
+    min_gain: float = 0.0015
     restarts: int = 2
     tau: float = 0.01
     iterations: int = 150
@@ -600,11 +607,14 @@ def fit_robot(meshes: dict[str, trimesh.Trimesh], opts: FitOptions, log=None) ->
 # ------------------------------------------------------------------------------------------------ output
 
 
-def spheres_json(fits: Sequence[LinkFit]) -> dict:
-    """The sphere file: ``{"spheres": [{"link", "center" [x, y, z] (m, link frame), "radius" (m)}]}``."""
-    return {"spheres": [{"link": fit.link, "center": [round(float(v), DECIMALS) for v in s.center],
-                         "radius": round(float(s.radius), DECIMALS)}
-                        for fit in fits for s in fit.spheres]}
+def spheres_json(fits: Sequence[LinkFit], comment: str | None = None) -> str:
+    """The sphere file text: ``{"comment": ..., "spheres": [{"link", "center" [x, y, z], "radius"}, ...]}``,
+    centres in metres in the link frame, radii in metres, one sphere per line (``comment`` only if given)."""
+    rows = [json.dumps({"link": fit.link, "center": [round(float(v), DECIMALS) for v in s.center],
+                        "radius": round(float(s.radius), DECIMALS)})
+            for fit in fits for s in fit.spheres]
+    head = f"  \"comment\": {json.dumps(comment)},\n" if comment else ""
+    return "{\n" + head + "  \"spheres\": [\n    " + ",\n    ".join(rows) + "\n  ]\n}\n"
 
 
 def load_spheres_json(path: str | Path) -> dict[str, list[Sphere]]:
@@ -698,7 +708,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except FitError as exc:
         print(f"fit_spheres: error: {exc}", file=sys.stderr)
         return 2
-    text = json.dumps(spheres_json(fits), indent=1) + "\n"
+    settings = ", ".join(f"{name}={value}" for name, value in vars(opts).items())
+    text = spheres_json(fits, f"Fitted by tools/fit_spheres.py to the collision geometry of {args.urdf.name} "
+                              f"({settings}); every mesh point lies inside its link's spheres. Centres in "
+                              f"metres in the URDF link frames, radii in metres.")
     if args.out is None:
         sys.stdout.write(text)
     else:

@@ -48,6 +48,7 @@ EXTERNAL_COMMANDS: Dict[str, Tuple[Tuple[str, ...], str, str, Optional[str]]] = 
     "view": (("gfcs.viz",), "register_cli", "open a rerun recording (.rrd) in the viewer", "viz"),
     "experiment": (("gfcs.experiments", "gfcs.experiments.particles"), "register_cli",
                    "the GF paper's experiments (Sec. VI particle systems)", None),
+    "plot": (("gfcs.plots",), "register_cli", "plot benchmark rows (success rate, EE path length)", None),
 }
 
 #: Class of the built-in problem ``gfcs solve`` uses without --scene.

@@ -18,7 +18,8 @@ of each trajectory):
 ``/methods/<label>/ee_path``                the whole EE path (LineStrips3D)
 ``/methods/<label>/commands``               EE positions of the commands (red spheres)
 ``/methods/<label>/metrics/<series>``       Scalars: ``joint_speed`` [rad/s], ``clearance`` and
-                                            ``self_clearance`` [m], ``energy`` and ``potential``
+                                            ``self_clearance`` [m], ``energy`` L̃_e, ``potential`` ψ,
+                                            ``lyapunov`` L̃_e + ψ (GF Thm IV.4)
 ``/methods/<label>/summary``                a text summary (success, cost, lengths)
 
 ``<label>`` is ``gf`` (local fabric), ``gfcs`` (command sequence with the uniform sampler) or
@@ -68,8 +69,9 @@ SERIES: Dict[str, Tuple[str, str]] = {
     "joint_speed": ("joint speed ‖q̇‖", "rad/s"),
     "clearance": ("min clearance to obstacles", "m"),
     "self_clearance": ("min self clearance", "m"),
-    "energy": ("fabric energy L_e (GF eq. 7-9)", ""),
+    "energy": ("fabric energy L̃_e = ½ q̇ᵀM̃q̇", ""),
     "potential": ("forcing potential ψ", ""),
+    "lyapunov": ("L̃_e + ψ (GF Thm IV.4 Lyapunov function)", ""),
 }
 
 _METHOD_COLORS = {
@@ -100,25 +102,28 @@ def rotation_to_quaternion(r: np.ndarray) -> np.ndarray:
     if m.shape[-2:] != (3, 3):
         raise ValueError(f"r: expected shape (..., 3, 3), got {m.shape}")
     a = m.reshape(-1, 3, 3)
-    tr = a[:, 0, 0] + a[:, 1, 1] + a[:, 2, 2]
-    # the four candidate forms, each divided by its own (largest-when-chosen) pivot
-    pivots = np.stack([1.0 + a[:, 0, 0] - a[:, 1, 1] - a[:, 2, 2], 1.0 + a[:, 1, 1] - a[:, 0, 0] - a[:, 2, 2],
-                       1.0 + a[:, 2, 2] - a[:, 0, 0] - a[:, 1, 1], 1.0 + tr], axis=1)
+    d0, d1, d2 = a[:, 0, 0], a[:, 1, 1], a[:, 2, 2]
+    # 4·x², 4·y², 4·z², 4·w² up to the factor; the largest is the best-conditioned pivot
+    pivots = np.stack([1.0 + d0 - d1 - d2, 1.0 - d0 + d1 - d2, 1.0 - d0 - d1 + d2, 1.0 + d0 + d1 + d2], axis=1)
     case = np.argmax(pivots, axis=1)
-    s = 2.0 * np.sqrt(np.maximum(pivots[np.arange(a.shape[0]), case], 1e-300))
-    x = np.stack([0.25 * s, (a[:, 0, 1] + a[:, 1, 0]) / s, (a[:, 0, 2] + a[:, 2, 0]) / s, (a[:, 2, 1] - a[:, 1, 2]) / s], 1)
-    y = np.stack([(a[:, 0, 1] + a[:, 1, 0]) / s, 0.25 * s, (a[:, 1, 2] + a[:, 2, 1]) / s, (a[:, 0, 2] - a[:, 2, 0]) / s], 1)
-    z = np.stack([(a[:, 0, 2] + a[:, 2, 0]) / s, (a[:, 1, 2] + a[:, 2, 1]) / s, 0.25 * s, (a[:, 1, 0] - a[:, 0, 1]) / s], 1)
-    w = np.stack([(a[:, 2, 1] - a[:, 1, 2]) / s, (a[:, 0, 2] - a[:, 2, 0]) / s, (a[:, 1, 0] - a[:, 0, 1]) / s, 0.25 * s], 1)
-    q = np.choose(case[:, None], [x, y, z, w])
+    s = 2.0 * np.sqrt(np.maximum(pivots[np.arange(a.shape[0]), case], 1e-300))  # = 4 × pivot component
+    xy, xz, yz = a[:, 0, 1] + a[:, 1, 0], a[:, 0, 2] + a[:, 2, 0], a[:, 1, 2] + a[:, 2, 1]  # 4xy, 4xz, 4yz
+    wx, wy, wz = a[:, 2, 1] - a[:, 1, 2], a[:, 0, 2] - a[:, 2, 0], a[:, 1, 0] - a[:, 0, 1]  # 4wx, 4wy, 4wz
+    quarter = 0.25 * s
+    forms = [np.stack([quarter, xy / s, xz / s, wx / s], 1),   # pivot x
+             np.stack([xy / s, quarter, yz / s, wy / s], 1),   # pivot y
+             np.stack([xz / s, yz / s, quarter, wz / s], 1),   # pivot z
+             np.stack([wx / s, wy / s, wz / s, quarter], 1)]   # pivot w
+    q = np.choose(case[:, None], forms)
     q *= np.where(q[:, 3:4] < 0.0, -1.0, 1.0)
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     return q.reshape(m.shape[:-2] + (4,))
 
 
-def _part(name: str) -> str:
-    """One entity-path part for an arbitrary name."""
-    return rr.escape_entity_path_part(str(name)) if name else "_"
+def _part(name: Any) -> str:
+    """One entity-path part for an arbitrary name (escaped; "_" for an empty one)."""
+    text = str(name)
+    return rr.escape_entity_path_part(text) if text else "_"
 
 
 def _label_of(result: Any) -> str:
@@ -183,8 +188,6 @@ def _primitive_mesh(kind: str, size: Sequence[float]) -> Any:
         return trimesh.creation.box(extents=np.asarray(size, dtype=np.float64))
     if kind == "cylinder":
         return trimesh.creation.cylinder(radius=float(size[1]), height=float(size[0]))
-    if kind == "capsule":
-        return trimesh.creation.capsule(height=float(size[0]), radius=float(size[1]))
     if kind == "sphere":
         return trimesh.creation.icosphere(subdivisions=2, radius=float(size[0]))
     raise ValueError(f"unknown geometry type {kind!r}")
@@ -206,12 +209,19 @@ def _to_link_mesh(link: str, mesh: Any, origin: Optional[np.ndarray], scale: Opt
     return _LinkMesh(link, v, np.asarray(mesh.faces, dtype=np.uint32), n)
 
 
+class _MeshLoadError(Exception):
+    """A mesh file trimesh could not turn into triangles (the link is then drawn without it)."""
+
+
 def _load_mesh_file(path: str) -> Any:
     import trimesh
 
-    mesh = trimesh.load(path, force="mesh")
+    try:
+        mesh = trimesh.load(path, force="mesh")
+    except Exception as e:  # trimesh raises many types (missing loader plugin, parse errors, I/O)
+        raise _MeshLoadError(f"{path}: {type(e).__name__}: {e}") from e
     if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
-        raise ValueError(f"{path}: no triangles")
+        raise _MeshLoadError(f"{path}: no triangles")
     return mesh
 
 
@@ -244,7 +254,7 @@ def _urdf_visual_meshes(urdf: Union[str, os.PathLike], mesh_dir: Optional[str], 
                 elif g.sphere is not None:
                     out.append(_to_link_mesh(link.name, _primitive_mesh("sphere", [g.sphere.radius]),
                                              vis.origin, None))
-            except (OSError, ValueError) as e:
+            except _MeshLoadError as e:
                 warnings.warn(f"gfcs.viz: skipping a visual of link {link.name}: {e}", stacklevel=3)
     return out
 
@@ -257,8 +267,8 @@ def _collision_meshes(robot: Any) -> List[_LinkMesh]:
             continue
         try:
             mesh = _load_mesh_file(str(g["path"]))
-        except (OSError, ValueError) as e:
-            warnings.warn(f"gfcs.viz: skipping the collision mesh {g['path']}: {e}", stacklevel=3)
+        except _MeshLoadError as e:
+            warnings.warn(f"gfcs.viz: skipping a collision mesh of link {g['link']}: {e}", stacklevel=3)
             continue
         out.append(_to_link_mesh(str(g["link"]), mesh, g.get("origin"), g.get("scale")))
     return out
@@ -299,11 +309,14 @@ def _single_obstacle_points(scene: Any, obstacle_id: int, spacing: float) -> np.
 
 def _log_obstacles(rec: Any, scene: Any) -> List[str]:
     """Log every obstacle of ``scene`` (static, world frame); returns their entity paths."""
-    paths = []
+    paths: List[str] = []
     color = [_OBSTACLE_COLOR]
     for ob in scene.obstacles():
         kind = str(ob["type"])
-        path = f"/world/obstacles/{_part(ob.get('name') or ob['id'])}"
+        name = ob.get("name")
+        path = f"/world/obstacles/{_part(name if name else ob['id'])}"
+        if path in paths:  # names need not be unique: the id disambiguates
+            path = f"{path}_{ob['id']}"
         pose = np.asarray(ob["pose"], dtype=np.float64)
         size = np.asarray(ob["size"], dtype=np.float64).reshape(-1)
         if kind in ("mesh", "point_cloud"):
@@ -341,16 +354,23 @@ def _log_obstacles(rec: Any, scene: Any) -> List[str]:
 
 # ------------------------------------------------------------------------------------ one method
 def _active_commands(t: np.ndarray, t_stars: np.ndarray, n_segments: int) -> np.ndarray:
-    """Index (T,) of the command each sample is steered by: segment i spans Σ_{j<i} t_j* ≤ t < Σ_{j≤i} t_j*
-    (GFCS eq. 5-7)."""
-    bounds = np.cumsum(np.asarray(t_stars, dtype=np.float64).reshape(-1))
-    idx = np.searchsorted(bounds[:-1], t - 1e-9, side="right") if bounds.size > 1 else np.zeros(t.shape[0], int)
-    return np.clip(idx, 0, max(n_segments - 1, 0))
+    """Index (T,) of the command steering each sample (GFCS eq. 5-7): command i runs for t_i*, so sample k
+    (time t_k, uniform step) belongs to segment i when Σ_{j<i} t_j* ≤ t_k − t_0 < Σ_{j≤i} t_j*; the sample
+    where a segment ends starts the next one (its acceleration is the next command's)."""
+    n = t.shape[0]
+    if n < 2 or n_segments < 2:
+        return np.zeros(n, dtype=np.int64)
+    dt = (t[-1] - t[0]) / (n - 1)
+    k = np.rint((t - t[0]) / dt).astype(np.int64)
+    ends = np.rint(np.cumsum(np.asarray(t_stars, dtype=np.float64).reshape(-1))[: n_segments - 1] / dt)
+    idx = np.searchsorted(ends.astype(np.int64), k, side="right")
+    return np.clip(idx, 0, n_segments - 1)
 
 
 def _fabric_series(problem: Any, result: Any, q: np.ndarray, qd: np.ndarray, t: np.ndarray
                    ) -> Optional[Dict[str, np.ndarray]]:
-    """Fabric energy L_e and potential ψ along the trajectory (``Fabric.diagnostics``), or None."""
+    """Fabric energy L̃_e = ½ q̇ᵀM̃q̇, forcing potential ψ and their sum (the Lyapunov function of GF
+    Thm IV.4) along the trajectory, from ``Fabric.diagnostics``; None when unavailable."""
     import gfcs
 
     try:
@@ -370,7 +390,7 @@ def _fabric_series(problem: Any, result: Any, q: np.ndarray, qd: np.ndarray, t: 
             return None
         energy[k] = float(d.get("energy", math.nan))
         potential[k] = float(d.get("potential", math.nan))
-    return {"energy": energy, "potential": potential}
+    return {"energy": energy, "potential": potential, "lyapunov": energy + potential}
 
 
 def _summary_markdown(label: str, result: Any) -> str:
@@ -540,9 +560,9 @@ def record(
         urdf: a URDF file whose ``<visual>`` geometry draws the links (its link names must be the
             robot's); default: the mesh elements of ``robot.collision_geometry()``.
         mesh_dir: folder resolving the URDF's relative / ``package://`` mesh paths.
-        energy: log the fabric energy L_e and the potential ψ at every sample (``Fabric.diagnostics`` after
-            one ``Fabric.acceleration`` call per sample, with the command active at that sample, GFCS
-            eq. 5-7).
+        energy: log the fabric energy L̃_e, the potential ψ and L̃_e + ψ at every sample
+            (``Fabric.diagnostics`` after one ``Fabric.acceleration`` call per sample, with the command
+            active at that sample, GFCS eq. 5-7).
         application_id: the rerun application id.
 
     Returns:
@@ -626,9 +646,10 @@ def view(path: Union[str, "os.PathLike[str]"], *, wait: bool = True) -> int:
         raise FileNotFoundError(2, "no such recording", str(p))
     cmd = viewer_command() + [str(p)]
     if not has_display():
-        print(f"no display here: copy {p} to a machine with one and run `{' '.join(viewer_command()[-1:])} "
-              f"{p.name}` (pip install rerun-sdk), or serve it to a browser with "
-              f"`{' '.join(cmd[:-1])} --web-viewer {p}`")
+        print(f"gfcs view: no display here. Open {p} on a machine with one (`pip install rerun-sdk`, then "
+              f"`rerun {p.name}`), or serve it to a browser from here: `{' '.join(cmd)} --web-viewer` "
+              "(then open the printed http address, forwarding port 9090 and the gRPC port 9876 over ssh "
+              "if needed).")
         return 0
     proc = subprocess.Popen(cmd)
     return int(proc.wait()) if wait else 0

@@ -19,14 +19,18 @@ use rand_chacha::ChaCha8Rng;
 const INFLUENCE: f64 = 0.2;
 
 fn pose(x: f64, y: f64, z: f64, yaw: f64) -> Isometry3<f64> {
-    Isometry3::from_parts(Translation3::new(x, y, z), UnitQuaternion::from_euler_angles(0.0, 0.0, yaw))
+    Isometry3::from_parts(
+        Translation3::new(x, y, z),
+        UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
+    )
 }
 
 /// A table with a bookshelf and cans, like MotionBenchMaker's `table_pick` / `bookshelf_*` classes.
 fn synthetic_scene() -> Scene {
     let mut s = Scene::new();
     let mut add = |name: &str, shape: Shape, p: Isometry3<f64>| {
-        s.add(Obstacle::new(name, shape, p)).expect("valid obstacle");
+        s.add(Obstacle::new(name, shape, p))
+            .expect("valid obstacle");
     };
     let boxed = |x: f64, y: f64, z: f64| Shape::cuboid_from_size(Vector3::new(x, y, z));
     add("table", boxed(0.8, 1.2, 0.04), pose(0.7, 0.0, -0.02, 0.1));
@@ -34,10 +38,24 @@ fn synthetic_scene() -> Scene {
     add("left", boxed(0.35, 0.04, 0.8), pose(0.83, -0.4, 0.4, 0.1));
     add("right", boxed(0.35, 0.04, 0.8), pose(0.83, 0.4, 0.4, 0.1));
     for (k, z) in [0.25, 0.5, 0.78].iter().enumerate() {
-        add(&format!("shelf{k}"), boxed(0.35, 0.8, 0.02), pose(0.83, 0.0, *z, 0.1));
+        add(
+            &format!("shelf{k}"),
+            boxed(0.35, 0.8, 0.02),
+            pose(0.83, 0.0, *z, 0.1),
+        );
     }
-    for (k, (x, y)) in [(0.5, -0.3), (0.55, 0.2), (0.45, 0.35), (0.8, -0.15)].iter().enumerate() {
-        add(&format!("can{k}"), Shape::Cylinder { half_height: 0.07, radius: 0.03 }, pose(*x, *y, 0.07, 0.0));
+    for (k, (x, y)) in [(0.5, -0.3), (0.55, 0.2), (0.45, 0.35), (0.8, -0.15)]
+        .iter()
+        .enumerate()
+    {
+        add(
+            &format!("can{k}"),
+            Shape::Cylinder {
+                half_height: 0.07,
+                radius: 0.03,
+            },
+            pose(*x, *y, 0.07, 0.0),
+        );
     }
     s
 }

@@ -2,6 +2,7 @@
 //! MotionBenchMaker Panda and problems: input errors, behaviour at rest and in penetration, reaching in
 //! free space, avoidance in a box scene, end-effector attractors, the unbent mode, and energy conservation
 //! of the full transform tree (which fails if any J̇q̇ in the pullback is wrong).
+#![allow(clippy::needless_range_loop)]
 
 mod fabric_support;
 

@@ -1,6 +1,7 @@
 //! Finite-difference checks of the distance-leaf task maps (x, ẋ, J, J̇q̇) on the shipped Panda
 //! (fabric::leaves): the J̇q̇ sign is the classic bug of fabric implementations, so it is checked against
 //! d²/dt² x(q + t q̇) for static and moving obstacles and for self-collision pairs.
+#![allow(clippy::needless_range_loop)]
 
 use fabric_core::fabric::leaves::{obstacle_leaf, self_collision_leaf};
 use fabric_core::robot::{KinematicsWorkspace, Robot, TaskPoint};

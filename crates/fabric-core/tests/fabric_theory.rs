@@ -3,6 +3,7 @@
 //! Euler–Lagrange, checked by num-dual on the composed Lagrangian), Thm IV.6 (pull∘energize =
 //! energize∘pull), energy conservation at the integrator's order, path consistency, Thm IV.4 (forced and
 //! damped fabrics come to rest at the potential minimum).
+#![allow(clippy::needless_range_loop)]
 
 use fabric_core::fabric::components::{Attractor, Barrier};
 use fabric_core::fabric::config::{GoalDampingForm, JointAttractionConfig, LogCoshConfig, Mode, SpeedConfig};
@@ -315,7 +316,7 @@ impl Toy {
     }
 }
 
-fn rk4(toy: &Toy, root: &mut RootSystem, q: &mut Vec<f64>, qd: &mut Vec<f64>, dt: f64) {
+fn rk4(toy: &Toy, root: &mut RootSystem, q: &mut [f64], qd: &mut [f64], dt: f64) {
     let f = |root: &mut RootSystem, q: &[f64], v: &[f64]| toy.eval(root, q, v).0;
     let add = |a: &[f64], b: &[f64], s: f64| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x + s * y).collect() };
     let a1 = f(root, q, qd);
@@ -471,7 +472,9 @@ fn scalar_field_gradients_match_ad() {
     let mut rng = ChaCha8Rng::seed_from_u64(10);
     for _ in 0..50 {
         let x = rvec(&mut rng, 3, 1.0);
-        let fields: [(&dyn Fn(&[f64], &mut [f64]) -> f64, Box<dyn Fn(DVector<DualDVec64>) -> DualDVec64>); 2] = [
+        type Closed<'a> = &'a dyn Fn(&[f64], &mut [f64]) -> f64;
+        type Generic = Box<dyn Fn(DVector<DualDVec64>) -> DualDVec64>;
+        let fields: [(Closed, Generic); 2] = [
             (
                 &|x: &[f64], g: &mut [f64]| TanhMass { dim: 3, mass_max: 2.0, mass_min: 0.3, sharpness: 3.0 }.value_gradient(x, g),
                 Box::new(|v: DVector<DualDVec64>| TanhMass { dim: 3, mass_max: 2.0, mass_min: 0.3, sharpness: 3.0 }.value(v.as_slice())),

@@ -7,7 +7,9 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use fabric_core::scene::meshio::{build_mesh, parse_obj};
-use fabric_core::scene::{point_distance, DistanceSample, Obstacle, ObstacleId, PointCloud, Scene, Shape, LINEAR_SCAN_MAX};
+use fabric_core::scene::{
+    point_distance, DistanceSample, Obstacle, ObstacleId, PointCloud, Scene, Shape, LINEAR_SCAN_MAX,
+};
 use fabric_core::FabricError;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use parry3d_f64::shape::{Ball, Cuboid};
@@ -15,16 +17,34 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use scene_support::{random_pose, rng, vec_in, UNIT_CUBE_OBJ};
 
-fn random_obstacle(r: &mut ChaCha8Rng, cube: &Arc<parry3d_f64::shape::TriMesh>, i: usize) -> Obstacle {
+fn random_obstacle(
+    r: &mut ChaCha8Rng,
+    cube: &Arc<parry3d_f64::shape::TriMesh>,
+    i: usize,
+) -> Obstacle {
     let shape = match r.gen_range(0..6) {
-        0 => Shape::Sphere { radius: r.gen_range(0.01..0.1) },
-        1 => Shape::Cuboid { half_extents: vec_in(r, 0.01, 0.1) },
-        2 => Shape::Cylinder { half_height: r.gen_range(0.01..0.1), radius: r.gen_range(0.01..0.1) },
-        3 => Shape::Capsule { half_height: r.gen_range(0.0..0.1), radius: r.gen_range(0.01..0.1) },
-        4 => Shape::TriMesh(Arc::new(cube.as_ref().clone().scaled(&vec_in(r, 0.02, 0.2)))),
+        0 => Shape::Sphere {
+            radius: r.gen_range(0.01..0.1),
+        },
+        1 => Shape::Cuboid {
+            half_extents: vec_in(r, 0.01, 0.1),
+        },
+        2 => Shape::Cylinder {
+            half_height: r.gen_range(0.01..0.1),
+            radius: r.gen_range(0.01..0.1),
+        },
+        3 => Shape::Capsule {
+            half_height: r.gen_range(0.0..0.1),
+            radius: r.gen_range(0.01..0.1),
+        },
+        4 => Shape::TriMesh(Arc::new(
+            cube.as_ref().clone().scaled(&vec_in(r, 0.02, 0.2)),
+        )),
         _ => {
             let pts = (0..20).map(|_| vec_in(r, -0.05, 0.05)).collect();
-            Shape::PointCloud(Arc::new(PointCloud::new(pts, r.gen_range(0.0..0.02)).unwrap()))
+            Shape::PointCloud(Arc::new(
+                PointCloud::new(pts, r.gen_range(0.0..0.02)).unwrap(),
+            ))
         }
     };
     Obstacle::new(format!("o{i}"), shape, random_pose(r, 1.0))
@@ -39,7 +59,14 @@ fn cube_mesh() -> Arc<parry3d_f64::shape::TriMesh> {
 fn brute(scene: &Scene, p: &Vector3<f64>) -> BTreeMap<ObstacleId, f64> {
     scene
         .iter()
-        .map(|(id, o)| (id, point_distance(&o.shape, &o.pose, p, f64::INFINITY).unwrap().distance))
+        .map(|(id, o)| {
+            (
+                id,
+                point_distance(&o.shape, &o.pose, p, f64::INFINITY)
+                    .unwrap()
+                    .distance,
+            )
+        })
         .collect()
 }
 
@@ -56,18 +83,33 @@ fn check_against_brute_force(scene: &Scene, r: &mut ChaCha8Rng, points: usize, d
         scene.query(&p, max, &mut out);
         let got: BTreeMap<ObstacleId, f64> = out.iter().map(|s| (s.obstacle, s.distance)).collect();
         assert_eq!(got.len(), out.len(), "an obstacle was reported twice");
-        let expected: BTreeMap<ObstacleId, f64> = all.iter().filter(|(_, &d)| d <= max).map(|(&i, &d)| (i, d)).collect();
-        assert_eq!(got.keys().collect::<Vec<_>>(), expected.keys().collect::<Vec<_>>(), "at {p:?}, max {max}");
+        let expected: BTreeMap<ObstacleId, f64> = all
+            .iter()
+            .filter(|(_, &d)| d <= max)
+            .map(|(&i, &d)| (i, d))
+            .collect();
+        assert_eq!(
+            got.keys().collect::<Vec<_>>(),
+            expected.keys().collect::<Vec<_>>(),
+            "at {p:?}, max {max}"
+        );
         for (id, d) in &got {
             assert!((d - expected[id]).abs() < 1e-12);
         }
         nonempty += usize::from(!got.is_empty());
         let best = scene.signed_distance(&p).unwrap();
         let min = all.values().copied().fold(f64::INFINITY, f64::min);
-        assert!((best.distance - min).abs() < 1e-12, "signed_distance {} vs brute {min}", best.distance);
+        assert!(
+            (best.distance - min).abs() < 1e-12,
+            "signed_distance {} vs brute {min}",
+            best.distance
+        );
         assert_eq!(all[&best.obstacle], best.distance);
     }
-    assert!(!dense || nonempty > points / 10, "test points too far from the obstacles ({nonempty})");
+    assert!(
+        !dense || nonempty > points / 10,
+        "test points too far from the obstacles ({nonempty})"
+    );
 }
 
 #[test]
@@ -81,7 +123,9 @@ fn query_never_misses_on_random_scenes() {
             ids.push(scene.add(random_obstacle(&mut r, &cube, i)).unwrap());
         }
         let floor = Isometry3::translation(0.0, 0.0, -1.2);
-        scene.add(Obstacle::new("floor", Shape::HalfSpace, floor)).unwrap();
+        scene
+            .add(Obstacle::new("floor", Shape::HalfSpace, floor))
+            .unwrap();
         check_against_brute_force(&scene, &mut r, 150, true);
 
         // Remove 50, move 50, add 50: incremental updates only.
@@ -119,7 +163,13 @@ fn small_scenes_and_mode_switches_match_brute_force() {
     let mut r = rng(200);
     let mut scene = Scene::new();
     let mut ids = Vec::new();
-    scene.add(Obstacle::new("floor", Shape::HalfSpace, Isometry3::translation(0.0, 0.0, -1.0))).unwrap();
+    scene
+        .add(Obstacle::new(
+            "floor",
+            Shape::HalfSpace,
+            Isometry3::translation(0.0, 0.0, -1.0),
+        ))
+        .unwrap();
     for i in 0..LINEAR_SCAN_MAX + 6 {
         ids.push(scene.add(random_obstacle(&mut r, &cube, i)).unwrap());
         check_against_brute_force(&scene, &mut r, 40, false);
@@ -131,7 +181,9 @@ fn small_scenes_and_mode_switches_match_brute_force() {
         scene.remove(id).unwrap();
         if let Some(&other) = ids.first() {
             scene.set_pose(other, random_pose(&mut r, 1.0)).unwrap();
-            scene.set_velocity(other, vec_in(&mut r, -0.5, 0.5)).unwrap();
+            scene
+                .set_velocity(other, vec_in(&mut r, -0.5, 0.5))
+                .unwrap();
         }
         scene.advance(0.05);
         if !ids.is_empty() {
@@ -146,9 +198,19 @@ fn add_get_move_remove() {
     let mut scene = Scene::new();
     assert!(scene.is_empty());
     assert!(scene.signed_distance(&Vector3::zeros()).is_none());
-    let a = scene.add(Obstacle::new("a", Shape::Sphere { radius: 0.1 }, Isometry3::identity())).unwrap();
+    let a = scene
+        .add(Obstacle::new(
+            "a",
+            Shape::Sphere { radius: 0.1 },
+            Isometry3::identity(),
+        ))
+        .unwrap();
     let b = scene
-        .add(Obstacle::new("b", Shape::cuboid_from_size(Vector3::new(0.2, 0.2, 0.2)), Isometry3::translation(1.0, 0.0, 0.0)))
+        .add(Obstacle::new(
+            "b",
+            Shape::cuboid_from_size(Vector3::new(0.2, 0.2, 0.2)),
+            Isometry3::translation(1.0, 0.0, 0.0),
+        ))
         .unwrap();
     assert_ne!(a, b);
     assert_eq!(scene.ids(), vec![a, b]);
@@ -162,7 +224,9 @@ fn add_get_move_remove() {
     assert_eq!(out.len(), 2);
     assert!((scene.signed_distance(&p).unwrap().distance - 0.4).abs() < 1e-12);
 
-    scene.set_pose(a, Isometry3::translation(3.0, 0.0, 0.0)).unwrap();
+    scene
+        .set_pose(a, Isometry3::translation(3.0, 0.0, 0.0))
+        .unwrap();
     let s = scene.signed_distance(&p).unwrap();
     assert_eq!(s.obstacle, b);
     assert!((s.distance - 0.4).abs() < 1e-12);
@@ -174,12 +238,25 @@ fn add_get_move_remove() {
     assert_eq!(removed.name, "b");
     assert!(scene.get(b).is_none());
     assert!(matches!(scene.remove(b), Err(FabricError::Value { .. })));
-    assert!(matches!(scene.set_pose(b, Isometry3::identity()), Err(FabricError::Value { .. })));
+    assert!(matches!(
+        scene.set_pose(b, Isometry3::identity()),
+        Err(FabricError::Value { .. })
+    ));
     assert_eq!(scene.signed_distance(&p).unwrap().obstacle, a);
     // Ids are not reused after a removal.
-    let c = scene.add(Obstacle::new("c", Shape::HalfSpace, Isometry3::identity())).unwrap();
+    let c = scene
+        .add(Obstacle::new("c", Shape::HalfSpace, Isometry3::identity()))
+        .unwrap();
     assert!(c.0 > b.0);
-    assert!((scene.signed_distance(&Vector3::new(0.0, 0.0, 0.3)).unwrap().distance - 0.3).abs() < 1e-12);
+    assert!(
+        (scene
+            .signed_distance(&Vector3::new(0.0, 0.0, 0.3))
+            .unwrap()
+            .distance
+            - 0.3)
+            .abs()
+            < 1e-12
+    );
     scene.remove(c).unwrap();
     assert!((scene.signed_distance(&p).unwrap().distance - 2.4).abs() < 1e-12);
 }
@@ -190,9 +267,29 @@ fn invalid_obstacles_are_rejected() {
     let id = Isometry3::identity();
     let bad = [
         Obstacle::new("s", Shape::Sphere { radius: -0.1 }, id),
-        Obstacle::new("b", Shape::Cuboid { half_extents: Vector3::new(0.1, 0.0, 0.1) }, id),
-        Obstacle::new("c", Shape::Cylinder { half_height: 0.1, radius: f64::NAN }, id),
-        Obstacle::new("k", Shape::Capsule { half_height: -0.1, radius: 0.1 }, id),
+        Obstacle::new(
+            "b",
+            Shape::Cuboid {
+                half_extents: Vector3::new(0.1, 0.0, 0.1),
+            },
+            id,
+        ),
+        Obstacle::new(
+            "c",
+            Shape::Cylinder {
+                half_height: 0.1,
+                radius: f64::NAN,
+            },
+            id,
+        ),
+        Obstacle::new(
+            "k",
+            Shape::Capsule {
+                half_height: -0.1,
+                radius: 0.1,
+            },
+            id,
+        ),
     ];
     for o in bad {
         assert!(matches!(scene.add(o), Err(FabricError::Value { .. })));
@@ -210,18 +307,32 @@ fn invalid_obstacles_are_rejected() {
         scene.add(Obstacle::new("q", Shape::Sphere { radius: 0.1 }, skew)),
         Err(FabricError::Value { .. })
     ));
-    let moving = Obstacle::new("v", Shape::Sphere { radius: 0.1 }, id).with_velocity(Vector3::new(f64::INFINITY, 0.0, 0.0));
-    assert!(matches!(scene.add(moving), Err(FabricError::NonFinite { .. })));
+    let moving = Obstacle::new("v", Shape::Sphere { radius: 0.1 }, id).with_velocity(Vector3::new(
+        f64::INFINITY,
+        0.0,
+        0.0,
+    ));
+    assert!(matches!(
+        scene.add(moving),
+        Err(FabricError::NonFinite { .. })
+    ));
     assert!(PointCloud::new(vec![], 0.0).is_err());
     assert!(PointCloud::new(vec![Vector3::zeros()], -1.0).is_err());
     assert!(scene.is_empty());
     // Non-finite query points give nothing rather than garbage.
-    let a = scene.add(Obstacle::new("a", Shape::Sphere { radius: 0.1 }, id)).unwrap();
+    let a = scene
+        .add(Obstacle::new("a", Shape::Sphere { radius: 0.1 }, id))
+        .unwrap();
     let mut out = Vec::new();
     scene.query(&Vector3::new(f64::NAN, 0.0, 0.0), 1.0, &mut out);
     assert!(out.is_empty());
-    assert!(scene.signed_distance(&Vector3::new(0.0, f64::INFINITY, 0.0)).is_none());
-    assert!(matches!(scene.set_velocity(a, Vector3::new(0.0, f64::NAN, 0.0)), Err(FabricError::NonFinite { .. })));
+    assert!(scene
+        .signed_distance(&Vector3::new(0.0, f64::INFINITY, 0.0))
+        .is_none());
+    assert!(matches!(
+        scene.set_velocity(a, Vector3::new(0.0, f64::NAN, 0.0)),
+        Err(FabricError::NonFinite { .. })
+    ));
 }
 
 #[test]
@@ -229,9 +340,18 @@ fn advance_moves_obstacles_by_their_velocity() {
     let mut scene = Scene::new();
     let v = Vector3::new(0.2, -0.1, 0.05);
     let a = scene
-        .add(Obstacle::new("a", Shape::Sphere { radius: 0.1 }, Isometry3::identity()).with_velocity(v))
+        .add(
+            Obstacle::new("a", Shape::Sphere { radius: 0.1 }, Isometry3::identity())
+                .with_velocity(v),
+        )
         .unwrap();
-    let b = scene.add(Obstacle::new("b", Shape::HalfSpace, Isometry3::translation(0.0, 0.0, -1.0))).unwrap();
+    let b = scene
+        .add(Obstacle::new(
+            "b",
+            Shape::HalfSpace,
+            Isometry3::translation(0.0, 0.0, -1.0),
+        ))
+        .unwrap();
     scene.set_velocity(b, Vector3::new(0.0, 0.0, 0.5)).unwrap();
     scene.advance(0.5);
     scene.advance(f64::NAN);
@@ -252,51 +372,132 @@ fn advance_moves_obstacles_by_their_velocity() {
 #[test]
 fn shape_distance_to_obstacles() {
     let mut scene = Scene::new();
-    assert!(scene.shape_distance(&Ball::new(0.1), &Isometry3::identity(), 10.0).is_none());
-    scene.add(Obstacle::new("s", Shape::Sphere { radius: 0.2 }, Isometry3::translation(1.0, 0.0, 0.0))).unwrap();
-    scene.add(Obstacle::new("floor", Shape::HalfSpace, Isometry3::translation(0.0, 0.0, -1.0))).unwrap();
+    assert!(scene
+        .shape_distance(&Ball::new(0.1), &Isometry3::identity(), 10.0)
+        .is_none());
+    scene
+        .add(Obstacle::new(
+            "s",
+            Shape::Sphere { radius: 0.2 },
+            Isometry3::translation(1.0, 0.0, 0.0),
+        ))
+        .unwrap();
+    scene
+        .add(Obstacle::new(
+            "floor",
+            Shape::HalfSpace,
+            Isometry3::translation(0.0, 0.0, -1.0),
+        ))
+        .unwrap();
     let (v, t) = parse_obj(UNIT_CUBE_OBJ, "cube.obj").unwrap();
     let mesh = Arc::new(build_mesh(v, t, "cube.obj").unwrap());
-    scene.add(Obstacle::new("m", Shape::TriMesh(mesh), Isometry3::translation(-3.0, 0.0, 0.0))).unwrap();
+    scene
+        .add(Obstacle::new(
+            "m",
+            Shape::TriMesh(mesh),
+            Isometry3::translation(-3.0, 0.0, 0.0),
+        ))
+        .unwrap();
     scene
         .add(Obstacle::new(
             "cyl",
-            Shape::Cylinder { half_height: 0.5, radius: 0.1 },
+            Shape::Cylinder {
+                half_height: 0.5,
+                radius: 0.1,
+            },
             Isometry3::translation(0.0, 3.0, 0.0),
         ))
         .unwrap();
     let cloud = PointCloud::new(vec![Vector3::zeros(), Vector3::new(0.0, 0.0, 0.1)], 0.01).unwrap();
-    scene.add(Obstacle::new("pc", Shape::PointCloud(Arc::new(cloud)), Isometry3::translation(0.0, -3.0, 0.0))).unwrap();
+    scene
+        .add(Obstacle::new(
+            "pc",
+            Shape::PointCloud(Arc::new(cloud)),
+            Isometry3::translation(0.0, -3.0, 0.0),
+        ))
+        .unwrap();
 
     let ball = Ball::new(0.1);
     // Near the sphere: |c1 - c2| - r1 - r2.
-    let d = scene.shape_distance(&ball, &Isometry3::translation(0.5, 0.0, 0.0), 1.0).unwrap();
+    let d = scene
+        .shape_distance(&ball, &Isometry3::translation(0.5, 0.0, 0.0), 1.0)
+        .unwrap();
     assert!((d - 0.2).abs() < 1e-9, "{d}");
     // Penetrating the sphere: negative depth.
-    let d = scene.shape_distance(&ball, &Isometry3::translation(0.75, 0.0, 0.0), 1.0).unwrap();
+    let d = scene
+        .shape_distance(&ball, &Isometry3::translation(0.75, 0.0, 0.0), 1.0)
+        .unwrap();
     assert!((d + 0.05).abs() < 1e-9, "{d}");
     // Nothing within `max`.
-    assert!(scene.shape_distance(&ball, &Isometry3::translation(0.0, 0.0, 0.5), 0.1).is_none());
+    assert!(scene
+        .shape_distance(&ball, &Isometry3::translation(0.0, 0.0, 0.5), 0.1)
+        .is_none());
     // The floor.
-    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, 0.0, -0.7), 0.5).unwrap();
+    let d = scene
+        .shape_distance(&ball, &Isometry3::translation(0.0, 0.0, -0.7), 0.5)
+        .unwrap();
     assert!((d - 0.2).abs() < 1e-9, "{d}");
     // The mesh cube (faces at x = -2.5) and a box shape against it.
-    let d = scene.shape_distance(&Cuboid::new(Vector3::repeat(0.1)), &Isometry3::translation(-2.2, 0.0, 0.0), 1.0).unwrap();
+    let d = scene
+        .shape_distance(
+            &Cuboid::new(Vector3::repeat(0.1)),
+            &Isometry3::translation(-2.2, 0.0, 0.0),
+            1.0,
+        )
+        .unwrap();
     assert!((d - 0.2).abs() < 1e-9, "{d}");
-    let d = scene.shape_distance(&ball, &Isometry3::translation(-2.45, 0.0, 0.0), 1.0).unwrap();
+    let d = scene
+        .shape_distance(&ball, &Isometry3::translation(-2.45, 0.0, 0.0), 1.0)
+        .unwrap();
     assert!(d <= 0.0, "{d}");
     // The cylinder, axis along z (parry's is along y): side at y = 2.9.
-    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, 2.6, 0.3), 1.0).unwrap();
+    let d = scene
+        .shape_distance(&ball, &Isometry3::translation(0.0, 2.6, 0.3), 1.0)
+        .unwrap();
     assert!((d - 0.2).abs() < 1e-9, "{d}");
-    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, 3.0, 0.7), 1.0).unwrap();
+    let d = scene
+        .shape_distance(&ball, &Isometry3::translation(0.0, 3.0, 0.7), 1.0)
+        .unwrap();
     assert!((d - 0.1).abs() < 1e-9, "{d}");
     // The point cloud: nearest point (0, -3, 0.1), thickness 0.01; inside the ball -> negative.
-    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, -3.0, 0.4), 1.0).unwrap();
+    let d = scene
+        .shape_distance(&ball, &Isometry3::translation(0.0, -3.0, 0.4), 1.0)
+        .unwrap();
     assert!((d - (0.3 - 0.1 - 0.01)).abs() < 1e-9, "{d}");
-    let d = scene.shape_distance(&ball, &Isometry3::translation(0.0, -3.0, 0.15), 1.0).unwrap();
+    let d = scene
+        .shape_distance(&ball, &Isometry3::translation(0.0, -3.0, 0.15), 1.0)
+        .unwrap();
     assert!((d - (-(0.1 - 0.05) - 0.01)).abs() < 1e-9, "{d}");
     // Agrees with the point query for a tiny ball.
     let p = Vector3::new(0.9, 0.7, 0.2);
-    let tiny = scene.shape_distance(&Ball::new(1e-9), &Isometry3::translation(p.x, p.y, p.z), 5.0).unwrap();
+    let tiny = scene
+        .shape_distance(
+            &Ball::new(1e-9),
+            &Isometry3::translation(p.x, p.y, p.z),
+            5.0,
+        )
+        .unwrap();
     assert!((tiny - scene.signed_distance(&p).unwrap().distance).abs() < 1e-7);
+}
+
+#[test]
+fn scene_is_shareable_across_threads() {
+    fn assert_shareable<T: Send + Sync + Clone>() {}
+    assert_shareable::<Scene>();
+    assert_shareable::<Obstacle>();
+    let mut scene = Scene::new();
+    scene
+        .add(Obstacle::new(
+            "s",
+            Shape::Sphere { radius: 0.1 },
+            Isometry3::identity(),
+        ))
+        .unwrap();
+    let copy = scene.clone();
+    scene
+        .set_pose(scene.ids()[0], Isometry3::translation(1.0, 0.0, 0.0))
+        .unwrap();
+    // The clone is independent.
+    assert!((copy.signed_distance(&Vector3::zeros()).unwrap().distance + 0.1).abs() < 1e-15);
+    assert!((scene.signed_distance(&Vector3::zeros()).unwrap().distance - 0.9).abs() < 1e-15);
 }

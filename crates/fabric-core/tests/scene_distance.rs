@@ -27,7 +27,10 @@ fn fine_cube_mesh() -> Shape {
 
 /// Minimum distance from `p` to a set of points.
 fn brute_min(samples: &[Vector3<f64>], p: &Vector3<f64>) -> f64 {
-    samples.iter().map(|s| (s - p).norm()).fold(f64::INFINITY, f64::min)
+    samples
+        .iter()
+        .map(|s| (s - p).norm())
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Grid of step <= `step` on the box surface (local frame).
@@ -60,7 +63,11 @@ fn cylinder_surface(hh: f64, r: f64, step: f64) -> Vec<Vector3<f64>> {
     for i in 0..na {
         let t = 2.0 * std::f64::consts::PI * i as f64 / na as f64;
         for j in 0..=nz {
-            out.push(Vector3::new(r * t.cos(), r * t.sin(), -hh + 2.0 * hh * j as f64 / nz as f64));
+            out.push(Vector3::new(
+                r * t.cos(),
+                r * t.sin(),
+                -hh + 2.0 * hh * j as f64 / nz as f64,
+            ));
         }
     }
     let nr = (r / step).ceil() as usize;
@@ -115,7 +122,11 @@ fn box_matches_brute_force_surface_samples() {
             let inside = (0..3).all(|i| local[i].abs() < he[i]);
             let reference = brute_min(&samples, &local);
             let expected = if inside { -reference } else { reference };
-            assert!((s.distance - expected).abs() <= 1e-3, "{} vs {expected}", s.distance);
+            assert!(
+                (s.distance - expected).abs() <= 1e-3,
+                "{} vs {expected}",
+                s.distance
+            );
             assert_eq!(s.distance < 0.0, inside);
             assert!((s.gradient.norm() - 1.0).abs() < 1e-12);
         }
@@ -127,7 +138,10 @@ fn cylinder_matches_brute_force_surface_samples() {
     let mut r = rng(3);
     let (hh, radius) = (0.12, 0.07);
     let samples = cylinder_surface(hh, radius, 1e-3);
-    let shape = Shape::Cylinder { half_height: hh, radius };
+    let shape = Shape::Cylinder {
+        half_height: hh,
+        radius,
+    };
     for _ in 0..4 {
         let pose = random_pose(&mut r, 0.5);
         for _ in 0..25 {
@@ -137,7 +151,11 @@ fn cylinder_matches_brute_force_surface_samples() {
             let inside = local.xy().norm() < radius && local.z.abs() < hh;
             let reference = brute_min(&samples, &local);
             let expected = if inside { -reference } else { reference };
-            assert!((s.distance - expected).abs() <= 1e-3, "{} vs {expected} at {local:?}", s.distance);
+            assert!(
+                (s.distance - expected).abs() <= 1e-3,
+                "{} vs {expected} at {local:?}",
+                s.distance
+            );
             assert!((s.gradient.norm() - 1.0).abs() < 1e-12);
         }
     }
@@ -147,9 +165,13 @@ fn cylinder_matches_brute_force_surface_samples() {
 fn capsule_matches_segment_brute_force() {
     let mut r = rng(4);
     let (hh, radius) = (0.2, 0.05);
-    let segment: Vec<Vector3<f64>> =
-        (0..=4000).map(|i| Vector3::new(0.0, 0.0, -hh + 2.0 * hh * i as f64 / 4000.0)).collect();
-    let shape = Shape::Capsule { half_height: hh, radius };
+    let segment: Vec<Vector3<f64>> = (0..=4000)
+        .map(|i| Vector3::new(0.0, 0.0, -hh + 2.0 * hh * i as f64 / 4000.0))
+        .collect();
+    let shape = Shape::Capsule {
+        half_height: hh,
+        radius,
+    };
     for _ in 0..5 {
         let pose = random_pose(&mut r, 0.5);
         for _ in 0..40 {
@@ -157,7 +179,11 @@ fn capsule_matches_segment_brute_force() {
             let p = pose * Point3::from(local);
             let s = eval(&shape, &pose, &p.coords);
             let expected = brute_min(&segment, &local) - radius;
-            assert!((s.distance - expected).abs() <= 1e-4, "{} vs {expected}", s.distance);
+            assert!(
+                (s.distance - expected).abs() <= 1e-4,
+                "{} vs {expected}",
+                s.distance
+            );
         }
     }
 }
@@ -183,13 +209,25 @@ fn regular(shape: &Shape, q: &Vector3<f64>, m: f64) -> bool {
         Shape::Sphere { .. } => q.norm() > m,
         Shape::Cuboid { half_extents } => box_regular(half_extents, q, m),
         Shape::TriMesh(_) => box_regular(&Vector3::repeat(0.5), q, m),
-        Shape::Cylinder { half_height, radius } => {
-            let (rho, a, b) = (q.xy().norm(), q.xy().norm() - radius, q.z.abs() - half_height);
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => {
+            let (rho, a, b) = (
+                q.xy().norm(),
+                q.xy().norm() - radius,
+                q.z.abs() - half_height,
+            );
             rho > m && a.abs() > m && b.abs() > m && (a - b).abs() > m
         }
-        Shape::Capsule { half_height, radius } => {
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => {
             let c = Vector3::new(0.0, 0.0, q.z.clamp(-half_height, *half_height));
-            (q.z.abs() - half_height).abs() > m && (q - c).norm() > m && ((q - c).norm() - radius).abs() > m
+            (q.z.abs() - half_height).abs() > m
+                && (q - c).norm() > m
+                && ((q - c).norm() - radius).abs() > m
         }
         Shape::HalfSpace => true,
         Shape::PointCloud(pc) => {
@@ -217,10 +255,21 @@ fn derivatives_match_finite_differences() {
     let cloud_points: Vec<Vector3<f64>> = (0..40).map(|_| vec_in(&mut r, -0.3, 0.3)).collect();
     let shapes = vec![
         Shape::Sphere { radius: 0.2 },
-        Shape::Cuboid { half_extents: Vector3::new(0.1, 0.2, 0.3) },
-        Shape::Cylinder { half_height: 0.25, radius: 0.15 },
-        Shape::Cylinder { half_height: 0.5, radius: 0.1 },
-        Shape::Capsule { half_height: 0.2, radius: 0.1 },
+        Shape::Cuboid {
+            half_extents: Vector3::new(0.1, 0.2, 0.3),
+        },
+        Shape::Cylinder {
+            half_height: 0.25,
+            radius: 0.15,
+        },
+        Shape::Cylinder {
+            half_height: 0.5,
+            radius: 0.1,
+        },
+        Shape::Capsule {
+            half_height: 0.2,
+            radius: 0.1,
+        },
         Shape::HalfSpace,
         unit_cube_mesh(),
         fine_cube_mesh(),
@@ -239,7 +288,11 @@ fn derivatives_match_finite_differences() {
             let f = |x: &Vector3<f64>| eval(shape, &pose, x).distance;
             let s = eval(shape, &pose, &p);
             let g = fd_gradient(&f, &p, 1e-6);
-            assert!((s.gradient - g).norm() < 1e-6, "{shape:?} at {q:?}: gradient {:?} vs fd {g:?}", s.gradient);
+            assert!(
+                (s.gradient - g).norm() < 1e-6,
+                "{shape:?} at {q:?}: gradient {:?} vs fd {g:?}",
+                s.gradient
+            );
             let h = fd_hessian(&f, &p, 1e-4);
             let tol = 1e-3 * (1.0 + s.hessian.norm());
             assert!(
@@ -262,12 +315,17 @@ fn derivatives_match_finite_differences() {
 #[test]
 fn inside_distances_are_minus_nearest_face() {
     let pose = Isometry3::identity();
-    let b = Shape::Cuboid { half_extents: Vector3::new(0.1, 0.2, 0.3) };
+    let b = Shape::Cuboid {
+        half_extents: Vector3::new(0.1, 0.2, 0.3),
+    };
     let s = eval(&b, &pose, &Vector3::new(0.02, -0.15, 0.0));
     assert!((s.distance + 0.05).abs() < 1e-15);
     assert_eq!(s.gradient, Vector3::new(0.0, -1.0, 0.0));
     assert_eq!(s.hessian, Matrix3::zeros());
-    let c = Shape::Cylinder { half_height: 0.3, radius: 0.1 };
+    let c = Shape::Cylinder {
+        half_height: 0.3,
+        radius: 0.1,
+    };
     let s = eval(&c, &pose, &Vector3::new(0.0, 0.0, 0.25));
     assert!((s.distance + 0.05).abs() < 1e-15);
     assert_eq!(s.gradient, Vector3::z());
@@ -282,20 +340,72 @@ fn singular_points_are_finite_deterministic_and_unit() {
     let cases: Vec<(Shape, Vector3<f64>)> = vec![
         (Shape::Sphere { radius: 0.2 }, Vector3::zeros()),
         (Shape::Sphere { radius: 0.2 }, Vector3::new(0.2, 0.0, 0.0)),
-        (Shape::Cuboid { half_extents: Vector3::repeat(0.1) }, Vector3::zeros()),
-        (Shape::Cuboid { half_extents: Vector3::repeat(0.1) }, Vector3::new(0.1, 0.0, 0.0)),
-        (Shape::Cuboid { half_extents: Vector3::repeat(0.1) }, Vector3::new(0.1, 0.1, 0.0)),
-        (Shape::Cuboid { half_extents: Vector3::repeat(0.1) }, Vector3::new(0.1, 0.1, 0.1)),
-        (Shape::Cylinder { half_height: 0.5, radius: 0.1 }, Vector3::zeros()),
-        (Shape::Cylinder { half_height: 0.1, radius: 0.1 }, Vector3::new(0.1, 0.0, 0.1)),
-        (Shape::Capsule { half_height: 0.2, radius: 0.1 }, Vector3::new(0.0, 0.0, 0.1)),
-        (Shape::Capsule { half_height: 0.2, radius: 0.1 }, Vector3::new(0.0, 0.0, 0.2)),
-        (Shape::Capsule { half_height: 0.0, radius: 0.1 }, Vector3::zeros()),
+        (
+            Shape::Cuboid {
+                half_extents: Vector3::repeat(0.1),
+            },
+            Vector3::zeros(),
+        ),
+        (
+            Shape::Cuboid {
+                half_extents: Vector3::repeat(0.1),
+            },
+            Vector3::new(0.1, 0.0, 0.0),
+        ),
+        (
+            Shape::Cuboid {
+                half_extents: Vector3::repeat(0.1),
+            },
+            Vector3::new(0.1, 0.1, 0.0),
+        ),
+        (
+            Shape::Cuboid {
+                half_extents: Vector3::repeat(0.1),
+            },
+            Vector3::new(0.1, 0.1, 0.1),
+        ),
+        (
+            Shape::Cylinder {
+                half_height: 0.5,
+                radius: 0.1,
+            },
+            Vector3::zeros(),
+        ),
+        (
+            Shape::Cylinder {
+                half_height: 0.1,
+                radius: 0.1,
+            },
+            Vector3::new(0.1, 0.0, 0.1),
+        ),
+        (
+            Shape::Capsule {
+                half_height: 0.2,
+                radius: 0.1,
+            },
+            Vector3::new(0.0, 0.0, 0.1),
+        ),
+        (
+            Shape::Capsule {
+                half_height: 0.2,
+                radius: 0.1,
+            },
+            Vector3::new(0.0, 0.0, 0.2),
+        ),
+        (
+            Shape::Capsule {
+                half_height: 0.0,
+                radius: 0.1,
+            },
+            Vector3::zeros(),
+        ),
         (unit_cube_mesh(), Vector3::new(0.5, 0.1, 0.2)),
         (unit_cube_mesh(), Vector3::new(0.5, 0.5, 0.5)),
         (unit_cube_mesh(), Vector3::zeros()),
         (
-            Shape::PointCloud(Arc::new(PointCloud::new(vec![Vector3::new(0.1, 0.2, 0.3)], 0.0).unwrap())),
+            Shape::PointCloud(Arc::new(
+                PointCloud::new(vec![Vector3::new(0.1, 0.2, 0.3)], 0.0).unwrap(),
+            )),
             Vector3::new(0.1, 0.2, 0.3),
         ),
     ];
@@ -303,7 +413,10 @@ fn singular_points_are_finite_deterministic_and_unit() {
         let a = eval(shape, &pose, p);
         let b = eval(shape, &pose, p);
         assert_eq!(a, b, "{shape:?}");
-        assert!(a.distance.is_finite() && a.hessian.iter().all(|v| v.is_finite()), "{shape:?} {a:?}");
+        assert!(
+            a.distance.is_finite() && a.hessian.iter().all(|v| v.is_finite()),
+            "{shape:?} {a:?}"
+        );
         assert!((a.gradient.norm() - 1.0).abs() < 1e-12, "{shape:?} {a:?}");
     }
     // Documented tie rules: box centre -> +x face; cylinder centre of a tall cylinder -> side along +x.
@@ -321,7 +434,9 @@ fn singular_points_are_finite_deterministic_and_unit() {
 #[test]
 fn cube_meshes_match_the_cuboid() {
     let mut r = rng(7);
-    let cuboid = Shape::Cuboid { half_extents: Vector3::repeat(0.5) };
+    let cuboid = Shape::Cuboid {
+        half_extents: Vector3::repeat(0.5),
+    };
     for mesh in [unit_cube_mesh(), fine_cube_mesh()] {
         assert!(mesh.is_solid());
         for _ in 0..3 {
@@ -336,9 +451,17 @@ fn cube_meshes_match_the_cuboid() {
                 let p = (pose * Point3::from(q)).coords;
                 let a = eval(&mesh, &pose, &p);
                 let b = eval(&cuboid, &pose, &p);
-                assert!((a.distance - b.distance).abs() < 1e-9, "{q:?}: {} vs {}", a.distance, b.distance);
+                assert!(
+                    (a.distance - b.distance).abs() < 1e-9,
+                    "{q:?}: {} vs {}",
+                    a.distance,
+                    b.distance
+                );
                 assert!((a.gradient - b.gradient).norm() < 1e-9, "{q:?}");
-                assert!((a.hessian - b.hessian).norm() < 1e-6 * (1.0 + b.hessian.norm()), "{q:?}");
+                assert!(
+                    (a.hessian - b.hessian).norm() < 1e-6 * (1.0 + b.hessian.norm()),
+                    "{q:?}"
+                );
             }
         }
     }
@@ -366,7 +489,8 @@ fn open_mesh_is_unsigned() {
     let s = eval(&shape, &pose, &Vector3::new(1.3, 0.0, 0.4));
     assert!((s.distance - 0.5).abs() < 1e-12);
     let u = Vector3::new(0.3, 0.0, 0.4) / 0.5;
-    let h = (Matrix3::identity() - u * u.transpose() - Vector3::y() * Vector3::y().transpose()) / 0.5;
+    let h =
+        (Matrix3::identity() - u * u.transpose() - Vector3::y() * Vector3::y().transpose()) / 0.5;
     assert!((s.hessian - h).norm() < 1e-9);
 }
 
@@ -401,7 +525,10 @@ fn limits_filter_far_obstacles() {
     let p = Vector3::new(1.0, 0.0, 0.0);
     for shape in [Shape::Sphere { radius: 0.5 }, unit_cube_mesh()] {
         assert!(point_distance(&shape, &pose, &p, 0.49).is_none());
-        assert!(point_distance(&shape, &pose, &p, 0.5).is_some(), "{shape:?}");
+        assert!(
+            point_distance(&shape, &pose, &p, 0.5).is_some(),
+            "{shape:?}"
+        );
     }
     // A point deep inside a solid mesh is found for a negative limit.
     let s = point_distance(&unit_cube_mesh(), &pose, &Vector3::zeros(), -0.4).unwrap();

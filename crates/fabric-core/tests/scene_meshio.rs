@@ -4,7 +4,9 @@ mod scene_support;
 
 use std::path::PathBuf;
 
-use fabric_core::scene::meshio::{build_mesh, is_closed, load_mesh, parse_obj, parse_stl, signed_volume};
+use fabric_core::scene::meshio::{
+    build_mesh, is_closed, load_mesh, parse_obj, parse_stl, signed_volume,
+};
 use fabric_core::FabricError;
 use nalgebra::{Isometry3, Point3};
 use parry3d_f64::query::PointQuery;
@@ -79,7 +81,10 @@ fn obj_errors_name_file_and_line() {
     for (text, line) in cases {
         let (path, message) = mesh_message(parse_obj(text, "bad.obj"));
         assert_eq!(path, "bad.obj");
-        assert!(message.starts_with(line), "{message:?} should start with {line}");
+        assert!(
+            message.starts_with(line),
+            "{message:?} should start with {line}"
+        );
     }
     let (_, message) = mesh_message(parse_obj("v 0 0 0\n", "none.obj"));
     assert!(message.contains("no faces"));
@@ -168,7 +173,9 @@ fn load_mesh_errors() {
 
 #[test]
 fn panda_collision_meshes_load() {
-    let Some(dir) = shared_dir("robots/mbm_panda/meshes/collision") else { return };
+    let Some(dir) = shared_dir("robots/mbm_panda/meshes/collision") else {
+        return;
+    };
     let mut n = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
@@ -180,7 +187,11 @@ fn panda_collision_meshes_load() {
         let aabb = m.local_aabb();
         let size = aabb.maxs - aabb.mins;
         // Panda links are a few centimetres to a few decimetres across (metres in the files).
-        assert!(size.max() > 0.02 && size.max() < 0.5, "{}: {size:?}", path.display());
+        assert!(
+            size.max() > 0.02 && size.max() < 0.5,
+            "{}: {size:?}",
+            path.display()
+        );
         n += 1;
     }
     assert!(n >= 9, "{n} meshes");

@@ -12,8 +12,15 @@ use fabric_core::FabricError;
 use nalgebra::{Point3, Vector3};
 use scene_support::shared_dir;
 
-const CLASSES: [&str; 7] =
-    ["bookshelf_small", "bookshelf_tall", "bookshelf_thin", "box", "cage", "table_pick", "table_under_pick"];
+const CLASSES: [&str; 7] = [
+    "bookshelf_small",
+    "bookshelf_tall",
+    "bookshelf_thin",
+    "box",
+    "cage",
+    "table_pick",
+    "table_under_pick",
+];
 
 fn files(dir: &Path, prefix: &str) -> Vec<std::path::PathBuf> {
     let mut v: Vec<_> = std::fs::read_dir(dir)
@@ -38,25 +45,57 @@ fn every_motionbenchmaker_scene_loads() {
         for path in scenes {
             let scene = Scene::from_moveit_yaml_file(&path).unwrap_or_else(|e| panic!("{e}"));
             // Independent count and first box sizes from the raw YAML.
-            let raw: serde_yaml::Value = serde_yaml::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+            let raw: serde_yaml::Value =
+                serde_yaml::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
             let objects = raw["world"]["collision_objects"].as_sequence().unwrap();
-            let n: usize = objects.iter().map(|o| o["primitives"].as_sequence().unwrap().len()).sum();
+            let n: usize = objects
+                .iter()
+                .map(|o| o["primitives"].as_sequence().unwrap().len())
+                .sum();
             assert_eq!(scene.len(), n, "{}", path.display());
             for o in objects {
                 let prim = &o["primitives"][0];
-                let dims: Vec<f64> = prim["dimensions"].as_sequence().unwrap().iter().map(|d| d.as_f64().unwrap()).collect();
+                let dims: Vec<f64> = prim["dimensions"]
+                    .as_sequence()
+                    .unwrap()
+                    .iter()
+                    .map(|d| d.as_f64().unwrap())
+                    .collect();
                 let id = scene.find(o["id"].as_str().unwrap()).unwrap();
                 let obstacle = scene.get(id).unwrap();
-                let pos: Vec<f64> = o["primitive_poses"][0]["position"].as_sequence().unwrap().iter().map(|d| d.as_f64().unwrap()).collect();
-                assert!((obstacle.pose.translation.vector - Vector3::new(pos[0], pos[1], pos[2])).norm() < 1e-12);
+                let pos: Vec<f64> = o["primitive_poses"][0]["position"]
+                    .as_sequence()
+                    .unwrap()
+                    .iter()
+                    .map(|d| d.as_f64().unwrap())
+                    .collect();
+                assert!(
+                    (obstacle.pose.translation.vector - Vector3::new(pos[0], pos[1], pos[2]))
+                        .norm()
+                        < 1e-12
+                );
                 match (prim["type"].as_str().unwrap(), &obstacle.shape) {
                     ("box", Shape::Cuboid { half_extents }) => {
-                        assert!((half_extents * 2.0 - Vector3::new(dims[0], dims[1], dims[2])).norm() < 1e-12)
+                        assert!(
+                            (half_extents * 2.0 - Vector3::new(dims[0], dims[1], dims[2])).norm()
+                                < 1e-12
+                        )
                     }
-                    ("cylinder", Shape::Cylinder { half_height, radius }) => {
-                        assert!((2.0 * half_height - dims[0]).abs() < 1e-12 && (radius - dims[1]).abs() < 1e-12)
+                    (
+                        "cylinder",
+                        Shape::Cylinder {
+                            half_height,
+                            radius,
+                        },
+                    ) => {
+                        assert!(
+                            (2.0 * half_height - dims[0]).abs() < 1e-12
+                                && (radius - dims[1]).abs() < 1e-12
+                        )
                     }
-                    ("sphere", Shape::Sphere { radius }) => assert!((radius - dims[0]).abs() < 1e-12),
+                    ("sphere", Shape::Sphere { radius }) => {
+                        assert!((radius - dims[0]).abs() < 1e-12)
+                    }
                     (t, s) => panic!("{}: type {t} loaded as {s:?}", path.display()),
                 }
             }
@@ -117,24 +156,47 @@ fn conventions_of_the_scene_format() {
     let scene = Scene::from_moveit_yaml_str(SCENE, "inline.yaml").unwrap();
     assert_eq!(scene.len(), 3);
     let table = scene.get(scene.find("table").unwrap()).unwrap();
-    let Shape::Cuboid { half_extents } = table.shape else { panic!() };
+    let Shape::Cuboid { half_extents } = table.shape else {
+        panic!()
+    };
     assert!((half_extents - Vector3::new(0.2, 0.1, 0.05)).norm() < 1e-15);
     // [x, y, z, w] = 90° about z: local x maps to world y.
     assert!((table.pose.rotation * Vector3::x() - Vector3::y()).norm() < 1e-12);
     // The box's long side (x, 0.4 m) now lies along world y: a point 0.15 m off the centre along y
     // is inside, along x it is outside.
-    assert!(scene.signed_distance(&Vector3::new(1.0, 2.15, 3.0)).unwrap().distance < 0.0);
-    assert!(scene.signed_distance(&Vector3::new(1.15, 2.0, 3.0)).unwrap().distance > 0.0);
+    assert!(
+        scene
+            .signed_distance(&Vector3::new(1.0, 2.15, 3.0))
+            .unwrap()
+            .distance
+            < 0.0
+    );
+    assert!(
+        scene
+            .signed_distance(&Vector3::new(1.15, 2.0, 3.0))
+            .unwrap()
+            .distance
+            > 0.0
+    );
 
     let cyl = scene.get(scene.find("can/0").unwrap()).unwrap();
-    let Shape::Cylinder { half_height, radius } = cyl.shape else { panic!() };
+    let Shape::Cylinder {
+        half_height,
+        radius,
+    } = cyl.shape
+    else {
+        panic!()
+    };
     assert_eq!((half_height, radius), (0.15, 0.05));
     // Object pose composes with the primitive pose; quaternions are normalised.
     assert!((cyl.pose.translation.vector - Vector3::new(0.5, 0.0, 1.0)).norm() < 1e-15);
     assert!((cyl.pose.rotation.angle()).abs() < 1e-15);
     let ball = scene.get(scene.find("can/1").unwrap()).unwrap();
     assert!((ball.pose * Point3::origin() - Point3::new(0.0, 0.5, 1.0)).norm() < 1e-15);
-    let d = scene.signed_distance(&Vector3::new(0.0, 0.5, 1.3)).unwrap().distance;
+    let d = scene
+        .signed_distance(&Vector3::new(0.0, 0.5, 1.3))
+        .unwrap()
+        .distance;
     assert!((d - 0.2).abs() < 1e-12);
 }
 
@@ -158,7 +220,10 @@ world:
     let scene = Scene::from_moveit_yaml_str(yaml, "mesh.yaml").unwrap();
     let tet = scene.get(scene.find("tet").unwrap()).unwrap();
     assert!(matches!(tet.shape, Shape::TriMesh(_)) && tet.shape.is_solid());
-    let d = scene.signed_distance(&Vector3::new(0.1, 0.1, 0.1)).unwrap().distance;
+    let d = scene
+        .signed_distance(&Vector3::new(0.1, 0.1, 0.1))
+        .unwrap()
+        .distance;
     assert!((d + 0.1).abs() < 1e-12, "{d}");
 }
 
@@ -167,7 +232,11 @@ fn expect_scene_error(from: &str, to: &str, field: &str) {
     assert!(SCENE.contains(from), "{from}");
     let yaml = SCENE.replacen(from, to, 1);
     match Scene::from_moveit_yaml_str(&yaml, "bad.yaml") {
-        Err(FabricError::Format { file, field: f, message }) => {
+        Err(FabricError::Format {
+            file,
+            field: f,
+            message,
+        }) => {
             assert_eq!(file, "bad.yaml");
             assert_eq!(f, field, "{message}");
         }
@@ -178,12 +247,36 @@ fn expect_scene_error(from: &str, to: &str, field: &str) {
 #[test]
 fn bad_scene_inputs_name_the_field() {
     let p0 = "world.collision_objects[0]";
-    expect_scene_error("          dimensions: [0.4, 0.2, 0.1]\n", "", &format!("{p0}.primitives[0].dimensions"));
-    expect_scene_error("[0.4, 0.2, 0.1]", "[0.4, 0.2]", &format!("{p0}.primitives[0].dimensions"));
-    expect_scene_error("[0.4, 0.2, 0.1]", "[0.4, -0.2, 0.1]", &format!("{p0}.primitives[0].dimensions[1]"));
-    expect_scene_error("[0.4, 0.2, 0.1]", "[0.4, 0.2, abc]", &format!("{p0}.primitives[0].dimensions[2]"));
-    expect_scene_error("type: box", "type: pyramid", &format!("{p0}.primitives[0].type"));
-    expect_scene_error("type: box", "type: cone", &format!("{p0}.primitives[0].type"));
+    expect_scene_error(
+        "          dimensions: [0.4, 0.2, 0.1]\n",
+        "",
+        &format!("{p0}.primitives[0].dimensions"),
+    );
+    expect_scene_error(
+        "[0.4, 0.2, 0.1]",
+        "[0.4, 0.2]",
+        &format!("{p0}.primitives[0].dimensions"),
+    );
+    expect_scene_error(
+        "[0.4, 0.2, 0.1]",
+        "[0.4, -0.2, 0.1]",
+        &format!("{p0}.primitives[0].dimensions[1]"),
+    );
+    expect_scene_error(
+        "[0.4, 0.2, 0.1]",
+        "[0.4, 0.2, abc]",
+        &format!("{p0}.primitives[0].dimensions[2]"),
+    );
+    expect_scene_error(
+        "type: box",
+        "type: pyramid",
+        &format!("{p0}.primitives[0].type"),
+    );
+    expect_scene_error(
+        "type: box",
+        "type: cone",
+        &format!("{p0}.primitives[0].type"),
+    );
     expect_scene_error("- id: table", "- name: table", &format!("{p0}.id"));
     expect_scene_error(
         "orientation: [0, 0, 0.7071067811865476, 0.7071067811865476]",
@@ -195,22 +288,49 @@ fn bad_scene_inputs_name_the_field() {
         "orientation: [0, 0, 0, 0]",
         &format!("{p0}.primitive_poses[0].orientation"),
     );
-    expect_scene_error("position: [1.0, 2.0, 3.0]", "place: [1.0, 2.0, 3.0]", &format!("{p0}.primitive_poses[0].position"));
-    expect_scene_error("position: {x: 0, y: 0.5, z: 0}", "position: {x: 0, y: 0.5}", "world.collision_objects[1].primitive_poses[1].position.z");
+    expect_scene_error(
+        "position: [1.0, 2.0, 3.0]",
+        "place: [1.0, 2.0, 3.0]",
+        &format!("{p0}.primitive_poses[0].position"),
+    );
+    expect_scene_error(
+        "position: {x: 0, y: 0.5, z: 0}",
+        "position: {x: 0, y: 0.5}",
+        "world.collision_objects[1].primitive_poses[1].position.z",
+    );
     expect_scene_error(
         "        - position: {x: 0, y: 0.5, z: 0}\n          orientation: {x: 0, y: 0, z: 0, w: 1}\n",
         "",
         "world.collision_objects[1].primitive_poses",
     );
-    expect_scene_error("dimensions: [0.1]", "dimensions: [0.1, 0.2]", "world.collision_objects[1].primitives[1].dimensions");
+    expect_scene_error(
+        "dimensions: [0.1]",
+        "dimensions: [0.1, 0.2]",
+        "world.collision_objects[1].primitives[1].dimensions",
+    );
     expect_scene_error("world:", "universe:", "world");
-    expect_scene_error("  collision_objects:", "  collision_objects: 3\n  ignored:", "world.collision_objects");
+    expect_scene_error(
+        "  collision_objects:",
+        "  collision_objects: 3\n  ignored:",
+        "world.collision_objects",
+    );
     // Invalid YAML and a non-mapping document.
-    assert!(matches!(Scene::from_moveit_yaml_str("world: [", "x.yaml"), Err(FabricError::Format { .. })));
-    assert!(matches!(Scene::from_moveit_yaml_str("- 1\n- 2\n", "x.yaml"), Err(FabricError::Format { .. })));
-    assert!(matches!(Scene::from_moveit_yaml_file(Path::new("/nonexistent/scene.yaml")), Err(FabricError::Io { .. })));
+    assert!(matches!(
+        Scene::from_moveit_yaml_str("world: [", "x.yaml"),
+        Err(FabricError::Format { .. })
+    ));
+    assert!(matches!(
+        Scene::from_moveit_yaml_str("- 1\n- 2\n", "x.yaml"),
+        Err(FabricError::Format { .. })
+    ));
+    assert!(matches!(
+        Scene::from_moveit_yaml_file(Path::new("/nonexistent/scene.yaml")),
+        Err(FabricError::Io { .. })
+    ));
     // An empty world is a valid, empty scene.
-    assert!(Scene::from_moveit_yaml_str("world: {}\n", "empty.yaml").unwrap().is_empty());
+    assert!(Scene::from_moveit_yaml_str("world: {}\n", "empty.yaml")
+        .unwrap()
+        .is_empty());
 }
 
 const REQUEST: &str = r#"
@@ -236,18 +356,41 @@ fn requests_parse_and_map_to_joint_order() {
     assert_eq!(req.start_for(&names).unwrap(), vec![0.2, 0.1]);
     assert_eq!(req.goal_for(&names).unwrap(), vec![0.5, -0.25]);
     let missing = vec!["panda_joint3".to_string()];
-    assert!(matches!(req.goal_for(&missing), Err(FabricError::MissingJoint { .. })));
+    assert!(matches!(
+        req.goal_for(&missing),
+        Err(FabricError::MissingJoint { .. })
+    ));
 }
 
 #[test]
 fn bad_requests_name_the_field() {
     let cases = [
         ("group_name: panda_arm\n", "", "group_name"),
-        ("[0.1, 0.2, 0.04]", "[0.1, 0.2]", "start_state.joint_state.position"),
-        ("      - joint_name: panda_joint1\n        position: 0.5\n", "      - joint_name: panda_joint1\n", "goal_constraints[0].joint_constraints[0].position"),
-        ("  - joint_constraints:", "  - position_constraints:", "goal_constraints[0].joint_constraints"),
-        ("name: [panda_joint2, panda_joint1,", "name: [panda_joint2, panda_joint2,", "start_state.joint_state.name[1]"),
-        ("position: -0.25", "position: fast", "goal_constraints[0].joint_constraints[1].position"),
+        (
+            "[0.1, 0.2, 0.04]",
+            "[0.1, 0.2]",
+            "start_state.joint_state.position",
+        ),
+        (
+            "      - joint_name: panda_joint1\n        position: 0.5\n",
+            "      - joint_name: panda_joint1\n",
+            "goal_constraints[0].joint_constraints[0].position",
+        ),
+        (
+            "  - joint_constraints:",
+            "  - position_constraints:",
+            "goal_constraints[0].joint_constraints",
+        ),
+        (
+            "name: [panda_joint2, panda_joint1,",
+            "name: [panda_joint2, panda_joint2,",
+            "start_state.joint_state.name[1]",
+        ),
+        (
+            "position: -0.25",
+            "position: fast",
+            "goal_constraints[0].joint_constraints[1].position",
+        ),
     ];
     for (from, to, field) in cases {
         assert!(REQUEST.contains(from), "{from}");

@@ -126,14 +126,14 @@ impl Barrier {
     /// Evaluate at distance `x` and rate `xd`.
     pub fn eval(&self, x: f64, xd: f64) -> BarrierEval {
         let (m, xi, energy) = self.energy.eval(x, xd);
-        let f = if m != 0.0 { m * xd * xd * self.geometry.eval(x).1 } else { 0.0 };
+        let f = if m != 0.0 { m * xd * xd * self.geometry.slope(x) } else { 0.0 };
         let (psi, grad, _) = self.potential.eval(x);
         BarrierEval { m, xi, f, grad, psi, energy }
     }
 
     /// The geometry π(x, ẋ) = −ẋ² ψ_g'(x) alone.
     pub fn geometry_acceleration(&self, x: f64, xd: f64) -> f64 {
-        -xd * xd * self.geometry.eval(x).1
+        -xd * xd * self.geometry.slope(x)
     }
 }
 

@@ -162,7 +162,7 @@ impl BarrierConfig {
         }
     }
     fn self_collision_default() -> Self {
-        Self { influence: 0.15, ..Self::obstacle_default() }
+        Self { influence: 0.1, ..Self::obstacle_default() }
     }
     fn joint_limit_default() -> Self {
         Self { margin: 0.01, influence: 0.4, min_curvature_radius: 0.0, ..Self::obstacle_default() }

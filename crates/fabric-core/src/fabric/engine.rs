@@ -29,7 +29,7 @@ use super::leaves::{obstacle_leaf, self_collision_leaf};
 use super::root::RootSystem;
 use crate::error::{check_finite, check_len, FabricError, Result};
 use crate::robot::{KinematicsWorkspace, Robot, TaskPoint};
-use crate::scene::{DistanceSample, Scene};
+use crate::scene::{point_distance, DistanceSample, Scene};
 
 /// End-effector targets in the world (base) frame: the position of the end-effector link origin (m) and
 /// its three unit axes (columns of its rotation), as used by the VII-A3 / App. G attractors.
@@ -50,10 +50,11 @@ pub struct Diagnostics {
     pub exec_energy: f64,
     /// Total forcing potential ψ (the Lyapunov function is L̃_e + ψ, GF Thm IV.4).
     pub potential: f64,
-    /// Minimum over (robot sphere, obstacle) pairs within the obstacle influence radius of d(c) − r (m,
-    /// negative in collision); +∞ when no sphere is that close to any obstacle.
+    /// Minimum over (robot sphere, obstacle) pairs within the obstacle influence radius (plus margin) of
+    /// d(c) − r (m, negative in collision); +∞ when no sphere is that close to any obstacle.
     pub min_clearance: f64,
-    /// Minimum over all self-collision sphere pairs of ‖c_a − c_b‖ − r_a − r_b (m); +∞ without pairs.
+    /// Minimum over self-collision sphere pairs within the self-collision influence radius (plus margin)
+    /// of ‖c_a − c_b‖ − r_a − r_b (m); +∞ when no pair is that close.
     pub min_self_clearance: f64,
     /// Minimum over joints of min(q − q_low, q_up − q) (rad or m), without margin; +∞ without limits.
     pub min_joint_margin: f64,
@@ -99,10 +100,37 @@ impl Default for Diagnostics {
     }
 }
 
+/// The collision spheres of one link and a sphere bounding them all (link frame), used to cull obstacle
+/// queries: an obstacle within distance δ of a sphere is within R + δ of the bounding centre.
+#[derive(Clone, Debug)]
+struct SphereGroup {
+    link: usize,
+    center: Vector3<f64>,
+    radius: f64,
+    spheres: Vec<usize>,
+}
+
+fn sphere_groups(robot: &Robot) -> Vec<SphereGroup> {
+    let mut groups: Vec<SphereGroup> = Vec::new();
+    for (k, s) in robot.spheres().iter().enumerate() {
+        match groups.iter_mut().find(|g| g.link == s.link) {
+            Some(g) => g.spheres.push(k),
+            None => groups.push(SphereGroup { link: s.link, center: Vector3::zeros(), radius: 0.0, spheres: vec![k] }),
+        }
+    }
+    for g in &mut groups {
+        let sp = robot.spheres();
+        g.center = g.spheres.iter().map(|&k| sp[k].center).sum::<Vector3<f64>>() / g.spheres.len() as f64;
+        g.radius = g.spheres.iter().map(|&k| (sp[k].center - g.center).norm() + sp[k].radius).fold(0.0, f64::max);
+    }
+    groups
+}
+
 /// A geometric fabric for one robot: the model shared by every thread (`Send + Sync`).
 #[derive(Clone, Debug)]
 pub struct Fabric {
     robot: Arc<Robot>,
+    groups: Vec<SphereGroup>,
     config: FabricConfig,
     joint: Attractor<ConstantMass>,
     ee_position: Attractor<TanhMass>,
@@ -184,6 +212,7 @@ impl Fabric {
             joint_limits: Barrier::from_config(&config.joint_limits),
             self_collision: Barrier::from_config(&config.self_collision),
             obstacles: Barrier::from_config(&config.obstacles),
+            groups: sphere_groups(&robot),
             robot,
             config,
         })
@@ -358,11 +387,17 @@ impl Fabric {
 
         // 4. self-collision pairs
         let sc = &self.config.self_collision;
+        let reach = sc.margin + sc.influence;
         for &(a, b) in robot.self_collision_pairs() {
             let (ra, rb) = (spheres[a].radius, spheres[b].radius);
-            let clearance = (ws.centers[a] - ws.centers[b]).norm() - ra - rb;
+            let d2 = (ws.centers[a] - ws.centers[b]).norm_squared();
+            let far = ra + rb + reach;
+            if d2 >= far * far {
+                continue;
+            }
+            let clearance = d2.sqrt() - ra - rb;
             diag.min_self_clearance = diag.min_self_clearance.min(clearance);
-            if !sc.enabled || clearance - sc.margin >= sc.influence {
+            if !sc.enabled {
                 continue;
             }
             ensure_sphere(robot, ws, a);
@@ -373,28 +408,48 @@ impl Fabric {
             leaves += 1;
         }
 
-        // 5. obstacles
+        // 5. obstacles: one broadphase query per link group, then exact distances per sphere
         let ob = &self.config.obstacles;
         if ob.enabled && !scene.is_empty() {
-            for k in 0..spheres.len() {
-                let r = spheres[k].radius;
+            let reach = ob.margin + ob.influence;
+            for g in &self.groups {
+                let gc = robot.link_pose(&ws.kin, g.link) * nalgebra::Point3::from(g.center);
                 ws.samples.clear();
-                let center = ws.centers[k];
-                scene.query(&center, r + ob.margin + ob.influence, &mut ws.samples);
+                scene.query(&gc.coords, g.radius + reach, &mut ws.samples);
                 if ws.samples.is_empty() {
                     continue;
                 }
-                ensure_sphere(robot, ws, k);
-                for s in 0..ws.samples.len() {
-                    let sample = ws.samples[s];
-                    diag.min_clearance = diag.min_clearance.min(sample.distance - r);
-                    let leaf = obstacle_leaf(&ws.spheres[k], r, ob.margin, &sample, ob.min_curvature_radius, &mut ws.jrow);
-                    if leaf.x >= ob.influence {
-                        continue;
+                for &k in &g.spheres {
+                    let r = spheres[k].radius;
+                    let center = ws.centers[k];
+                    let offset = (center - gc.coords).norm();
+                    for s in 0..ws.samples.len() {
+                        // 1-Lipschitz lower bound of the centre's distance from the group query
+                        if ws.samples[s].distance - offset > r + reach {
+                            continue;
+                        }
+                        let id = ws.samples[s].obstacle;
+                        let Some(obstacle) = scene.get(id) else { continue };
+                        let Some(sd) = point_distance(&obstacle.shape, &obstacle.pose, &center, r + reach) else {
+                            continue;
+                        };
+                        diag.min_clearance = diag.min_clearance.min(sd.distance - r);
+                        let sample = DistanceSample {
+                            obstacle: id,
+                            distance: sd.distance,
+                            gradient: sd.gradient,
+                            hessian: sd.hessian,
+                            velocity: obstacle.velocity,
+                        };
+                        ensure_sphere(robot, ws, k);
+                        let leaf = obstacle_leaf(&ws.spheres[k], r, ob.margin, &sample, ob.min_curvature_radius, &mut ws.jrow);
+                        if leaf.x >= ob.influence {
+                            continue;
+                        }
+                        let bv = self.obstacles.eval(leaf.x, leaf.xd);
+                        ws.root.add_scalar(&ws.jrow, leaf.jdot_qdot, bv.m, bv.xi, bv.f, bv.grad, bv.psi);
+                        leaves += 1;
                     }
-                    let bv = self.obstacles.eval(leaf.x, leaf.xd);
-                    ws.root.add_scalar(&ws.jrow, leaf.jdot_qdot, bv.m, bv.xi, bv.f, bv.grad, bv.psi);
-                    leaves += 1;
                 }
             }
         }

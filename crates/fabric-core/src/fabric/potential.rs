@@ -78,6 +78,23 @@ pub trait Potential1D {
     /// The exact (ψ, ψ', ψ'') for x ≥ x_min.
     fn exact(&self, x: f64) -> (f64, f64, f64);
 
+    /// ψ'(x) alone, with the continuation below x_min (cheaper than [`eval`](Potential1D::eval) when the
+    /// value is not needed, e.g. for geometries).
+    fn slope(&self, x: f64) -> f64 {
+        let x0 = self.x_min();
+        if x >= x0 {
+            self.exact_slope(x)
+        } else {
+            let (_, p1, p2) = self.exact(x0);
+            p1 + p2 * (x - x0)
+        }
+    }
+
+    /// The exact ψ'(x) for x ≥ x_min (default: from [`exact`](Potential1D::exact)).
+    fn exact_slope(&self, x: f64) -> f64 {
+        self.exact(x).1
+    }
+
     /// (ψ, ψ', ψ'') at any x, with the continuation below x_min.
     fn eval(&self, x: f64) -> (f64, f64, f64) {
         let x0 = self.x_min();
@@ -129,6 +146,10 @@ impl Potential1D for BarrierPotential {
     fn x_min(&self) -> f64 {
         self.x_min
     }
+    fn exact_slope(&self, x: f64) -> f64 {
+        let relu = if self.relu_sharpness > 0.0 { -self.relu_gain * sigmoid(-self.relu_sharpness * (x - self.relu_shift)) } else { 0.0 };
+        -self.barrier_gain / (x * x) + relu
+    }
     fn exact(&self, x: f64) -> (f64, f64, f64) {
         let a = self.relu_sharpness;
         let z = -a * (x - self.relu_shift);
@@ -179,6 +200,9 @@ mod tests {
             assert!((d1 - fd(|y| p.eval(y).0, x)).abs() <= 1e-5 * d1.abs().max(1.0), "ψ' at {x}");
             assert!((d2 - fd(|y| p.eval(y).1, x)).abs() <= 1e-4 * d2.abs().max(1.0), "ψ'' at {x}");
             assert!(d1 < 0.0, "outward push at {x}");
+        }
+        for &x in &[-0.05, 0.004, 0.02, 0.3] {
+            assert!((p.slope(x) - p.eval(x).1).abs() < 1e-12);
         }
         // continuity at x_min
         let a = p.eval(0.01 - 1e-12);

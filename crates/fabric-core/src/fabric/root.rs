@@ -15,6 +15,9 @@
 //! α_Le = −(q̇ᵀM̃q̇)⁻¹ q̇ᵀ(M̃π̃ + ξ̃) (eq. 7; exactly 0 when unbent), then eq. 40:
 //! q̈ = −M̃⁻¹∂ψ + π̃ + α_reg q̇ with α_reg from [`speed::regulate`](super::speed::regulate).
 
+// Dense numeric kernels over small matrices: index loops are the clearest form here.
+#![allow(clippy::needless_range_loop)]
+
 use nalgebra::{DMatrix, DVector, Dim, Dyn, Matrix, Storage};
 
 use super::config::{Mode, SpeedConfig};
@@ -144,6 +147,7 @@ impl RootSystem {
 
     /// Add a 1-D component through a row Jacobian `j` (n,) and scalar J̇q̇:
     /// M̃ += m jjᵀ, ξ̃ += j(ξ + m J̇q̇), f̃ += j(f + m J̇q̇), ∂ψ += j grad, ψ += psi.
+    /// Only the upper triangle of M̃ is updated here; [`solve`](RootSystem::solve) mirrors it.
     #[allow(clippy::too_many_arguments)]
     pub fn add_scalar(&mut self, j: &[f64], jdqd: f64, m: f64, xi: f64, f: f64, grad: f64, psi: f64) {
         let n = self.dim();
@@ -151,16 +155,16 @@ impl RootSystem {
         let (ex, ef) = (xi + c, f + c);
         for a in 0..n {
             let ja = j[a];
-            if ja == 0.0 {
-                continue;
-            }
             self.xi[a] += ja * ex;
             self.f[a] += ja * ef;
             self.grad[a] += ja * grad;
-            if m != 0.0 {
-                let mja = m * ja;
-                for b in 0..n {
-                    self.m[(a, b)] += mja * j[b];
+        }
+        if m != 0.0 {
+            // upper triangle only; `solve` reads the upper triangle (see `symmetrize`)
+            for b in 0..n {
+                let mjb = m * j[b];
+                for a in 0..=b {
+                    self.m[(a, b)] += j[a] * mjb;
                 }
             }
         }
@@ -177,6 +181,17 @@ impl RootSystem {
         self.psi += psi;
     }
 
+    /// Copy the upper triangle of M̃ into its lower triangle ([`add_scalar`](RootSystem::add_scalar) only
+    /// accumulates the upper triangle; every other adder is symmetric). Called by `solve`.
+    pub fn symmetrize(&mut self) {
+        let n = self.dim();
+        for b in 0..n {
+            for a in (b + 1)..n {
+                self.m[(a, b)] = self.m[(b, a)];
+            }
+        }
+    }
+
     /// Resolve the accumulated system at velocity `qd` into `qdd` (eq. 7, 17, 40-46). `goal_distance` is
     /// ‖q − q_g‖ for the speed switches; `damping_mass` is the mass m of a force-level goal damper
     /// (`GoalDampingForm::Force`: q̈ −= s_β B m M̃⁻¹ q̇). Errors when M̃ is not positive definite or the
@@ -191,6 +206,7 @@ impl RootSystem {
         qdd: &mut [f64],
     ) -> Result<RootTerms> {
         let n = self.dim();
+        self.symmetrize();
         self.chol.copy_from(&self.m);
         if !cholesky_in_place(&mut self.chol) {
             return Err(FabricError::Value {

@@ -146,7 +146,7 @@ pub(crate) fn cholesky_in_place(a: &mut DMatrix<f64>) -> bool {
         for k in 0..j {
             d -= a[(j, k)] * a[(j, k)];
         }
-        if !(d > 0.0) || !d.is_finite() {
+        if d.is_nan() || d <= 0.0 || !d.is_finite() {
             return false;
         }
         let ljj = d.sqrt();

@@ -1,8 +1,9 @@
 //! Signed distance from a point to one obstacle, with its gradient and Hessian.
 //!
 //! These are the distance task maps `x = d(p(q))` of the collision-avoidance components (GF Sec. VII-A,
-//! App. F: the repulsion lives on `x = d(p)` for every robot sphere centre `p`); the fabric pulls them
-//! back through `J_d = ∇dᵀ J_p` and needs the curvature `ṗᵀ ∇²d ṗ` for `J̇q̇` (GF eq. 11-12, 16).
+//! "Distance Space Repulsion": the repulsion lives on `x = d(p)` for every robot sphere centre `p`);
+//! the fabric pulls them back through `J_d = ∇dᵀ J_p` and needs the curvature `ṗᵀ ∇²d ṗ` for `J̇q̇`
+//! (GF eq. 11-12, 16).
 //!
 //! Conventions: metres; `d > 0` outside, `d < 0` inside; `∇d = ∂d/∂p` (world frame, unit length);
 //! `∇²d = ∂²d/∂p²` (world frame, symmetric). With `c` the closest surface point, `r = |p - c|`,
@@ -94,7 +95,11 @@ pub(crate) fn eval_world(
     if l.d.is_nan() || l.d > max_distance {
         return None;
     }
-    Some(SurfaceDistance { distance: l.d, gradient: rotate(rot, &l.g), hessian: l.h.world(rot) })
+    Some(SurfaceDistance {
+        distance: l.d,
+        gradient: rotate(rot, &l.g),
+        hessian: l.h.world(rot),
+    })
 }
 
 /// `Rᵀ (p - t)`: world point to obstacle frame, written out (the generic nalgebra product is several
@@ -132,7 +137,11 @@ pub(crate) fn distance_world(
         Shape::Sphere { radius } => (p - trans).norm() - radius,
         Shape::Cuboid { half_extents } => {
             let l = to_local(rot, trans, p);
-            let (qx, qy, qz) = (l.x.abs() - half_extents.x, l.y.abs() - half_extents.y, l.z.abs() - half_extents.z);
+            let (qx, qy, qz) = (
+                l.x.abs() - half_extents.x,
+                l.y.abs() - half_extents.y,
+                l.z.abs() - half_extents.z,
+            );
             if qx <= 0.0 && qy <= 0.0 && qz <= 0.0 {
                 fmax(fmax(qx, qy), qz)
             } else {
@@ -140,7 +149,10 @@ pub(crate) fn distance_world(
                 (ox * ox + oy * oy + oz * oz).sqrt()
             }
         }
-        Shape::Cylinder { half_height, radius } => {
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => {
             let l = to_local(rot, trans, p);
             let a = (l.x * l.x + l.y * l.y).sqrt() - radius;
             let b = l.z.abs() - half_height;
@@ -150,7 +162,10 @@ pub(crate) fn distance_world(
                 fmax(a, b)
             }
         }
-        Shape::Capsule { half_height, radius } => {
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => {
             let l = to_local(rot, trans, p);
             let z = l.z - l.z.clamp(-half_height, *half_height);
             (l.x * l.x + l.y * l.y + z * z).sqrt() - radius
@@ -182,10 +197,17 @@ struct Curvature {
 }
 
 impl Curvature {
-    const ZERO: Curvature = Curvature { alpha: 0.0, terms: [(0.0, Vector3::new(0.0, 0.0, 0.0)); 2], n: 0 };
+    const ZERO: Curvature = Curvature {
+        alpha: 0.0,
+        terms: [(0.0, Vector3::new(0.0, 0.0, 0.0)); 2],
+        n: 0,
+    };
 
     fn new(alpha: f64, terms: &[(f64, Vector3<f64>)]) -> Curvature {
-        let mut c = Curvature { alpha, ..Curvature::ZERO };
+        let mut c = Curvature {
+            alpha,
+            ..Curvature::ZERO
+        };
         for (slot, t) in c.terms.iter_mut().zip(terms) {
             *slot = *t;
             c.n += 1;
@@ -212,7 +234,11 @@ impl Curvature {
 }
 
 fn flat(d: f64, g: Vector3<f64>) -> Local {
-    Local { d, g, h: Curvature::ZERO }
+    Local {
+        d,
+        g,
+        h: Curvature::ZERO,
+    }
 }
 
 /// `d = s|v| - offset` about a point feature (`v = p - c`).
@@ -224,11 +250,21 @@ fn about_point(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) ->
     let inv = 1.0 / r;
     let u = v * inv;
     let k = s * inv;
-    Local { d: s * r - offset, g: u * s, h: Curvature::new(k, &[(-k, u)]) }
+    Local {
+        d: s * r - offset,
+        g: u * s,
+        h: Curvature::new(k, &[(-k, u)]),
+    }
 }
 
 /// `d = s|v| - offset` about a straight line of unit direction `e` (`v = p - c ⟂ e`).
-fn about_line(v: &Vector3<f64>, e: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) -> Local {
+fn about_line(
+    v: &Vector3<f64>,
+    e: &Vector3<f64>,
+    s: f64,
+    offset: f64,
+    fallback: Vector3<f64>,
+) -> Local {
     let r = v.norm();
     if r <= SINGULAR_EPS {
         return flat(s * r - offset, fallback);
@@ -236,7 +272,11 @@ fn about_line(v: &Vector3<f64>, e: &Vector3<f64>, s: f64, offset: f64, fallback:
     let inv = 1.0 / r;
     let u = v * inv;
     let k = s * inv;
-    Local { d: s * r - offset, g: u * s, h: Curvature::new(k, &[(-k, u), (-k, *e)]) }
+    Local {
+        d: s * r - offset,
+        g: u * s,
+        h: Curvature::new(k, &[(-k, u), (-k, *e)]),
+    }
 }
 
 /// Widen a search limit so that features at exactly `max` are not lost to strict comparisons.
@@ -256,8 +296,14 @@ fn eval_local(shape: &Shape, p: &Vector3<f64>, max_distance: f64) -> Option<Loca
     match shape {
         Shape::Sphere { radius } => Some(about_point(p, 1.0, *radius, Vector3::z())),
         Shape::Cuboid { half_extents } => Some(cuboid(p, half_extents)),
-        Shape::Cylinder { half_height, radius } => Some(cylinder(p, *half_height, *radius)),
-        Shape::Capsule { half_height, radius } => Some(capsule(p, *half_height, *radius)),
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => Some(cylinder(p, *half_height, *radius)),
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => Some(capsule(p, *half_height, *radius)),
         Shape::HalfSpace => Some(flat(p.z, Vector3::z())),
         Shape::TriMesh(m) => trimesh(m, p, max_distance),
         Shape::PointCloud(pc) => point_cloud(pc, p, max_distance),
@@ -303,7 +349,10 @@ fn cylinder(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
     let (er, eth) = if on_axis {
         (Vector3::x(), Vector3::y())
     } else {
-        (Vector3::new(p.x * inv_rho, p.y * inv_rho, 0.0), Vector3::new(-p.y * inv_rho, p.x * inv_rho, 0.0))
+        (
+            Vector3::new(p.x * inv_rho, p.y * inv_rho, 0.0),
+            Vector3::new(-p.y * inv_rho, p.x * inv_rho, 0.0),
+        )
     };
     let a = rho - radius;
     let sz = sign_of(p.z);
@@ -315,13 +364,21 @@ fn cylinder(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
         let inv_d = 1.0 / d;
         let g = (er * a + z * (b * sz)) * inv_d;
         let t = (er * (-b) + z * (a * sz)) * inv_d;
-        Local { d, g, h: Curvature::new(0.0, &[(inv_d, t), (a * inv_d * inv_rho, eth)]) }
+        Local {
+            d,
+            g,
+            h: Curvature::new(0.0, &[(inv_d, t), (a * inv_d * inv_rho, eth)]),
+        }
     } else if a > 0.0 || (b <= 0.0 && a > b) {
         // Side (outside, or inside nearer to the side than to a cap).
         if on_axis {
             flat(a, er)
         } else {
-            Local { d: a, g: er, h: Curvature::new(0.0, &[(inv_rho, eth)]) }
+            Local {
+                d: a,
+                g: er,
+                h: Curvature::new(0.0, &[(inv_rho, eth)]),
+            }
         }
     } else {
         flat(b, z * sz)
@@ -350,15 +407,23 @@ fn trimesh(m: &TriMesh, p: &Vector3<f64>, max_distance: f64) -> Option<Local> {
     } else {
         return None;
     };
-    let (proj, (tri, loc)) = m.project_local_point_and_get_location_with_max_dist(&pt, false, limit)?;
+    let (proj, (tri, loc)) =
+        m.project_local_point_and_get_location_with_max_dist(&pt, false, limit)?;
     let s = if solid && proj.is_inside { -1.0 } else { 1.0 };
     let v = p - proj.point.coords;
-    let normal = m.triangle(tri).normal().map(|n| n.into_inner()).unwrap_or_else(Vector3::z);
+    let normal = m
+        .triangle(tri)
+        .normal()
+        .map(|n| n.into_inner())
+        .unwrap_or_else(Vector3::z);
     let r = v.norm();
     if r <= SINGULAR_EPS {
         return Some(flat(s * r, normal));
     }
-    if matches!(loc, TrianglePointLocation::OnFace(..) | TrianglePointLocation::OnSolid) {
+    if matches!(
+        loc,
+        TrianglePointLocation::OnFace(..) | TrianglePointLocation::OnSolid
+    ) {
         return Some(flat(s * r, v * (s / r)));
     }
     // Nearest point on an edge or a vertex: the Hessian depends on the directions along which the
@@ -413,7 +478,9 @@ fn sliding_directions(m: &TriMesh, c: &Point3<f64>, u: &Vector3<f64>) -> Slide {
             }
             _ => {
                 for (a, b) in [(tri.a, tri.b), (tri.b, tri.c), (tri.c, tri.a)] {
-                    let Some(e) = (b - a).try_normalize(0.0) else { continue };
+                    let Some(e) = (b - a).try_normalize(0.0) else {
+                        continue;
+                    };
                     let through_c = Segment::new(a, b).distance_to_local_point(c, true) <= touch;
                     if through_c && e.dot(u).abs() < PARALLEL {
                         add(e, &mut basis);

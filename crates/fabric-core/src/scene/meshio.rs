@@ -17,13 +17,20 @@ use crate::error::{FabricError, Result};
 pub type MeshData = (Vec<Point3<f64>>, Vec<[u32; 3]>);
 
 fn mesh_err(source: &str, message: impl Into<String>) -> FabricError {
-    FabricError::Mesh { path: source.to_string(), message: message.into() }
+    FabricError::Mesh {
+        path: source.to_string(),
+        message: message.into(),
+    }
 }
 
 /// Load an `.obj` or `.stl` file (extension, case-insensitive) and build it with [`build_mesh`].
 pub fn load_mesh(path: &Path) -> Result<TriMesh> {
     let source = path.display().to_string();
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
     let bytes = std::fs::read(path).map_err(|e| mesh_err(&source, format!("cannot read: {e}")))?;
     let (vertices, triangles) = match ext.as_str() {
         "obj" => {
@@ -59,7 +66,9 @@ pub fn parse_obj(text: &str, source: &str) -> Result<MeshData> {
             Some("v") => {
                 let mut c = [0.0; 3];
                 for (k, slot) in c.iter_mut().enumerate() {
-                    let t = tokens.next().ok_or_else(|| err(format!("vertex needs 3 coordinates, got {k}")))?;
+                    let t = tokens
+                        .next()
+                        .ok_or_else(|| err(format!("vertex needs 3 coordinates, got {k}")))?;
                     let v: f64 = t.parse().map_err(|_| err(format!("bad number '{t}'")))?;
                     if !v.is_finite() {
                         return Err(err(format!("non-finite coordinate '{t}'")));
@@ -72,7 +81,9 @@ pub fn parse_obj(text: &str, source: &str) -> Result<MeshData> {
                 let mut idx = Vec::with_capacity(4);
                 for t in tokens {
                     let first = t.split('/').next().unwrap_or("");
-                    let i: i64 = first.parse().map_err(|_| err(format!("bad vertex reference '{t}'")))?;
+                    let i: i64 = first
+                        .parse()
+                        .map_err(|_| err(format!("bad vertex reference '{t}'")))?;
                     let resolved = match i {
                         0 => return Err(err("vertex index 0 (OBJ indices start at 1)".into())),
                         i if i > 0 => i - 1,
@@ -90,7 +101,10 @@ pub fn parse_obj(text: &str, source: &str) -> Result<MeshData> {
                     idx.push(resolved);
                 }
                 if idx.len() < 3 {
-                    return Err(err(format!("face needs at least 3 vertices, got {}", idx.len())));
+                    return Err(err(format!(
+                        "face needs at least 3 vertices, got {}",
+                        idx.len()
+                    )));
                 }
                 for k in 1..idx.len() - 1 {
                     for &i in &[idx[0], idx[k], idx[k + 1]] {
@@ -107,7 +121,11 @@ pub fn parse_obj(text: &str, source: &str) -> Result<MeshData> {
         if i as usize >= vertices.len() || i > u32::MAX as i64 - 1 {
             return Err(mesh_err(
                 source,
-                format!("line {line_no}: vertex index {} out of range ({} vertices)", i + 1, vertices.len()),
+                format!(
+                    "line {line_no}: vertex index {} out of range ({} vertices)",
+                    i + 1,
+                    vertices.len()
+                ),
             ));
         }
     }
@@ -128,7 +146,10 @@ pub fn parse_stl(bytes: &[u8], source: &str) -> Result<MeshData> {
         }
     }
     let text = std::str::from_utf8(bytes).map_err(|_| {
-        mesh_err(source, "neither binary STL (size does not match the triangle count) nor ASCII STL")
+        mesh_err(
+            source,
+            "neither binary STL (size does not match the triangle count) nor ASCII STL",
+        )
     })?;
     if !text.trim_start().starts_with("solid") {
         return Err(mesh_err(
@@ -191,7 +212,9 @@ fn parse_stl_ascii(text: &str, source: &str) -> Result<MeshData> {
                 };
                 let mut c = [0.0; 3];
                 for (k, slot) in c.iter_mut().enumerate() {
-                    let t = tokens.next().ok_or_else(|| err(format!("vertex needs 3 coordinates, got {k}")))?;
+                    let t = tokens
+                        .next()
+                        .ok_or_else(|| err(format!("vertex needs 3 coordinates, got {k}")))?;
                     let v: f64 = t.parse().map_err(|_| err(format!("bad number '{t}'")))?;
                     if !v.is_finite() {
                         return Err(err(format!("non-finite coordinate '{t}'")));
@@ -206,16 +229,22 @@ fn parse_stl_ascii(text: &str, source: &str) -> Result<MeshData> {
                     return Err(err("'endloop' without 'outer loop'".into()));
                 };
                 if count != 3 {
-                    return Err(err(format!("facet starting line {start} has {count} vertices, expected 3")));
+                    return Err(err(format!(
+                        "facet starting line {start} has {count} vertices, expected 3"
+                    )));
                 }
-                let i = u32::try_from(vertices.len() - 3).map_err(|_| err("too many vertices".into()))?;
+                let i = u32::try_from(vertices.len() - 3)
+                    .map_err(|_| err("too many vertices".into()))?;
                 triangles.push([i, i + 1, i + 2]);
             }
             _ => {}
         }
     }
     if let Some((start, _)) = in_loop {
-        return Err(mesh_err(source, format!("line {start}: 'outer loop' never closed")));
+        return Err(mesh_err(
+            source,
+            format!("line {start}: 'outer loop' never closed"),
+        ));
     }
     if triangles.is_empty() {
         return Err(mesh_err(source, "no facets"));
@@ -228,21 +257,31 @@ fn parse_stl_ascii(text: &str, source: &str) -> Result<MeshData> {
 /// oriented ([`is_closed`]) with a non-zero volume, it is oriented outward (triangles flipped if the
 /// signed volume is negative) and built with `TriMeshFlags::ORIENTED`, so that distance queries are
 /// signed (inside < 0); otherwise it is an open surface and distances are unsigned.
-pub fn build_mesh(vertices: Vec<Point3<f64>>, triangles: Vec<[u32; 3]>, source: &str) -> Result<TriMesh> {
+pub fn build_mesh(
+    vertices: Vec<Point3<f64>>,
+    triangles: Vec<[u32; 3]>,
+    source: &str,
+) -> Result<TriMesh> {
     if triangles.is_empty() {
         return Err(mesh_err(source, "no triangles"));
     }
     if u32::try_from(vertices.len()).is_err() {
         return Err(mesh_err(source, "too many vertices"));
     }
-    if let Some(i) = vertices.iter().position(|v| !v.coords.iter().all(|c| c.is_finite())) {
+    if let Some(i) = vertices
+        .iter()
+        .position(|v| !v.coords.iter().all(|c| c.is_finite()))
+    {
         return Err(mesh_err(source, format!("vertex {i} is not finite")));
     }
     for (t, tri) in triangles.iter().enumerate() {
         if let Some(&i) = tri.iter().find(|&&i| i as usize >= vertices.len()) {
             return Err(mesh_err(
                 source,
-                format!("triangle {t}: vertex index {i} out of range ({} vertices)", vertices.len()),
+                format!(
+                    "triangle {t}: vertex index {i} out of range ({} vertices)",
+                    vertices.len()
+                ),
             ));
         }
     }
@@ -280,7 +319,9 @@ pub fn is_closed(triangles: &[[u32; 3]]) -> bool {
             *count.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
         }
     }
-    count.iter().all(|(&(a, b), &c)| c == 1 && count.get(&(b, a)) == Some(&1))
+    count
+        .iter()
+        .all(|(&(a, b), &c)| c == 1 && count.get(&(b, a)) == Some(&1))
 }
 
 /// Signed volume (divergence theorem): positive when the triangles are counter-clockwise seen from outside.

@@ -60,12 +60,13 @@ impl MotionPlanRequest {
         joint_names
             .iter()
             .map(|n| {
-                list.iter().find(|(m, _)| m == n).map(|(_, v)| *v).ok_or_else(|| {
-                    FabricError::MissingJoint {
+                list.iter()
+                    .find(|(m, _)| m == n)
+                    .map(|(_, v)| *v)
+                    .ok_or_else(|| FabricError::MissingJoint {
                         robot: format!("motion plan request (group '{}')", self.group),
                         joint: n.clone(),
-                    }
-                })
+                    })
             })
             .collect()
     }
@@ -87,7 +88,11 @@ pub fn parse_request_str(yaml: &str, source: &str) -> Result<MotionPlanRequest> 
     if names.len() != positions.len() {
         return Err(doc.err(
             &pos_path,
-            format!("{} positions for {} joint names", positions.len(), names.len()),
+            format!(
+                "{} positions for {} joint names",
+                positions.len(),
+                names.len()
+            ),
         ));
     }
     let mut start = Vec::with_capacity(names.len());
@@ -97,19 +102,33 @@ pub fn parse_request_str(yaml: &str, source: &str) -> Result<MotionPlanRequest> 
         start.push((name, v));
     }
 
-    let goals = doc.seq(doc.field(&root, "", "goal_constraints")?, "goal_constraints")?;
-    let first = goals.first().ok_or_else(|| doc.err("goal_constraints", "is empty"))?;
+    let goals = doc.seq(
+        doc.field(&root, "", "goal_constraints")?,
+        "goal_constraints",
+    )?;
+    let first = goals
+        .first()
+        .ok_or_else(|| doc.err("goal_constraints", "is empty"))?;
     let jc_path = "goal_constraints[0].joint_constraints";
-    let jcs = doc.seq(doc.field(first, "goal_constraints[0]", "joint_constraints")?, jc_path)?;
+    let jcs = doc.seq(
+        doc.field(first, "goal_constraints[0]", "joint_constraints")?,
+        jc_path,
+    )?;
     if jcs.is_empty() {
         return Err(doc.err(jc_path, "is empty"));
     }
     let mut goal = Vec::with_capacity(jcs.len());
     for (i, jc) in jcs.iter().enumerate() {
         let path = format!("{jc_path}[{i}]");
-        let name = doc.string(doc.field(jc, &path, "joint_name")?, &format!("{path}.joint_name"))?;
+        let name = doc.string(
+            doc.field(jc, &path, "joint_name")?,
+            &format!("{path}.joint_name"),
+        )?;
         doc.no_duplicate(&goal, &name, &format!("{path}.joint_name"))?;
-        let v = doc.number(doc.field(jc, &path, "position")?, &format!("{path}.position"))?;
+        let v = doc.number(
+            doc.field(jc, &path, "position")?,
+            &format!("{path}.position"),
+        )?;
         goal.push((name, v));
     }
     Ok(MotionPlanRequest { group, start, goal })
@@ -122,8 +141,10 @@ pub fn parse_request_file(path: &Path) -> Result<MotionPlanRequest> {
 
 /// Read a text file, mapping failures to `FabricError::Io`.
 pub(crate) fn read(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path)
-        .map_err(|e| FabricError::Io { path: path.display().to_string(), message: e.to_string() })
+    std::fs::read_to_string(path).map_err(|e| FabricError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })
 }
 
 /// Parse a `PlanningScene` YAML string into a [`Scene`] (see the module documentation).
@@ -146,7 +167,10 @@ pub(crate) fn scene_from_str(yaml: &str, source: &str) -> Result<Scene> {
                 _ => false,
             };
             if !is_add {
-                return Err(doc.err(&format!("{path}.operation"), "only ADD (0) is supported in a scene"));
+                return Err(doc.err(
+                    &format!("{path}.operation"),
+                    "only ADD (0) is supported in a scene",
+                ));
             }
         }
         let object_pose = match doc.opt(obj, "pose") {
@@ -166,7 +190,11 @@ pub(crate) fn scene_from_str(yaml: &str, source: &str) -> Result<Scene> {
         }
         let several = shapes.len() > 1;
         for (k, (shape, pose, field)) in shapes.into_iter().enumerate() {
-            let name = if several { format!("{id}/{k}") } else { id.clone() };
+            let name = if several {
+                format!("{id}/{k}")
+            } else {
+                id.clone()
+            };
             scene
                 .add(Obstacle::new(name, shape, object_pose * pose))
                 .map_err(|e| doc.err(&field, e.to_string()))?;
@@ -192,7 +220,11 @@ impl Doc<'_> {
     fn err(&self, field: &str, message: impl Into<String>) -> FabricError {
         FabricError::Format {
             file: self.file.to_string(),
-            field: if field.is_empty() { "<root>".into() } else { field.to_string() },
+            field: if field.is_empty() {
+                "<root>".into()
+            } else {
+                field.to_string()
+            },
             message: message.into(),
         }
     }
@@ -211,7 +243,8 @@ impl Doc<'_> {
         if !v.is_mapping() {
             return Err(self.err(path, "expected a mapping"));
         }
-        self.opt(v, key).ok_or_else(|| self.err(&join(path, key), "missing"))
+        self.opt(v, key)
+            .ok_or_else(|| self.err(&join(path, key), "missing"))
     }
 
     /// Child `key` of `v`, `None` when absent or null.
@@ -220,11 +253,15 @@ impl Doc<'_> {
     }
 
     fn seq<'v>(&self, v: &'v Value, path: &str) -> Result<&'v [Value]> {
-        v.as_sequence().map(|s| s.as_slice()).ok_or_else(|| self.err(path, "expected a list"))
+        v.as_sequence()
+            .map(|s| s.as_slice())
+            .ok_or_else(|| self.err(path, "expected a list"))
     }
 
     fn number(&self, v: &Value, path: &str) -> Result<f64> {
-        let x = v.as_f64().ok_or_else(|| self.err(path, format!("expected a number, got {}", show(v))))?;
+        let x = v
+            .as_f64()
+            .ok_or_else(|| self.err(path, format!("expected a number, got {}", show(v))))?;
         if !x.is_finite() {
             return Err(self.err(path, "not finite"));
         }
@@ -240,7 +277,9 @@ impl Doc<'_> {
     }
 
     fn string(&self, v: &Value, path: &str) -> Result<String> {
-        v.as_str().map(str::to_string).ok_or_else(|| self.err(path, format!("expected a string, got {}", show(v))))
+        v.as_str()
+            .map(str::to_string)
+            .ok_or_else(|| self.err(path, format!("expected a string, got {}", show(v))))
     }
 
     fn no_duplicate(&self, list: &[(String, f64)], name: &str, path: &str) -> Result<()> {
@@ -253,11 +292,16 @@ impl Doc<'_> {
     /// `n` numbers from a list `[a, b, ...]` or a mapping with the given `keys`.
     fn components(&self, v: &Value, path: &str, keys: &[&str]) -> Result<Vec<f64>> {
         if v.is_mapping() {
-            keys.iter().map(|k| self.number(self.field(v, path, k)?, &join(path, k))).collect()
+            keys.iter()
+                .map(|k| self.number(self.field(v, path, k)?, &join(path, k)))
+                .collect()
         } else {
             let xs = self.numbers(v, path)?;
             if xs.len() != keys.len() {
-                return Err(self.err(path, format!("expected {} numbers, got {}", keys.len(), xs.len())));
+                return Err(self.err(
+                    path,
+                    format!("expected {} numbers, got {}", keys.len(), xs.len()),
+                ));
             }
             Ok(xs)
         }
@@ -267,7 +311,11 @@ impl Doc<'_> {
         let pp = join(path, "position");
         let p = self.components(self.field(v, path, "position")?, &pp, &["x", "y", "z"])?;
         let op = join(path, "orientation");
-        let q = self.components(self.field(v, path, "orientation")?, &op, &["x", "y", "z", "w"])?;
+        let q = self.components(
+            self.field(v, path, "orientation")?,
+            &op,
+            &["x", "y", "z", "w"],
+        )?;
         let quat = Quaternion::new(q[3], q[0], q[1], q[2]);
         if quat.norm() < 1e-9 {
             return Err(self.err(&op, "zero quaternion"));
@@ -284,7 +332,9 @@ impl Doc<'_> {
         path: &str,
         out: &mut Vec<(Shape, Isometry3<f64>, String)>,
     ) -> Result<()> {
-        let Some(prims) = self.opt(obj, "primitives") else { return Ok(()) };
+        let Some(prims) = self.opt(obj, "primitives") else {
+            return Ok(());
+        };
         let prims_path = join(path, "primitives");
         let prims = self.seq(prims, &prims_path)?;
         if prims.is_empty() {
@@ -295,7 +345,11 @@ impl Doc<'_> {
         if poses.len() != prims.len() {
             return Err(self.err(
                 &poses_path,
-                format!("{} poses for {} primitives (need one each)", poses.len(), prims.len()),
+                format!(
+                    "{} poses for {} primitives (need one each)",
+                    poses.len(),
+                    prims.len()
+                ),
             ));
         }
         for (k, (prim, pose)) in prims.iter().zip(poses).enumerate() {
@@ -342,21 +396,37 @@ impl Doc<'_> {
             };
             return Err(self.err(
                 &dp,
-                format!("a {kind} needs {expected} dimensions {meaning}, got {}", dims.len()),
+                format!(
+                    "a {kind} needs {expected} dimensions {meaning}, got {}",
+                    dims.len()
+                ),
             ));
         }
         if let Some(i) = dims.iter().position(|&d| d <= 0.0) {
-            return Err(self.err(&format!("{dp}[{i}]"), format!("must be > 0, got {}", dims[i])));
+            return Err(self.err(
+                &format!("{dp}[{i}]"),
+                format!("must be > 0, got {}", dims[i]),
+            ));
         }
         Ok(match expected {
             3 => Shape::cuboid_from_size(Vector3::new(dims[0], dims[1], dims[2])),
-            2 => Shape::Cylinder { half_height: 0.5 * dims[0], radius: dims[1] },
+            2 => Shape::Cylinder {
+                half_height: 0.5 * dims[0],
+                radius: dims[1],
+            },
             _ => Shape::Sphere { radius: dims[0] },
         })
     }
 
-    fn meshes(&self, obj: &Value, path: &str, out: &mut Vec<(Shape, Isometry3<f64>, String)>) -> Result<()> {
-        let Some(meshes) = self.opt(obj, "meshes") else { return Ok(()) };
+    fn meshes(
+        &self,
+        obj: &Value,
+        path: &str,
+        out: &mut Vec<(Shape, Isometry3<f64>, String)>,
+    ) -> Result<()> {
+        let Some(meshes) = self.opt(obj, "meshes") else {
+            return Ok(());
+        };
         let meshes_path = join(path, "meshes");
         let meshes = self.seq(meshes, &meshes_path)?;
         if meshes.is_empty() {
@@ -367,7 +437,11 @@ impl Doc<'_> {
         if poses.len() != meshes.len() {
             return Err(self.err(
                 &poses_path,
-                format!("{} poses for {} meshes (need one each)", poses.len(), meshes.len()),
+                format!(
+                    "{} poses for {} meshes (need one each)",
+                    poses.len(),
+                    meshes.len()
+                ),
             ));
         }
         for (k, (mesh, pose)) in meshes.iter().zip(poses).enumerate() {
@@ -384,9 +458,14 @@ impl Doc<'_> {
                 .collect::<Result<Vec<_>>>()?;
             let tp = join(&mp, "triangles");
             let mut triangles = Vec::new();
-            for (i, t) in self.seq(self.field(mesh, &mp, "triangles")?, &tp)?.iter().enumerate() {
+            for (i, t) in self
+                .seq(self.field(mesh, &mp, "triangles")?, &tp)?
+                .iter()
+                .enumerate()
+            {
                 let ip = format!("{tp}[{i}].vertex_indices");
-                let idx = self.numbers(self.field(t, &format!("{tp}[{i}]"), "vertex_indices")?, &ip)?;
+                let idx =
+                    self.numbers(self.field(t, &format!("{tp}[{i}]"), "vertex_indices")?, &ip)?;
                 if idx.len() != 3 {
                     return Err(self.err(&ip, format!("expected 3 indices, got {}", idx.len())));
                 }

@@ -39,8 +39,14 @@ pub(crate) fn sample_local(shape: &Shape, h: f64, out: &mut Vec<Vector3<f64>>) {
     match shape {
         Shape::Sphere { radius } => sphere(*radius, h, out),
         Shape::Cuboid { half_extents } => cuboid(half_extents, h, out),
-        Shape::Cylinder { half_height, radius } => cylinder(*half_height, *radius, h, out),
-        Shape::Capsule { half_height, radius } => capsule(*half_height, *radius, h, out),
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => cylinder(*half_height, *radius, h, out),
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => capsule(*half_height, *radius, h, out),
         Shape::HalfSpace => {
             let n = intervals(2.0 * HALF_SPACE_PATCH, h);
             for x in nodes(HALF_SPACE_PATCH, n) {
@@ -177,7 +183,11 @@ fn cloud(pc: &PointCloud, h: f64, out: &mut Vec<Vector3<f64>>) {
 }
 
 fn voxel(p: &Point3<f64>, h: f64) -> [i64; 3] {
-    [(p.x / h).floor() as i64, (p.y / h).floor() as i64, (p.z / h).floor() as i64]
+    [
+        (p.x / h).floor() as i64,
+        (p.y / h).floor() as i64,
+        (p.z / h).floor() as i64,
+    ]
 }
 
 impl Scene {
@@ -195,7 +205,12 @@ impl Scene {
         for (_, obstacle) in self.iter() {
             local.clear();
             sample_local(&obstacle.shape, h, &mut local);
-            out.extend(local.iter().map(|p| obstacle.pose * Point3::from(*p)).map(|p| p.coords));
+            out.extend(
+                local
+                    .iter()
+                    .map(|p| obstacle.pose * Point3::from(*p))
+                    .map(|p| p.coords),
+            );
         }
         out
     }

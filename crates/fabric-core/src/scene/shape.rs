@@ -67,11 +67,23 @@ impl fmt::Debug for Shape {
                 "Cuboid {{ half_extents: [{}, {}, {}] }}",
                 half_extents.x, half_extents.y, half_extents.z
             ),
-            Shape::Cylinder { half_height, radius } => {
-                write!(f, "Cylinder {{ half_height: {half_height}, radius: {radius} }}")
+            Shape::Cylinder {
+                half_height,
+                radius,
+            } => {
+                write!(
+                    f,
+                    "Cylinder {{ half_height: {half_height}, radius: {radius} }}"
+                )
             }
-            Shape::Capsule { half_height, radius } => {
-                write!(f, "Capsule {{ half_height: {half_height}, radius: {radius} }}")
+            Shape::Capsule {
+                half_height,
+                radius,
+            } => {
+                write!(
+                    f,
+                    "Capsule {{ half_height: {half_height}, radius: {radius} }}"
+                )
             }
             Shape::HalfSpace => write!(f, "HalfSpace"),
             Shape::TriMesh(m) => write!(
@@ -94,7 +106,9 @@ impl fmt::Debug for Shape {
 impl Shape {
     /// A box from its FULL sizes `size = [sx, sy, sz]` (m), as MoveIt and MotionBenchMaker give them.
     pub fn cuboid_from_size(size: Vector3<f64>) -> Shape {
-        Shape::Cuboid { half_extents: size * 0.5 }
+        Shape::Cuboid {
+            half_extents: size * 0.5,
+        }
     }
 
     /// Short lower-case name of the shape kind (`"sphere"`, `"box"`, `"cylinder"`, `"capsule"`,
@@ -141,11 +155,17 @@ impl Shape {
                 positive("half_extents.y", half_extents.y)?;
                 positive("half_extents.z", half_extents.z)
             }
-            Shape::Cylinder { half_height, radius } => {
+            Shape::Cylinder {
+                half_height,
+                radius,
+            } => {
                 positive("half_height", *half_height)?;
                 positive("radius", *radius)
             }
-            Shape::Capsule { half_height, radius } => {
+            Shape::Capsule {
+                half_height,
+                radius,
+            } => {
                 if !(half_height.is_finite() && *half_height >= 0.0) {
                     return Err(FabricError::Value {
                         what: format!("{what}: capsule half_height"),
@@ -162,8 +182,13 @@ impl Shape {
                         message: "has no triangles".into(),
                     });
                 }
-                if m.vertices().iter().any(|v| !v.coords.iter().all(|c| c.is_finite())) {
-                    return Err(FabricError::NonFinite { what: format!("{what}: mesh vertices") });
+                if m.vertices()
+                    .iter()
+                    .any(|v| !v.coords.iter().all(|c| c.is_finite()))
+                {
+                    return Err(FabricError::NonFinite {
+                        what: format!("{what}: mesh vertices"),
+                    });
                 }
                 let n = m.vertices().len();
                 if m.indices().iter().flatten().any(|&i| i as usize >= n) {
@@ -186,10 +211,14 @@ impl Shape {
         match self {
             Shape::Sphere { radius } => sym(Vector3::repeat(*radius)),
             Shape::Cuboid { half_extents } => sym(*half_extents),
-            Shape::Cylinder { half_height, radius } => sym(Vector3::new(*radius, *radius, *half_height)),
-            Shape::Capsule { half_height, radius } => {
-                sym(Vector3::new(*radius, *radius, half_height + radius))
-            }
+            Shape::Cylinder {
+                half_height,
+                radius,
+            } => sym(Vector3::new(*radius, *radius, *half_height)),
+            Shape::Capsule {
+                half_height,
+                radius,
+            } => sym(Vector3::new(*radius, *radius, half_height + radius)),
             Shape::HalfSpace => None,
             Shape::TriMesh(m) => Some(m.local_aabb()),
             Shape::PointCloud(pc) => Some(pc.local_aabb()),
@@ -207,7 +236,10 @@ impl Shape {
         match self {
             Shape::Sphere { radius } => around(Vector3::repeat(*radius)),
             Shape::Cuboid { half_extents } => around(r.abs() * half_extents),
-            Shape::Cylinder { half_height, radius } => {
+            Shape::Cylinder {
+                half_height,
+                radius,
+            } => {
                 // Disc of radius ρ normal to a (= third column): extent ρ·sqrt(1 - a_i²) per axis.
                 let a = r.column(2);
                 let h = Vector3::from_fn(|i, _| {
@@ -215,7 +247,10 @@ impl Shape {
                 });
                 around(h)
             }
-            Shape::Capsule { half_height, radius } => {
+            Shape::Capsule {
+                half_height,
+                radius,
+            } => {
                 let a = r.column(2);
                 around(Vector3::from_fn(|i, _| half_height * a[i].abs() + radius))
             }
@@ -238,7 +273,12 @@ pub struct PointCloud {
 
 impl fmt::Debug for PointCloud {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "PointCloud {{ points: {}, radius: {} }}", self.points.len(), self.radius)
+        write!(
+            f,
+            "PointCloud {{ points: {}, radius: {} }}",
+            self.points.len(),
+            self.radius
+        )
     }
 }
 
@@ -259,7 +299,9 @@ impl PointCloud {
             });
         }
         if !points.iter().all(|p| p.iter().all(|c| c.is_finite())) {
-            return Err(FabricError::NonFinite { what: "point cloud points".into() });
+            return Err(FabricError::NonFinite {
+                what: "point cloud points".into(),
+            });
         }
         if !(radius.is_finite() && radius >= 0.0) {
             return Err(FabricError::Value {
@@ -270,14 +312,22 @@ impl PointCloud {
         let points: Vec<Point3<f64>> = points.into_iter().map(Point3::from).collect();
         let bvh = Bvh::from_iter(
             BvhBuildStrategy::Binned,
-            points.iter().enumerate().map(|(i, p)| (i, Aabb::new(*p, *p))),
+            points
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (i, Aabb::new(*p, *p))),
         );
         let mut aabb = Aabb::new(points[0], points[0]);
         for p in &points {
             aabb.mins = aabb.mins.inf(p);
             aabb.maxs = aabb.maxs.sup(p);
         }
-        Ok(PointCloud { points, radius, bvh, aabb })
+        Ok(PointCloud {
+            points,
+            radius,
+            bvh,
+            aabb,
+        })
     }
 
     /// The points, obstacle frame (m).
@@ -357,7 +407,12 @@ pub(crate) fn fmax(a: f64, b: f64) -> f64 {
 /// Whether anything inside the box `[mins, maxs]` may be within signed distance `max` of `p`
 /// (squared outside distance when `max >= 0`, signed box distance otherwise).
 #[inline]
-pub(crate) fn box_within(mins: &Point3<f64>, maxs: &Point3<f64>, p: &Point3<f64>, max: f64) -> bool {
+pub(crate) fn box_within(
+    mins: &Point3<f64>,
+    maxs: &Point3<f64>,
+    p: &Point3<f64>,
+    max: f64,
+) -> bool {
     if max >= 0.0 {
         let ox = fmax(fmax(mins.x - p.x, p.x - maxs.x), 0.0);
         let oy = fmax(fmax(mins.y - p.y, p.y - maxs.y), 0.0);
@@ -389,7 +444,12 @@ pub struct Obstacle {
 impl Obstacle {
     /// An obstacle at rest.
     pub fn new(name: impl Into<String>, shape: Shape, pose: Isometry3<f64>) -> Obstacle {
-        Obstacle { name: name.into(), shape, pose, velocity: Vector3::zeros() }
+        Obstacle {
+            name: name.into(),
+            shape,
+            pose,
+            velocity: Vector3::zeros(),
+        }
     }
 
     /// The same obstacle with linear velocity `v` (m/s, world frame).
@@ -405,7 +465,9 @@ impl Obstacle {
         self.shape.validate(&what)?;
         check_pose(&what, &self.pose)?;
         if !self.velocity.iter().all(|v| v.is_finite()) {
-            return Err(FabricError::NonFinite { what: format!("{what}: velocity") });
+            return Err(FabricError::NonFinite {
+                what: format!("{what}: velocity"),
+            });
         }
         Ok(())
     }
@@ -414,8 +476,16 @@ impl Obstacle {
 /// `Ok` when the pose is finite and its quaternion has unit norm within 1e-6.
 pub(crate) fn check_pose(what: &str, pose: &Isometry3<f64>) -> Result<()> {
     let q = pose.rotation.coords;
-    if !(pose.translation.vector.iter().chain(q.iter()).all(|v| v.is_finite())) {
-        return Err(FabricError::NonFinite { what: format!("{what}: pose") });
+    if !(pose
+        .translation
+        .vector
+        .iter()
+        .chain(q.iter())
+        .all(|v| v.is_finite()))
+    {
+        return Err(FabricError::NonFinite {
+            what: format!("{what}: pose"),
+        });
     }
     if (q.norm() - 1.0).abs() > 1e-6 {
         return Err(FabricError::Value {

@@ -20,9 +20,15 @@ pub fn shared_dir(sub: &str) -> Option<PathBuf> {
         return Some(dir);
     }
     if std::env::var("CI").as_deref() == Ok("true") {
-        panic!("{} is missing and CI=true: the shared data must be present", dir.display());
+        panic!(
+            "{} is missing and CI=true: the shared data must be present",
+            dir.display()
+        );
     }
-    eprintln!("skipping: {} not found (set GFCS_SHARED to the shared data directory)", dir.display());
+    eprintln!(
+        "skipping: {} not found (set GFCS_SHARED to the shared data directory)",
+        dir.display()
+    );
     None
 }
 
@@ -31,7 +37,11 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
 }
 
 pub fn vec_in(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> Vector3<f64> {
-    Vector3::new(rng.gen_range(lo..hi), rng.gen_range(lo..hi), rng.gen_range(lo..hi))
+    Vector3::new(
+        rng.gen_range(lo..hi),
+        rng.gen_range(lo..hi),
+        rng.gen_range(lo..hi),
+    )
 }
 
 /// A uniformly random rotation with a translation in `[-t, t]^3`.
@@ -62,7 +72,8 @@ pub fn fd_hessian(f: &dyn Fn(&Vector3<f64>) -> f64, p: &Vector3<f64>, h: f64) ->
         if i == j {
             (f(&(p + ei)) - 2.0 * f(p) + f(&(p - ei))) / (h * h)
         } else {
-            (f(&(p + ei + ej)) - f(&(p + ei - ej)) - f(&(p - ei + ej)) + f(&(p - ei - ej))) / (4.0 * h * h)
+            (f(&(p + ei + ej)) - f(&(p + ei - ej)) - f(&(p - ei + ej)) + f(&(p - ei - ej)))
+                / (4.0 * h * h)
         }
     })
 }
