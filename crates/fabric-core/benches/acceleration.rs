@@ -23,20 +23,56 @@ const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
 const GOAL: [f64; 7] = [0.45, 0.35, 0.19, -1.9, -0.1, 2.3, 0.8];
 
 fn pose(t: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
-    Isometry3::from_parts(Translation3::new(t[0], t[1], t[2]), UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]))
+    Isometry3::from_parts(
+        Translation3::new(t[0], t[1], t[2]),
+        UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+    )
 }
 
 /// Like mbm/box/scene0001.yaml: a tray (base), a back wall, a tilted lid, a can inside, plus a post.
 fn box_scene() -> Scene {
     let mut s = Scene::new();
     let mut add = |name: &str, shape: Shape, p: Isometry3<f64>| {
-        s.add(Obstacle::new(name, shape, p)).expect("valid benchmark obstacle");
+        s.add(Obstacle::new(name, shape, p))
+            .expect("valid benchmark obstacle");
     };
-    add("base", Shape::Cuboid { half_extents: Vector3::new(0.35, 0.35, 0.02) }, pose([0.57, 0.16, -0.49], [0.0, 0.0, 0.15]));
-    add("side_back", Shape::Cuboid { half_extents: Vector3::new(0.02, 0.35, 0.35) }, pose([0.92, 0.21, -0.13], [0.0, 0.0, 0.15]));
-    add("side_cap", Shape::Cuboid { half_extents: Vector3::new(0.35, 0.35, 0.02) }, pose([0.67, 0.18, 0.42], [-0.05, 0.78, 0.15]));
-    add("can", Shape::Cylinder { half_height: 0.07, radius: 0.03 }, pose([0.54, 0.36, -0.38], [0.0, 0.0, 0.15]));
-    add("post", Shape::Cylinder { half_height: 0.3, radius: 0.04 }, pose([0.3, -0.45, -0.2], [0.0, 0.0, 0.0]));
+    add(
+        "base",
+        Shape::Cuboid {
+            half_extents: Vector3::new(0.35, 0.35, 0.02),
+        },
+        pose([0.57, 0.16, -0.49], [0.0, 0.0, 0.15]),
+    );
+    add(
+        "side_back",
+        Shape::Cuboid {
+            half_extents: Vector3::new(0.02, 0.35, 0.35),
+        },
+        pose([0.92, 0.21, -0.13], [0.0, 0.0, 0.15]),
+    );
+    add(
+        "side_cap",
+        Shape::Cuboid {
+            half_extents: Vector3::new(0.35, 0.35, 0.02),
+        },
+        pose([0.67, 0.18, 0.42], [-0.05, 0.78, 0.15]),
+    );
+    add(
+        "can",
+        Shape::Cylinder {
+            half_height: 0.07,
+            radius: 0.03,
+        },
+        pose([0.54, 0.36, -0.38], [0.0, 0.0, 0.15]),
+    );
+    add(
+        "post",
+        Shape::Cylinder {
+            half_height: 0.3,
+            radius: 0.04,
+        },
+        pose([0.3, -0.45, -0.2], [0.0, 0.0, 0.0]),
+    );
     s
 }
 
@@ -47,7 +83,10 @@ fn recorded_states(fabric: &Fabric, scene: &Scene) -> Vec<(Vec<f64>, Vec<f64>)> 
     let mut out = Vec::new();
     let mut leaves = 0;
     for k in 0..400 {
-        if fabric.acceleration(scene, &q, &qd, &GOAL, &mut ws, &mut qdd).is_err() {
+        if fabric
+            .acceleration(scene, &q, &qd, &GOAL, &mut ws, &mut qdd)
+            .is_err()
+        {
             break;
         }
         leaves += fabric.diagnostics(&ws).leaves;
@@ -79,7 +118,16 @@ fn bench_robot(c: &mut Criterion, name: &str, robot: Robot) {
         b.iter(|| {
             let (q, qd) = &states[i % states.len()];
             i += 1;
-            fabric.acceleration(black_box(&scene), black_box(q), black_box(qd), black_box(&GOAL), &mut ws, &mut qdd).expect("acceleration");
+            fabric
+                .acceleration(
+                    black_box(&scene),
+                    black_box(q),
+                    black_box(qd),
+                    black_box(&GOAL),
+                    &mut ws,
+                    &mut qdd,
+                )
+                .expect("acceleration");
             black_box(qdd[0])
         })
     });
@@ -88,7 +136,16 @@ fn bench_robot(c: &mut Criterion, name: &str, robot: Robot) {
         b.iter(|| {
             let (q, qd) = &states[i % states.len()];
             i += 1;
-            fabric.acceleration(black_box(&empty), black_box(q), black_box(qd), black_box(&GOAL), &mut ws, &mut qdd).expect("acceleration");
+            fabric
+                .acceleration(
+                    black_box(&empty),
+                    black_box(q),
+                    black_box(qd),
+                    black_box(&GOAL),
+                    &mut ws,
+                    &mut qdd,
+                )
+                .expect("acceleration");
             black_box(qdd[0])
         })
     });

@@ -8,7 +8,9 @@ mod fabric_support;
 
 use std::sync::Arc;
 
-use fabric_core::fabric::{Diagnostics, EeTargets, Fabric, FabricConfig, FabricWorkspace, GoalDampingForm, Mode};
+use fabric_core::fabric::{
+    Diagnostics, EeTargets, Fabric, FabricConfig, FabricWorkspace, GoalDampingForm, Mode,
+};
 use fabric_core::robot::{Robot, RobotOptions};
 use fabric_core::scene::{Obstacle, Scene, Shape};
 use fabric_core::FabricError;
@@ -28,7 +30,11 @@ fn norm(v: &[f64]) -> f64 {
 }
 
 fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
 }
 
 #[test]
@@ -39,30 +45,63 @@ fn input_errors_are_reported_never_nan() {
     let mut qdd = [0.0; 7];
     let z = [0.0; 7];
     let short = [0.0; 6];
-    assert!(matches!(fabric.acceleration(&scene, &short, &z, &READY, &mut ws, &mut qdd), Err(FabricError::Shape { ref what, .. }) if what == "q"));
-    assert!(matches!(fabric.acceleration(&scene, &READY, &short, &READY, &mut ws, &mut qdd), Err(FabricError::Shape { ref what, .. }) if what == "qd"));
-    assert!(matches!(fabric.acceleration(&scene, &READY, &z, &short, &mut ws, &mut qdd), Err(FabricError::Shape { ref what, .. }) if what == "command"));
-    assert!(matches!(fabric.acceleration(&scene, &READY, &z, &READY, &mut ws, &mut qdd[..3]), Err(FabricError::Shape { .. })));
+    assert!(
+        matches!(fabric.acceleration(&scene, &short, &z, &READY, &mut ws, &mut qdd), Err(FabricError::Shape { ref what, .. }) if what == "q")
+    );
+    assert!(
+        matches!(fabric.acceleration(&scene, &READY, &short, &READY, &mut ws, &mut qdd), Err(FabricError::Shape { ref what, .. }) if what == "qd")
+    );
+    assert!(
+        matches!(fabric.acceleration(&scene, &READY, &z, &short, &mut ws, &mut qdd), Err(FabricError::Shape { ref what, .. }) if what == "command")
+    );
+    assert!(matches!(
+        fabric.acceleration(&scene, &READY, &z, &READY, &mut ws, &mut qdd[..3]),
+        Err(FabricError::Shape { .. })
+    ));
     let mut bad = READY;
     bad[2] = f64::NAN;
-    assert!(matches!(fabric.acceleration(&scene, &bad, &z, &READY, &mut ws, &mut qdd), Err(FabricError::NonFinite { ref what }) if what == "q"));
-    assert!(matches!(fabric.acceleration(&scene, &READY, &bad, &READY, &mut ws, &mut qdd), Err(FabricError::NonFinite { ref what }) if what == "qd"));
+    assert!(
+        matches!(fabric.acceleration(&scene, &bad, &z, &READY, &mut ws, &mut qdd), Err(FabricError::NonFinite { ref what }) if what == "q")
+    );
+    assert!(
+        matches!(fabric.acceleration(&scene, &READY, &bad, &READY, &mut ws, &mut qdd), Err(FabricError::NonFinite { ref what }) if what == "qd")
+    );
     bad[2] = f64::INFINITY;
-    assert!(matches!(fabric.acceleration(&scene, &READY, &z, &bad, &mut ws, &mut qdd), Err(FabricError::NonFinite { ref what }) if what == "command"));
+    assert!(
+        matches!(fabric.acceleration(&scene, &READY, &z, &bad, &mut ws, &mut qdd), Err(FabricError::NonFinite { ref what }) if what == "command")
+    );
     // a workspace of another robot
     let two = r#"<robot name="two"><link name="a"/><link name="b"/><link name="c"/>
       <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
       <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0.3 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>"#;
-    let other = Fabric::new(Arc::new(Robot::from_urdf_str(two, "<two>", &RobotOptions::default()).unwrap()), FabricConfig::default()).unwrap();
+    let other = Fabric::new(
+        Arc::new(Robot::from_urdf_str(two, "<two>", &RobotOptions::default()).unwrap()),
+        FabricConfig::default(),
+    )
+    .unwrap();
     let mut other_ws = FabricWorkspace::new(&other);
-    assert!(matches!(fabric.acceleration(&scene, &READY, &z, &READY, &mut other_ws, &mut qdd), Err(FabricError::Shape { .. })));
+    assert!(matches!(
+        fabric.acceleration(&scene, &READY, &z, &READY, &mut other_ws, &mut qdd),
+        Err(FabricError::Shape { .. })
+    ));
     // invalid configuration
     let mut cfg = FabricConfig::default();
     cfg.obstacles.x_min = 0.0;
-    assert!(matches!(Fabric::new(Arc::new(Robot::panda()), cfg), Err(FabricError::Format { ref field, .. }) if field == "obstacles.x_min"));
+    assert!(
+        matches!(Fabric::new(Arc::new(Robot::panda()), cfg), Err(FabricError::Format { ref field, .. }) if field == "obstacles.x_min")
+    );
     // the 2-DoF fabric works too (no spheres, no self-collision)
     let mut a2 = [0.0; 2];
-    other.acceleration(&scene, &[0.2, -0.3], &[0.1, 0.0], &[0.5, 0.5], &mut other_ws, &mut a2).unwrap();
+    other
+        .acceleration(
+            &scene,
+            &[0.2, -0.3],
+            &[0.1, 0.0],
+            &[0.5, 0.5],
+            &mut other_ws,
+            &mut a2,
+        )
+        .unwrap();
     assert!(a2.iter().all(|v| v.is_finite()) && norm(&a2) > 0.0);
 }
 
@@ -75,20 +114,36 @@ fn finite_everywhere_and_driven_by_the_potential_at_rest() {
     let mut rng = ChaCha8Rng::seed_from_u64(21);
     let mut qdd = [0.0; 7];
     for _ in 0..300 {
-        let q: Vec<f64> = robot.lower().iter().zip(robot.upper()).map(|(&l, &u)| rng.gen_range(l - 0.05..u + 0.05)).collect();
+        let q: Vec<f64> = robot
+            .lower()
+            .iter()
+            .zip(robot.upper())
+            .map(|(&l, &u)| rng.gen_range(l - 0.05..u + 0.05))
+            .collect();
         let qd: Vec<f64> = (0..7).map(|_| rng.gen_range(-3.0..3.0)).collect();
-        let g: Vec<f64> = robot.lower().iter().zip(robot.upper()).map(|(&l, &u)| rng.gen_range(l..u)).collect();
-        fabric.acceleration(&scene, &q, &qd, &g, &mut ws, &mut qdd).unwrap();
+        let g: Vec<f64> = robot
+            .lower()
+            .iter()
+            .zip(robot.upper())
+            .map(|(&l, &u)| rng.gen_range(l..u))
+            .collect();
+        fabric
+            .acceleration(&scene, &q, &qd, &g, &mut ws, &mut qdd)
+            .unwrap();
         assert!(qdd.iter().all(|v| v.is_finite()));
         let d = fabric.diagnostics(&ws);
         assert!(d.energy >= 0.0 && (d.exec_energy - 0.5 * norm(&qd).powi(2)).abs() < 1e-12);
         // at rest: finite, nonzero away from the command
-        fabric.acceleration(&scene, &q, &[0.0; 7], &g, &mut ws, &mut qdd).unwrap();
+        fabric
+            .acceleration(&scene, &q, &[0.0; 7], &g, &mut ws, &mut qdd)
+            .unwrap();
         assert!(qdd.iter().all(|v| v.is_finite()) && norm(&qdd) > 1e-3);
         assert_eq!(fabric.diagnostics(&ws).alpha_le, 0.0);
     }
     // at rest at the command in free space, far from limits: no acceleration
-    fabric.acceleration(&Scene::new(), &READY, &[0.0; 7], &READY, &mut ws, &mut qdd).unwrap();
+    fabric
+        .acceleration(&Scene::new(), &READY, &[0.0; 7], &READY, &mut ws, &mut qdd)
+        .unwrap();
     assert!(norm(&qdd) < 0.05, "{qdd:?}");
 }
 
@@ -105,19 +160,37 @@ fn deterministic_and_ee_target_cache_follows_the_command() {
     let goal_a = [0.5, -0.3, 0.2, -2.0, 0.1, 1.8, 0.3];
     let goal_b = [-0.5, 0.3, -0.2, -1.5, 0.4, 1.2, -0.3];
     let (mut a1, mut a2, mut b1, mut b2) = ([0.0; 7], [0.0; 7], [0.0; 7], [0.0; 7]);
-    fabric.acceleration(&scene, &READY, &qd, &goal_a, &mut ws, &mut a1).unwrap();
-    fabric.acceleration(&scene, &READY, &qd, &goal_b, &mut ws, &mut b1).unwrap();
-    fabric.acceleration(&scene, &READY, &qd, &goal_b, &mut fresh, &mut b2).unwrap();
-    fabric.acceleration(&scene, &READY, &qd, &goal_a, &mut ws, &mut a2).unwrap();
-    assert_eq!(b1, b2, "a reused workspace gives the same result as a fresh one");
+    fabric
+        .acceleration(&scene, &READY, &qd, &goal_a, &mut ws, &mut a1)
+        .unwrap();
+    fabric
+        .acceleration(&scene, &READY, &qd, &goal_b, &mut ws, &mut b1)
+        .unwrap();
+    fabric
+        .acceleration(&scene, &READY, &qd, &goal_b, &mut fresh, &mut b2)
+        .unwrap();
+    fabric
+        .acceleration(&scene, &READY, &qd, &goal_a, &mut ws, &mut a2)
+        .unwrap();
+    assert_eq!(
+        b1, b2,
+        "a reused workspace gives the same result as a fresh one"
+    );
     assert_eq!(a1, a2);
     assert!(dist(&a1, &b1) > 1e-3);
     // explicit targets equal to the command's pose give the same acceleration
     let t = fabric.ee_targets(&goal_a, &mut fresh).unwrap();
-    fabric.acceleration_with_targets(&scene, &READY, &qd, &goal_a, &t, &mut fresh, &mut b2).unwrap();
+    fabric
+        .acceleration_with_targets(&scene, &READY, &qd, &goal_a, &t, &mut fresh, &mut b2)
+        .unwrap();
     assert!(dist(&a1, &b2) < 1e-12);
-    let nan = EeTargets { position: Vector3::new(f64::NAN, 0.0, 0.0), axes: t.axes };
-    assert!(fabric.acceleration_with_targets(&scene, &READY, &qd, &goal_a, &nan, &mut fresh, &mut b2).is_err());
+    let nan = EeTargets {
+        position: Vector3::new(f64::NAN, 0.0, 0.0),
+        axes: t.axes,
+    };
+    assert!(fabric
+        .acceleration_with_targets(&scene, &READY, &qd, &goal_a, &nan, &mut fresh, &mut b2)
+        .is_err());
 }
 
 #[test]
@@ -131,20 +204,32 @@ fn penetration_gives_a_finite_outward_push() {
     let r = robot.spheres()[k].radius;
     let mut ws = FabricWorkspace::new(&fabric);
     let mut free = [0.0; 7];
-    fabric.acceleration(&Scene::new(), &READY, &[0.0; 7], &READY, &mut ws, &mut free).unwrap();
+    fabric
+        .acceleration(&Scene::new(), &READY, &[0.0; 7], &READY, &mut ws, &mut free)
+        .unwrap();
     for depth in [0.0, 0.5 * r, 0.9 * r, r + 0.01] {
         // a small ball whose surface is `depth` inside sphere k, on its +x side
         let ball = 0.02;
         let centre = c + Vector3::new(r + ball - depth, 0.0, 0.0);
         let mut scene = Scene::new();
         scene
-            .add(Obstacle { name: "ball".into(), shape: Shape::Sphere { radius: ball }, pose: Isometry3::translation(centre.x, centre.y, centre.z), velocity: Vector3::zeros() })
+            .add(Obstacle {
+                name: "ball".into(),
+                shape: Shape::Sphere { radius: ball },
+                pose: Isometry3::translation(centre.x, centre.y, centre.z),
+                velocity: Vector3::zeros(),
+            })
             .unwrap();
         let mut qdd = [0.0; 7];
-        fabric.acceleration(&scene, &READY, &[0.0; 7], &READY, &mut ws, &mut qdd).unwrap();
+        fabric
+            .acceleration(&scene, &READY, &[0.0; 7], &READY, &mut ws, &mut qdd)
+            .unwrap();
         assert!(qdd.iter().all(|v| v.is_finite()));
         let d = fabric.diagnostics(&ws);
-        assert!(d.min_clearance <= -depth + 1e-9 + 0.0 && d.min_clearance.is_finite(), "{d:?}");
+        assert!(
+            d.min_clearance <= -depth + 1e-9 + 0.0 && d.min_clearance.is_finite(),
+            "{d:?}"
+        );
         // the change of q̈ due to the obstacle moves the penetrating sphere centre away from the ball
         let mut tp = fabric_core::robot::TaskPoint::new(7);
         robot.update(&READY, &[0.0; 7], &mut kin).unwrap();
@@ -152,7 +237,11 @@ fn penetration_gives_a_finite_outward_push() {
         let dq: Vec<f64> = qdd.iter().zip(&free).map(|(a, b)| a - b).collect();
         let dc = &tp.jac * nalgebra::DVector::from_vec(dq);
         let outward = (c - centre).normalize();
-        assert!(dc.dot(&outward) > 0.0, "depth {depth}: push {}", dc.dot(&outward));
+        assert!(
+            dc.dot(&outward) > 0.0,
+            "depth {depth}: push {}",
+            dc.dot(&outward)
+        );
     }
 }
 
@@ -171,34 +260,68 @@ fn reaches_joint_goals_in_free_space_smoothly_within_limits() {
         let run = euler_rollout(&fabric, &scene, &READY, &g, 0.01, 7.0, 0.01);
         let d0 = dist(&READY, &g);
         assert!(run.ok);
-        let t = run.reached.unwrap_or_else(|| panic!("goal {g:?} not reached: {:?}", run.q));
+        let t = run
+            .reached
+            .unwrap_or_else(|| panic!("goal {g:?} not reached: {:?}", run.q));
         // cruise ≈ 1.2 rad/s: the time is the distance at cruise speed plus ~1 s to start and settle
         assert!(t < d0 / 1.1 + 1.2, "reached in {t} s for {d0} rad");
-        assert!(run.max_speed > 1.0 && run.max_speed < 1.4, "speed {}", run.max_speed);
+        assert!(
+            run.max_speed > 1.0 && run.max_speed < 1.4,
+            "speed {}",
+            run.max_speed
+        );
         assert!(run.min_joint_margin > 0.0);
         // smooth: bounded joint jerk proxy (second difference of velocity)
-        let v: Vec<Vec<f64>> = run.path.windows(2).map(|w| w[1].iter().zip(&w[0]).map(|(a, b)| (a - b) / 0.01).collect()).collect();
-        let max_acc = v.windows(2).map(|w| dist(&w[1], &w[0]) / 0.01).fold(0.0, f64::max);
+        let v: Vec<Vec<f64>> = run
+            .path
+            .windows(2)
+            .map(|w| {
+                w[1].iter()
+                    .zip(&w[0])
+                    .map(|(a, b)| (a - b) / 0.01)
+                    .collect()
+            })
+            .collect();
+        let max_acc = v
+            .windows(2)
+            .map(|w| dist(&w[1], &w[0]) / 0.01)
+            .fold(0.0, f64::max);
         assert!(max_acc < 15.0, "max |q̈| {max_acc}");
     }
     // limits: a command beyond a joint limit is approached but not crossed
     let mut g = READY;
     g[3] = robot.upper()[3] + 0.3;
     let run = euler_rollout(&fabric, &scene, &READY, &g, 0.01, 5.0, 0.0);
-    assert!(run.ok && run.min_joint_margin > 0.0, "joint 4 crossed its limit: {}", run.min_joint_margin);
-    assert!(run.q[3] > robot.upper()[3] - 0.05, "it still gets close: {}", run.q[3]);
+    assert!(
+        run.ok && run.min_joint_margin > 0.0,
+        "joint 4 crossed its limit: {}",
+        run.min_joint_margin
+    );
+    assert!(
+        run.q[3] > robot.upper()[3] - 0.05,
+        "it still gets close: {}",
+        run.q[3]
+    );
 }
 
 #[test]
 fn avoids_obstacles_of_a_box_scene() {
     let fabric = panda_fabric(FabricConfig::default());
     let scene = box_scene();
-    let goals: [[f64; 7]; 3] = [[0.6, 0.3, 0.2, -1.9, -0.1, 2.3, 0.8], [1.2, 0.1, 0.0, -2.0, 0.0, 2.0, 0.785], [-0.8, 0.3, 0.0, -1.8, 0.0, 2.0, 0.785]];
+    let goals: [[f64; 7]; 3] = [
+        [0.6, 0.3, 0.2, -1.9, -0.1, 2.3, 0.8],
+        [1.2, 0.1, 0.0, -2.0, 0.0, 2.0, 0.785],
+        [-0.8, 0.3, 0.0, -1.8, 0.0, 2.0, 0.785],
+    ];
     let mut near = 0;
     for g in goals {
         let run = euler_rollout(&fabric, &scene, &READY, &g, 0.01, 7.0, 0.01);
         assert!(run.ok);
-        assert!(run.min_clearance >= 0.0, "collision: clearance {}", run.min_clearance);
+        assert!(
+            run.min_clearance >= 0.0,
+            "collision: clearance {}",
+            run.min_clearance
+        );
         assert!(run.min_joint_margin > 0.0);
         if run.min_clearance < 0.3 {
             near += 1;
@@ -209,12 +332,23 @@ fn avoids_obstacles_of_a_box_scene() {
 
 #[test]
 fn unbent_mode_is_finite_and_reaches_in_free_space() {
-    let cfg = FabricConfig { mode: Mode::Unbent, ..FabricConfig::default() };
+    let cfg = FabricConfig {
+        mode: Mode::Unbent,
+        ..FabricConfig::default()
+    };
     let fabric = panda_fabric(cfg);
     let g = [0.8, -0.3, 0.3, -1.8, 0.2, 1.9, 1.2];
     let run = euler_rollout(&fabric, &Scene::new(), &READY, &g, 0.01, 7.0, 0.01);
     assert!(run.ok && run.reached.is_some(), "{:?}", run.q);
-    let run = euler_rollout(&fabric, &box_scene(), &READY, &[0.6, 0.3, 0.2, -1.9, -0.1, 2.3, 0.8], 0.01, 5.0, 0.01);
+    let run = euler_rollout(
+        &fabric,
+        &box_scene(),
+        &READY,
+        &[0.6, 0.3, 0.2, -1.9, -0.1, 2.3, 0.8],
+        0.01,
+        5.0,
+        0.01,
+    );
     assert!(run.ok);
 }
 
@@ -237,18 +371,31 @@ fn end_effector_attractors_bring_the_hand_to_its_target() {
         robot.update_positions(q, kin).unwrap();
         *robot.link_pose(kin, robot.ee_link())
     };
-    let (p_end, p_goal, p_start) = (pose(&run.q, &mut kin), pose(&g, &mut kin), pose(&READY, &mut kin));
+    let (p_end, p_goal, p_start) = (
+        pose(&run.q, &mut kin),
+        pose(&g, &mut kin),
+        pose(&READY, &mut kin),
+    );
     let e0 = (p_start.translation.vector - p_goal.translation.vector).norm();
     let e1 = (p_end.translation.vector - p_goal.translation.vector).norm();
     assert!(e0 > 0.2, "the test must move the hand ({e0})");
     assert!(e1 < 0.01, "end-effector error {e1} m");
-    assert!(p_end.rotation.angle_to(&p_goal.rotation) < 0.05, "orientation error {}", p_end.rotation.angle_to(&p_goal.rotation));
+    assert!(
+        p_end.rotation.angle_to(&p_goal.rotation) < 0.05,
+        "orientation error {}",
+        p_end.rotation.angle_to(&p_goal.rotation)
+    );
     // an explicit target: a point 10 cm below the start
-    let target = EeTargets { position: p_start.translation.vector - Vector3::new(0.0, 0.0, 0.1), axes: axes(&p_start) };
+    let target = EeTargets {
+        position: p_start.translation.vector - Vector3::new(0.0, 0.0, 0.1),
+        axes: axes(&p_start),
+    };
     let mut ws = FabricWorkspace::new(&fabric);
     let (mut q, mut qd, mut qdd) = (READY.to_vec(), vec![0.0; 7], vec![0.0; 7]);
     for _ in 0..600 {
-        fabric.acceleration_with_targets(&Scene::new(), &q, &qd, &READY, &target, &mut ws, &mut qdd).unwrap();
+        fabric
+            .acceleration_with_targets(&Scene::new(), &q, &qd, &READY, &target, &mut ws, &mut qdd)
+            .unwrap();
         for i in 0..7 {
             qd[i] += 0.01 * qdd[i];
             q[i] += 0.01 * qd[i];
@@ -260,19 +407,35 @@ fn end_effector_attractors_bring_the_hand_to_its_target() {
 
 fn axes(p: &Isometry3<f64>) -> [Vector3<f64>; 3] {
     let r = p.rotation.to_rotation_matrix();
-    [r.matrix().column(0).into(), r.matrix().column(1).into(), r.matrix().column(2).into()]
+    [
+        r.matrix().column(0).into(),
+        r.matrix().column(1).into(),
+        r.matrix().column(2).into(),
+    ]
 }
 
 /// RK4 of the Panda fabric without damping and the relative drift of H = L̃_e + ψ over `t` seconds
 /// (Lemma IV.1: conserved when B = 0).
-fn panda_drift(fabric: &Fabric, scene: &Scene, q0: &[f64], qd0: &[f64], goal: &[f64], dt: f64, t: f64) -> (f64, Diagnostics) {
+fn panda_drift(
+    fabric: &Fabric,
+    scene: &Scene,
+    q0: &[f64],
+    qd0: &[f64],
+    goal: &[f64],
+    dt: f64,
+    t: f64,
+) -> (f64, Diagnostics) {
     let mut ws = FabricWorkspace::new(fabric);
     let mut f = |q: &[f64], v: &[f64]| -> (Vec<f64>, Diagnostics) {
         let mut a = vec![0.0; 7];
-        fabric.acceleration(scene, q, v, goal, &mut ws, &mut a).unwrap();
+        fabric
+            .acceleration(scene, q, v, goal, &mut ws, &mut a)
+            .unwrap();
         (a, fabric.diagnostics(&ws))
     };
-    let add = |a: &[f64], b: &[f64], s: f64| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x + s * y).collect() };
+    let add = |a: &[f64], b: &[f64], s: f64| -> Vec<f64> {
+        a.iter().zip(b).map(|(x, y)| x + s * y).collect()
+    };
     let (mut q, mut v) = (q0.to_vec(), qd0.to_vec());
     let (_, d0) = f(&q, &v);
     let mut worst: f64 = 0.0;
@@ -292,7 +455,6 @@ fn panda_drift(fabric: &Fabric, scene: &Scene, q0: &[f64], qd0: &[f64], goal: &[
         last = f(&q, &v).1;
         let (h, h0) = (last.energy + last.potential, d0.energy + d0.potential);
         worst = worst.max((h - h0).abs() / h0);
-
     }
     (worst, last)
 }
@@ -344,7 +506,10 @@ fn panda_tree_with_obstacle_leaves_conserves_energy() {
         .add(Obstacle {
             name: "ball".into(),
             shape: Shape::Sphere { radius: 0.08 },
-            pose: Isometry3::from_parts(Translation3::new(hand.x + 0.25, hand.y, hand.z - 0.05), UnitQuaternion::identity()),
+            pose: Isometry3::from_parts(
+                Translation3::new(hand.x + 0.25, hand.y, hand.z - 0.05),
+                UnitQuaternion::identity(),
+            ),
             velocity: Vector3::zeros(),
         })
         .unwrap();
@@ -357,23 +522,94 @@ fn panda_tree_with_obstacle_leaves_conserves_energy() {
 }
 
 #[test]
+fn panda_root_geometry_is_hd2_and_fabric_is_thread_safe() {
+    // unforced, undamped bent fabric in a static scene: q̈(q, λq̇) = λ² q̈(q, q̇)
+    fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<Fabric>();
+    assert_send_sync::<FabricWorkspace>();
+    let mut cfg = FabricConfig::default();
+    conservative(&mut cfg);
+    cfg.joint_limits.enabled = true;
+    cfg.self_collision.enabled = true;
+    for b in [
+        &mut cfg.joint_limits,
+        &mut cfg.self_collision,
+        &mut cfg.obstacles,
+    ] {
+        b.potential.barrier_gain = 0.0;
+        b.potential.relu_gain = 0.0;
+    }
+    let fabric = panda_fabric(cfg);
+    let robot = fabric.robot().clone();
+    let scene = box_scene();
+    let mut ws = FabricWorkspace::new(&fabric);
+    let mut rng = ChaCha8Rng::seed_from_u64(22);
+    let mut with_leaves = 0;
+    for _ in 0..100 {
+        let q: Vec<f64> = robot
+            .lower()
+            .iter()
+            .zip(robot.upper())
+            .map(|(&l, &u)| rng.gen_range(l..u))
+            .collect();
+        let qd: Vec<f64> = (0..7).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let l = rng.gen_range(0.2..3.0);
+        let qs: Vec<f64> = qd.iter().map(|v| v * l).collect();
+        let (mut a1, mut a2) = ([0.0; 7], [0.0; 7]);
+        fabric
+            .acceleration(&scene, &q, &qd, &READY, &mut ws, &mut a1)
+            .unwrap();
+        with_leaves += (fabric.diagnostics(&ws).leaves > 0) as usize;
+        fabric
+            .acceleration(&scene, &q, &qs, &READY, &mut ws, &mut a2)
+            .unwrap();
+        for i in 0..7 {
+            assert!(
+                (a2[i] - l * l * a1[i]).abs() <= 1e-8 * (1.0 + (l * l * a1[i]).abs()),
+                "{a1:?} {a2:?} λ = {l}"
+            );
+        }
+    }
+    assert!(with_leaves > 20);
+}
+
+#[test]
 fn motionbenchmaker_rollouts_stay_collision_free_and_within_limits() {
     let Some(shared) = shared_dir() else { return };
     let robot = arc(mbm_panda(&shared));
     let fabric = Fabric::new(robot.clone(), FabricConfig::default()).unwrap();
     let mut reached = 0;
-    for class in ["table_pick", "table_under_pick", "box", "bookshelf_small", "bookshelf_tall", "bookshelf_thin", "cage"] {
+    for class in [
+        "table_pick",
+        "table_under_pick",
+        "box",
+        "bookshelf_small",
+        "bookshelf_tall",
+        "bookshelf_thin",
+        "cage",
+    ] {
         for i in 1..=4 {
             let (scene, start, goal) = mbm_problem(&shared, &robot, class, i);
             let run = euler_rollout(&fabric, &scene, &start, &goal, 0.01, 7.0, 0.01);
             assert!(run.ok, "{class} {i}: evaluation failed");
-            assert!(run.min_clearance >= 0.0, "{class} {i}: clearance {}", run.min_clearance);
-            assert!(run.min_joint_margin >= 0.0, "{class} {i}: joint margin {}", run.min_joint_margin);
+            assert!(
+                run.min_clearance >= 0.0,
+                "{class} {i}: clearance {}",
+                run.min_clearance
+            );
+            assert!(
+                run.min_joint_margin >= 0.0,
+                "{class} {i}: joint margin {}",
+                run.min_joint_margin
+            );
             assert!(run.max_speed < 2.0, "{class} {i}: speed {}", run.max_speed);
             reached += run.reached.is_some() as usize;
             // the same goal without obstacles is always reached
             let free = euler_rollout(&fabric, &Scene::new(), &start, &goal, 0.01, 7.0, 0.01);
-            assert!(free.reached.is_some(), "{class} {i}: free-space goal not reached");
+            assert!(
+                free.reached.is_some(),
+                "{class} {i}: free-space goal not reached"
+            );
         }
     }
     assert!(reached >= 5, "reactive fabric alone reached {reached}/28");

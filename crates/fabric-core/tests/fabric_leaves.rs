@@ -11,12 +11,23 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn random_state(robot: &Robot, rng: &mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>) {
-    let q = robot.lower().iter().zip(robot.upper()).map(|(&l, &u)| rng.gen_range(l + 0.1..u - 0.1)).collect();
+    let q = robot
+        .lower()
+        .iter()
+        .zip(robot.upper())
+        .map(|(&l, &u)| rng.gen_range(l + 0.1..u - 0.1))
+        .collect();
     let qd = (0..robot.dof()).map(|_| rng.gen_range(-1.5..1.5)).collect();
     (q, qd)
 }
 
-fn sphere_point(robot: &Robot, ws: &mut KinematicsWorkspace, k: usize, q: &[f64], qd: &[f64]) -> TaskPoint {
+fn sphere_point(
+    robot: &Robot,
+    ws: &mut KinematicsWorkspace,
+    k: usize,
+    q: &[f64],
+    qd: &[f64],
+) -> TaskPoint {
     robot.update(q, qd, ws).unwrap();
     let mut tp = TaskPoint::new(robot.dof());
     robot.sphere(ws, k, &mut tp);
@@ -33,17 +44,38 @@ fn shifted(q: &[f64], d: &[f64], t: f64) -> Vec<f64> {
 }
 
 /// A single obstacle placed 2-12 cm beyond sphere `k` of the arm (so the map is smooth nearby).
-fn obstacle_near(c: &Vector3<f64>, r: f64, shape: Shape, rng: &mut ChaCha8Rng, velocity: Vector3<f64>) -> Scene {
-    let dir = Vector3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)).normalize();
+fn obstacle_near(
+    c: &Vector3<f64>,
+    r: f64,
+    shape: Shape,
+    rng: &mut ChaCha8Rng,
+    velocity: Vector3<f64>,
+) -> Scene {
+    let dir = Vector3::new(
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+    )
+    .normalize();
     let size = match &shape {
         Shape::Sphere { radius } => *radius,
         Shape::Capsule { radius, .. } => *radius,
         _ => 0.1,
     };
     let p = c + dir * (r + size + rng.gen_range(0.02..0.12));
-    let rot = UnitQuaternion::from_euler_angles(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+    let rot = UnitQuaternion::from_euler_angles(
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+        rng.gen_range(-1.0..1.0),
+    );
     let mut s = Scene::new();
-    s.add(Obstacle { name: "o".into(), shape, pose: Isometry3::from_parts(Translation3::from(p), rot), velocity }).unwrap();
+    s.add(Obstacle {
+        name: "o".into(),
+        shape,
+        pose: Isometry3::from_parts(Translation3::from(p), rot),
+        velocity,
+    })
+    .unwrap();
     s
 }
 
@@ -60,11 +92,26 @@ fn obstacle_leaf_matches_finite_differences_static_and_moving() {
         let r = robot.spheres()[k].radius;
         let c = center(&robot, &mut ws, k, &q);
         let shape = match case % 3 {
-            0 => Shape::Sphere { radius: rng.gen_range(0.03..0.15) },
-            1 => Shape::Capsule { half_height: rng.gen_range(0.05..0.3), radius: rng.gen_range(0.02..0.08) },
-            _ => Shape::Sphere { radius: rng.gen_range(0.01..0.05) },
+            0 => Shape::Sphere {
+                radius: rng.gen_range(0.03..0.15),
+            },
+            1 => Shape::Capsule {
+                half_height: rng.gen_range(0.05..0.3),
+                radius: rng.gen_range(0.02..0.08),
+            },
+            _ => Shape::Sphere {
+                radius: rng.gen_range(0.01..0.05),
+            },
         };
-        let v = if case % 2 == 0 { Vector3::zeros() } else { Vector3::new(rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5)) };
+        let v = if case % 2 == 0 {
+            Vector3::zeros()
+        } else {
+            Vector3::new(
+                rng.gen_range(-0.5..0.5),
+                rng.gen_range(-0.5..0.5),
+                rng.gen_range(-0.5..0.5),
+            )
+        };
         let scene = obstacle_near(&c, r, shape, &mut rng, v);
         // x(t) along q(t) = q + t q̇ with the obstacle translated by t v
         let mut fd_ws = KinematicsWorkspace::new(&robot);
@@ -87,7 +134,12 @@ fn obstacle_leaf_matches_finite_differences_static_and_moving() {
         assert!((leaf.x - x0).abs() < 1e-12);
         let xd_fd = (xp - xm) / (2.0 * h);
         let xdd_fd = (xp - 2.0 * x0 + xm) / (h * h);
-        assert!((leaf.xd - xd_fd).abs() < 1e-6 * (1.0 + xd_fd.abs()), "ẋ {} vs {}", leaf.xd, xd_fd);
+        assert!(
+            (leaf.xd - xd_fd).abs() < 1e-6 * (1.0 + xd_fd.abs()),
+            "ẋ {} vs {}",
+            leaf.xd,
+            xd_fd
+        );
         assert!(
             (leaf.jdot_qdot - xdd_fd).abs() < 2e-3 * (1.0 + xdd_fd.abs()),
             "case {case}: J̇q̇ {} vs finite differences {} (sign!)",
@@ -112,7 +164,13 @@ fn curvature_bound_only_scales_the_hessian_term() {
     let k = robot.spheres().len() - 1;
     let r = robot.spheres()[k].radius;
     let c = center(&robot, &mut ws, k, &q);
-    let scene = obstacle_near(&c, r, Shape::Sphere { radius: 0.02 }, &mut rng, Vector3::zeros());
+    let scene = obstacle_near(
+        &c,
+        r,
+        Shape::Sphere { radius: 0.02 },
+        &mut rng,
+        Vector3::zeros(),
+    );
     let tp = sphere_point(&robot, &mut ws, k, &q, &qd);
     let mut samples = Vec::new();
     scene.query(&tp.x, f64::INFINITY, &mut samples);
@@ -150,11 +208,20 @@ fn self_collision_leaf_matches_finite_differences() {
         let mut jac = vec![0.0; n];
         let leaf = self_collision_leaf(&ta, ra, &tb, rb, 0.0, 0.0, &mut jac);
         let h = 1e-4;
-        let (xm, x0, xp) = (x_at(&shifted(&q, &qd, -h)), x_at(&q), x_at(&shifted(&q, &qd, h)));
+        let (xm, x0, xp) = (
+            x_at(&shifted(&q, &qd, -h)),
+            x_at(&q),
+            x_at(&shifted(&q, &qd, h)),
+        );
         assert!((leaf.x - x0).abs() < 1e-12);
         assert!((leaf.xd - (xp - xm) / (2.0 * h)).abs() < 1e-6);
         let xdd = (xp - 2.0 * x0 + xm) / (h * h);
-        assert!((leaf.jdot_qdot - xdd).abs() < 2e-3 * (1.0 + xdd.abs()), "J̇q̇ {} vs {}", leaf.jdot_qdot, xdd);
+        assert!(
+            (leaf.jdot_qdot - xdd).abs() < 2e-3 * (1.0 + xdd.abs()),
+            "J̇q̇ {} vs {}",
+            leaf.jdot_qdot,
+            xdd
+        );
         for k in 0..n {
             let mut qp = q.clone();
             let mut qm = q.clone();

@@ -25,9 +25,22 @@ fn mbm_survey() {
         Err(_) => FabricConfig::default(),
     };
     let fabric = Fabric::new(robot.clone(), cfg).expect("fabric");
-    let per: usize = std::env::var("PER").ok().and_then(|s| s.parse().ok()).unwrap_or(12).clamp(1, 50);
-    for class in ["table_pick", "table_under_pick", "box", "bookshelf_small", "bookshelf_tall", "bookshelf_thin", "cage"] {
-        let (mut reached, mut t, mut coll, mut selfc, mut jl, mut vmax, mut worst) = (0, 0.0, 0, 0, 0, 0.0f64, f64::INFINITY);
+    let per: usize = std::env::var("PER")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(12)
+        .clamp(1, 50);
+    for class in [
+        "table_pick",
+        "table_under_pick",
+        "box",
+        "bookshelf_small",
+        "bookshelf_tall",
+        "bookshelf_thin",
+        "cage",
+    ] {
+        let (mut reached, mut t, mut coll, mut selfc, mut jl, mut vmax, mut worst) =
+            (0, 0.0, 0, 0, 0, 0.0f64, f64::INFINITY);
         for i in 1..=per {
             let (scene, start, goal) = mbm_problem(&shared, &robot, class, i);
             let r = euler_rollout(&fabric, &scene, &start, &goal, 0.01, 7.0, 0.01);

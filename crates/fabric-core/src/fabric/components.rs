@@ -14,7 +14,9 @@
 //!   [`energy::Metric1D`](super::energy::Metric1D) and [`potential::Potential1D`](super::potential::Potential1D).
 
 use super::config::{BarrierConfig, EeAttractionConfig, JointAttractionConfig};
-use super::energy::{BarrierMetric, ConstantMass, IsotropicEnergy, ScalarField, SwitchedEnergy1D, TanhMass};
+use super::energy::{
+    BarrierMetric, ConstantMass, IsotropicEnergy, ScalarField, SwitchedEnergy1D, TanhMass,
+};
 use super::potential::{BarrierPotential, LogCosh, Potential1D};
 
 /// Scalars of an attractor evaluation (the vectors are written into the caller's slices).
@@ -43,7 +45,12 @@ impl Attractor<ConstantMass> {
     /// The joint-space attractor of GF VII-A1 on R^dim.
     pub fn joint(cfg: &JointAttractionConfig, dim: usize) -> Self {
         Attractor {
-            energy: IsotropicEnergy { mass: ConstantMass { dim, mass: cfg.mass } },
+            energy: IsotropicEnergy {
+                mass: ConstantMass {
+                    dim,
+                    mass: cfg.mass,
+                },
+            },
             geometry: LogCosh::from_config(&cfg.geometry),
             potential: LogCosh::from_config(&cfg.potential),
         }
@@ -55,7 +62,12 @@ impl Attractor<TanhMass> {
     pub fn end_effector(cfg: &EeAttractionConfig, dim: usize) -> Self {
         Attractor {
             energy: IsotropicEnergy {
-                mass: TanhMass { dim, mass_max: cfg.mass_max, mass_min: cfg.mass_min, sharpness: cfg.mass_sharpness },
+                mass: TanhMass {
+                    dim,
+                    mass_max: cfg.mass_max,
+                    mass_min: cfg.mass_min,
+                    sharpness: cfg.mass_sharpness,
+                },
             },
             geometry: LogCosh::from_config(&cfg.geometry),
             potential: LogCosh::from_config(&cfg.potential),
@@ -66,7 +78,15 @@ impl Attractor<TanhMass> {
 impl<S: ScalarField> Attractor<S> {
     /// Evaluate at offset `x` and velocity `xd` (k,). Writes ξ into `xi`, f = −Mπ = m‖ẋ‖² ∂ψ_g into `f`,
     /// ∂ψ_f into `grad`; `scratch` (k,) is overwritten. No allocation.
-    pub fn eval(&self, x: &[f64], xd: &[f64], scratch: &mut [f64], xi: &mut [f64], f: &mut [f64], grad: &mut [f64]) -> AttractorEval {
+    pub fn eval(
+        &self,
+        x: &[f64],
+        xd: &[f64],
+        scratch: &mut [f64],
+        xi: &mut [f64],
+        f: &mut [f64],
+        grad: &mut [f64],
+    ) -> AttractorEval {
         let (mass, energy) = self.energy.eval(x, xd, scratch, xi);
         let v2: f64 = xd.iter().map(|v| v * v).sum();
         self.geometry.eval(x, scratch);
@@ -117,7 +137,13 @@ impl Barrier {
     /// Build from a configuration section.
     pub fn from_config(cfg: &BarrierConfig) -> Self {
         Barrier {
-            energy: SwitchedEnergy1D { metric: BarrierMetric { gain: cfg.metric_gain, x_min: cfg.x_min }, switched: true },
+            energy: SwitchedEnergy1D {
+                metric: BarrierMetric {
+                    gain: cfg.metric_gain,
+                    x_min: cfg.x_min,
+                },
+                switched: true,
+            },
             geometry: BarrierPotential::from_config(&cfg.geometry, cfg.x_min),
             potential: BarrierPotential::from_config(&cfg.potential, cfg.x_min),
         }
@@ -126,9 +152,20 @@ impl Barrier {
     /// Evaluate at distance `x` and rate `xd`.
     pub fn eval(&self, x: f64, xd: f64) -> BarrierEval {
         let (m, xi, energy) = self.energy.eval(x, xd);
-        let f = if m != 0.0 { m * xd * xd * self.geometry.slope(x) } else { 0.0 };
+        let f = if m != 0.0 {
+            m * xd * xd * self.geometry.slope(x)
+        } else {
+            0.0
+        };
         let (psi, grad, _) = self.potential.eval(x);
-        BarrierEval { m, xi, f, grad, psi, energy }
+        BarrierEval {
+            m,
+            xi,
+            f,
+            grad,
+            psi,
+            energy,
+        }
     }
 
     /// The geometry π(x, ẋ) = −ẋ² ψ_g'(x) alone.
@@ -146,14 +183,20 @@ mod tests {
     #[test]
     fn attractor_matches_its_definitions() {
         let cfg = FabricConfig::default();
-        let a = Attractor::end_effector(&EeAttractionConfig { enabled: true, ..cfg.ee_position.clone() }, 3);
+        let a = Attractor::end_effector(
+            &EeAttractionConfig {
+                enabled: true,
+                ..cfg.ee_position.clone()
+            },
+            3,
+        );
         let x = [0.1, -0.2, 0.05];
         let xd = [0.3, 0.1, -0.4];
         let (mut s, mut xi, mut f, mut g) = ([0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3]);
         let e = a.eval(&x, &xd, &mut s, &mut xi, &mut f, &mut g);
         let ad = euler_lagrange_ad(&a.energy, &x, &xd);
-        for i in 0..3 {
-            assert!((ad.xi[i] - xi[i]).abs() < 1e-12);
+        for (i, x) in xi.iter().enumerate() {
+            assert!((ad.xi[i] - x).abs() < 1e-12);
             assert!((ad.m[(i, i)] - e.mass).abs() < 1e-12);
         }
         assert!((ad.energy - e.energy).abs() < 1e-14);
@@ -176,7 +219,10 @@ mod tests {
         assert_eq!((away.m, away.xi, away.f, away.energy), (0.0, 0.0, 0.0, 0.0));
         assert!(away.grad < 0.0, "the potential still pushes out");
         let toward = b.eval(0.05, -0.2);
-        assert!(toward.m > 0.0 && toward.f < 0.0, "geometry accelerates x upward: π = −f/M > 0");
+        assert!(
+            toward.m > 0.0 && toward.f < 0.0,
+            "geometry accelerates x upward: π = −f/M > 0"
+        );
         for &x in &[0.0, -0.01, -0.2] {
             let e = b.eval(x, -0.5);
             assert!(e.m.is_finite() && e.m > 0.0 && e.f.is_finite() && e.xi.is_finite());

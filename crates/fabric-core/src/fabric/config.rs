@@ -67,8 +67,14 @@ impl Default for JointAttractionConfig {
     fn default() -> Self {
         Self {
             mass: 1.0,
-            geometry: LogCoshConfig { gain: 1.0, sharpness: 10.0 },
-            potential: LogCoshConfig { gain: 0.5, sharpness: 20.0 },
+            geometry: LogCoshConfig {
+                gain: 1.0,
+                sharpness: 10.0,
+            },
+            potential: LogCoshConfig {
+                gain: 0.5,
+                sharpness: 20.0,
+            },
         }
     }
 }
@@ -101,15 +107,27 @@ impl EeAttractionConfig {
             mass_max: 2.0,
             mass_min: 0.2,
             mass_sharpness: 10.0,
-            geometry: LogCoshConfig { gain: 1.0, sharpness: 10.0 },
-            potential: LogCoshConfig { gain: 1.0, sharpness: 10.0 },
+            geometry: LogCoshConfig {
+                gain: 1.0,
+                sharpness: 10.0,
+            },
+            potential: LogCoshConfig {
+                gain: 1.0,
+                sharpness: 10.0,
+            },
         }
     }
     fn orientation_default() -> Self {
         Self {
             mass_sharpness: 2.0,
-            geometry: LogCoshConfig { gain: 1.0, sharpness: 2.0 },
-            potential: LogCoshConfig { gain: 1.0, sharpness: 2.0 },
+            geometry: LogCoshConfig {
+                gain: 1.0,
+                sharpness: 2.0,
+            },
+            potential: LogCoshConfig {
+                gain: 1.0,
+                sharpness: 2.0,
+            },
             ..Self::position_default()
         }
     }
@@ -157,15 +175,33 @@ impl BarrierConfig {
             influence: 0.3,
             x_min: 0.005,
             min_curvature_radius: 0.3,
-            geometry: BarrierPotentialConfig { barrier_gain: 0.02, relu_gain: 5.0, relu_sharpness: 20.0, relu_shift: 0.05 },
-            potential: BarrierPotentialConfig { barrier_gain: 5e-4, relu_gain: 0.3, relu_sharpness: 50.0, relu_shift: 0.005 },
+            geometry: BarrierPotentialConfig {
+                barrier_gain: 0.02,
+                relu_gain: 5.0,
+                relu_sharpness: 20.0,
+                relu_shift: 0.05,
+            },
+            potential: BarrierPotentialConfig {
+                barrier_gain: 5e-4,
+                relu_gain: 0.3,
+                relu_sharpness: 50.0,
+                relu_shift: 0.005,
+            },
         }
     }
     fn self_collision_default() -> Self {
-        Self { influence: 0.1, ..Self::obstacle_default() }
+        Self {
+            influence: 0.1,
+            ..Self::obstacle_default()
+        }
     }
     fn joint_limit_default() -> Self {
-        Self { margin: 0.01, influence: 0.4, min_curvature_radius: 0.0, ..Self::obstacle_default() }
+        Self {
+            margin: 0.01,
+            influence: 0.4,
+            min_curvature_radius: 0.0,
+            ..Self::obstacle_default()
+        }
     }
 }
 
@@ -270,7 +306,11 @@ impl Default for FabricConfig {
 }
 
 fn format_error(source: &str, field: &str, message: impl Into<String>) -> FabricError {
-    FabricError::Format { file: source.to_string(), field: field.to_string(), message: message.into() }
+    FabricError::Format {
+        file: source.to_string(),
+        field: field.to_string(),
+        message: message.into(),
+    }
 }
 
 fn kind(v: &Value) -> &'static str {
@@ -289,12 +329,20 @@ fn merge(base: &mut Value, user: Value, path: &str, source: &str) -> Result<()> 
     match (base, user) {
         (Value::Object(b), Value::Object(u)) => {
             for (key, value) in u {
-                let sub = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
+                let sub = if path.is_empty() {
+                    key.clone()
+                } else {
+                    format!("{path}.{key}")
+                };
                 match b.get_mut(&key) {
                     Some(slot) => merge(slot, value, &sub, source)?,
                     None => {
                         let known: Vec<&str> = b.keys().map(|k| k.as_str()).collect();
-                        return Err(format_error(source, &sub, format!("unknown field (expected one of: {})", known.join(", "))));
+                        return Err(format_error(
+                            source,
+                            &sub,
+                            format!("unknown field (expected one of: {})", known.join(", ")),
+                        ));
                     }
                 }
             }
@@ -303,10 +351,16 @@ fn merge(base: &mut Value, user: Value, path: &str, source: &str) -> Result<()> 
         (slot, value) => {
             let same = matches!(
                 (&*slot, &value),
-                (Value::Bool(_), Value::Bool(_)) | (Value::Number(_), Value::Number(_)) | (Value::String(_), Value::String(_))
+                (Value::Bool(_), Value::Bool(_))
+                    | (Value::Number(_), Value::Number(_))
+                    | (Value::String(_), Value::String(_))
             );
             if !same {
-                return Err(format_error(source, path, format!("expected {}, got {}", kind(slot), kind(&value))));
+                return Err(format_error(
+                    source,
+                    path,
+                    format!("expected {}, got {}", kind(slot), kind(&value)),
+                ));
             }
             *slot = value;
             Ok(())
@@ -320,44 +374,65 @@ impl FabricConfig {
         let user = match user {
             Value::Null => Value::Object(Default::default()),
             v @ Value::Object(_) => v,
-            other => return Err(format_error(source, "<root>", format!("expected a table, got {}", kind(&other)))),
+            other => {
+                return Err(format_error(
+                    source,
+                    "<root>",
+                    format!("expected a table, got {}", kind(&other)),
+                ))
+            }
         };
         let mut base = serde_json::to_value(FabricConfig::default())
             .map_err(|e| format_error(source, "<root>", e.to_string()))?;
         merge(&mut base, user, "", source)?;
-        let cfg: FabricConfig =
-            serde_json::from_value(base).map_err(|e| format_error(source, "mode", e.to_string()))?;
+        let cfg: FabricConfig = serde_json::from_value(base)
+            .map_err(|e| format_error(source, "mode", e.to_string()))?;
         cfg.validate_named(source)?;
         Ok(cfg)
     }
 
     /// Parse TOML text (`source` names the file in errors). Missing fields take their defaults.
     pub fn from_toml_str(s: &str, source: &str) -> Result<Self> {
-        let v: Value = toml::from_str(s).map_err(|e| format_error(source, "<toml>", e.to_string()))?;
+        let v: Value =
+            toml::from_str(s).map_err(|e| format_error(source, "<toml>", e.to_string()))?;
         Self::from_value(v, source)
     }
 
     /// Parse YAML text (`source` names the file in errors). Missing fields take their defaults.
     pub fn from_yaml_str(s: &str, source: &str) -> Result<Self> {
-        let v: Value = serde_yaml::from_str(s).map_err(|e| format_error(source, "<yaml>", e.to_string()))?;
+        let v: Value =
+            serde_yaml::from_str(s).map_err(|e| format_error(source, "<yaml>", e.to_string()))?;
         Self::from_value(v, source)
     }
 
     /// Parse JSON text (`source` names the file in errors). Missing fields take their defaults.
     pub fn from_json_str(s: &str, source: &str) -> Result<Self> {
-        let v: Value = serde_json::from_str(s).map_err(|e| format_error(source, "<json>", e.to_string()))?;
+        let v: Value =
+            serde_json::from_str(s).map_err(|e| format_error(source, "<json>", e.to_string()))?;
         Self::from_value(v, source)
     }
 
     /// Read a file, choosing the format by extension (.toml, .yaml/.yml, .json).
     pub fn from_file(path: &std::path::Path) -> Result<Self> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| FabricError::Io { path: name.clone(), message: e.to_string() })?;
-        match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+        let text = std::fs::read_to_string(path).map_err(|e| FabricError::Io {
+            path: name.clone(),
+            message: e.to_string(),
+        })?;
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
             Some("toml") => Self::from_toml_str(&text, &name),
             Some("yaml") | Some("yml") => Self::from_yaml_str(&text, &name),
             Some("json") => Self::from_json_str(&text, &name),
-            _ => Err(format_error(&name, "<file>", "unknown extension (expected .toml, .yaml, .yml or .json)")),
+            _ => Err(format_error(
+                &name,
+                "<file>",
+                "unknown extension (expected .toml, .yaml, .yml or .json)",
+            )),
         }
     }
 
@@ -400,19 +475,30 @@ impl FabricConfig {
         check("joint_attraction.mass", ja.mass, true)?;
         log_cosh("joint_attraction.geometry", &ja.geometry)?;
         log_cosh("joint_attraction.potential", &ja.potential)?;
-        for (name, ee) in [("ee_position", &self.ee_position), ("ee_orientation", &self.ee_orientation)] {
+        for (name, ee) in [
+            ("ee_position", &self.ee_position),
+            ("ee_orientation", &self.ee_orientation),
+        ] {
             check(&format!("{name}.mass_max"), ee.mass_max, false)?;
             check(&format!("{name}.mass_min"), ee.mass_min, ee.enabled)?;
             check(&format!("{name}.mass_sharpness"), ee.mass_sharpness, false)?;
             log_cosh(&format!("{name}.geometry"), &ee.geometry)?;
             log_cosh(&format!("{name}.potential"), &ee.potential)?;
         }
-        for (name, b) in [("joint_limits", &self.joint_limits), ("self_collision", &self.self_collision), ("obstacles", &self.obstacles)] {
+        for (name, b) in [
+            ("joint_limits", &self.joint_limits),
+            ("self_collision", &self.self_collision),
+            ("obstacles", &self.obstacles),
+        ] {
             check(&format!("{name}.metric_gain"), b.metric_gain, false)?;
             check(&format!("{name}.margin"), b.margin, false)?;
             check(&format!("{name}.influence"), b.influence, true)?;
             check(&format!("{name}.x_min"), b.x_min, true)?;
-            check(&format!("{name}.min_curvature_radius"), b.min_curvature_radius, false)?;
+            check(
+                &format!("{name}.min_curvature_radius"),
+                b.min_curvature_radius,
+                false,
+            )?;
             barrier_pot(&format!("{name}.geometry"), &b.geometry)?;
             barrier_pot(&format!("{name}.potential"), &b.potential)?;
         }
@@ -424,7 +510,11 @@ impl FabricConfig {
         }
         check("speed.goal_damping", s.goal_damping, false)?;
         check("speed.base_damping", s.base_damping, false)?;
-        check("speed.goal_switch_sharpness", s.goal_switch_sharpness, false)?;
+        check(
+            "speed.goal_switch_sharpness",
+            s.goal_switch_sharpness,
+            false,
+        )?;
         check("speed.goal_switch_radius", s.goal_switch_radius, false)?;
         check("speed.boost_gain", s.boost_gain, false)?;
         check("speed.boost_epsilon", s.boost_epsilon, true)?;
@@ -458,18 +548,31 @@ mod tests {
     #[test]
     fn partial_files_merge_over_defaults_in_three_formats() {
         let t = FabricConfig::from_toml_str("mode = \"unbent\"\n[obstacles]\nmetric_gain = 2.5\n[obstacles.potential]\nrelu_gain = 0.7\n", "a.toml").unwrap();
-        let y = FabricConfig::from_yaml_str("mode: unbent\nobstacles:\n  metric_gain: 2.5\n  potential: {relu_gain: 0.7}\n", "a.yaml").unwrap();
+        let y = FabricConfig::from_yaml_str(
+            "mode: unbent\nobstacles:\n  metric_gain: 2.5\n  potential: {relu_gain: 0.7}\n",
+            "a.yaml",
+        )
+        .unwrap();
         let j = FabricConfig::from_json_str(r#"{"mode": "unbent", "obstacles": {"metric_gain": 2.5, "potential": {"relu_gain": 0.7}}}"#, "a.json").unwrap();
         assert_eq!(t, y);
         assert_eq!(t, j);
         assert_eq!(t.mode, Mode::Unbent);
         assert_eq!(t.obstacles.metric_gain, 2.5);
         assert_eq!(t.obstacles.potential.relu_gain, 0.7);
-        assert_eq!(t.obstacles.potential.barrier_gain, FabricConfig::default().obstacles.potential.barrier_gain);
+        assert_eq!(
+            t.obstacles.potential.barrier_gain,
+            FabricConfig::default().obstacles.potential.barrier_gain
+        );
         // untouched fields of the same table keep the obstacle-specific defaults
-        assert_eq!(t.obstacles.influence, FabricConfig::default().obstacles.influence);
+        assert_eq!(
+            t.obstacles.influence,
+            FabricConfig::default().obstacles.influence
+        );
         assert_eq!(t.joint_limits, FabricConfig::default().joint_limits);
-        assert_eq!(FabricConfig::from_yaml_str("", "empty.yaml").unwrap(), FabricConfig::default());
+        assert_eq!(
+            FabricConfig::from_yaml_str("", "empty.yaml").unwrap(),
+            FabricConfig::default()
+        );
         // round trip through to_json
         let back = FabricConfig::from_json_str(&t.to_json(), "rt.json").unwrap();
         assert_eq!(back, t);
@@ -477,7 +580,8 @@ mod tests {
 
     #[test]
     fn errors_name_file_and_field() {
-        let e = FabricConfig::from_toml_str("[obstacles]\nmetric_gian = 1.0\n", "cfg.toml").unwrap_err();
+        let e = FabricConfig::from_toml_str("[obstacles]\nmetric_gian = 1.0\n", "cfg.toml")
+            .unwrap_err();
         match e {
             FabricError::Format { file, field, .. } => {
                 assert_eq!(file, "cfg.toml");
@@ -485,18 +589,28 @@ mod tests {
             }
             other => panic!("unexpected {other:?}"),
         }
-        let e = FabricConfig::from_yaml_str("speed:\n  desired_speed: fast\n", "cfg.yaml").unwrap_err();
-        assert!(matches!(e, FabricError::Format { ref field, .. } if field == "speed.desired_speed"), "{e:?}");
-        let e = FabricConfig::from_json_str(r#"{"speed": {"desired_speed": -1.0}}"#, "cfg.json").unwrap_err();
-        assert!(matches!(e, FabricError::Format { ref field, ref file, .. } if field == "speed.desired_speed" && file == "cfg.json"));
+        let e =
+            FabricConfig::from_yaml_str("speed:\n  desired_speed: fast\n", "cfg.yaml").unwrap_err();
+        assert!(
+            matches!(e, FabricError::Format { ref field, .. } if field == "speed.desired_speed"),
+            "{e:?}"
+        );
+        let e = FabricConfig::from_json_str(r#"{"speed": {"desired_speed": -1.0}}"#, "cfg.json")
+            .unwrap_err();
+        assert!(
+            matches!(e, FabricError::Format { ref field, ref file, .. } if field == "speed.desired_speed" && file == "cfg.json")
+        );
         let e = FabricConfig::from_json_str(r#"{"mode": "bendy"}"#, "m.json").unwrap_err();
         assert!(matches!(e, FabricError::Format { ref field, .. } if field == "mode"));
         let e = FabricConfig::from_json_str("[1, 2]", "arr.json").unwrap_err();
         assert!(matches!(e, FabricError::Format { .. }));
         let e = FabricConfig::from_toml_str("joint_attraction = 3", "x.toml").unwrap_err();
         assert!(matches!(e, FabricError::Format { ref field, .. } if field == "joint_attraction"));
-        let e = FabricConfig::from_json_str(r#"{"joint_attraction": {"mass": 0.0}}"#, "z.json").unwrap_err();
-        assert!(matches!(e, FabricError::Format { ref field, .. } if field == "joint_attraction.mass"));
+        let e = FabricConfig::from_json_str(r#"{"joint_attraction": {"mass": 0.0}}"#, "z.json")
+            .unwrap_err();
+        assert!(
+            matches!(e, FabricError::Format { ref field, .. } if field == "joint_attraction.mass")
+        );
         assert!(FabricConfig::from_toml_str("not toml = = 1", "bad.toml").is_err());
     }
 }

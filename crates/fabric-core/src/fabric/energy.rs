@@ -71,7 +71,11 @@ pub fn euler_lagrange_ad<E: FinslerEnergy>(energy: &E, x: &[f64], xd: &[f64]) ->
     let cross = hess.view((k, 0), (k, k)); // rows ẋ, columns x: ∂²L/∂ẋ∂x
     let xd_v = DVector::from_column_slice(xd);
     let xi = cross * xd_v - grad.rows(0, k);
-    EquationsOfMotion { energy: value, m, xi }
+    EquationsOfMotion {
+        energy: value,
+        m,
+        xi,
+    }
 }
 
 /// A scalar field m(x) on R^k with a closed-form gradient, generic over dual numbers.
@@ -148,7 +152,8 @@ impl ScalarField for TanhMass {
     }
     fn value<D: DualNum<f64>>(&self, x: &[D]) -> D {
         let r = dual_norm(x);
-        ((r * (-self.sharpness)).tanh() + 1.0) * (self.mass_max - self.mass_min) + 2.0 * self.mass_min
+        ((r * (-self.sharpness)).tanh() + 1.0) * (self.mass_max - self.mass_min)
+            + 2.0 * self.mass_min
     }
     fn value_gradient(&self, x: &[f64], grad: &mut [f64]) -> f64 {
         let r = x.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -178,7 +183,8 @@ impl ScalarField for GaussianMass {
     }
     fn value<D: DualNum<f64>>(&self, x: &[D]) -> D {
         let r2 = x.iter().map(|v| v.clone() * v.clone()).sum::<D>();
-        ((r2 * (-self.width * self.width)).exp() * (self.mass_max - self.mass_min) + self.mass_min) * 2.0
+        ((r2 * (-self.width * self.width)).exp() * (self.mass_max - self.mass_min) + self.mass_min)
+            * 2.0
     }
     fn value_gradient(&self, x: &[f64], grad: &mut [f64]) -> f64 {
         let r2: f64 = x.iter().map(|v| v * v).sum();
@@ -382,17 +388,36 @@ mod tests {
     use super::*;
 
     fn assert_close(a: &EquationsOfMotion, b: &EquationsOfMotion, tol: f64) {
-        assert!((a.energy - b.energy).abs() <= tol * (1.0 + a.energy.abs()), "energy {} vs {}", a.energy, b.energy);
+        assert!(
+            (a.energy - b.energy).abs() <= tol * (1.0 + a.energy.abs()),
+            "energy {} vs {}",
+            a.energy,
+            b.energy
+        );
         for (x, y) in a.m.iter().zip(b.m.iter()) {
-            assert!((x - y).abs() <= tol * (1.0 + x.abs()), "M {} vs {}", a.m, b.m);
+            assert!(
+                (x - y).abs() <= tol * (1.0 + x.abs()),
+                "M {} vs {}",
+                a.m,
+                b.m
+            );
         }
         for (x, y) in a.xi.iter().zip(b.xi.iter()) {
-            assert!((x - y).abs() <= tol * (1.0 + x.abs()), "ξ {} vs {}", a.xi, b.xi);
+            assert!(
+                (x - y).abs() <= tol * (1.0 + x.abs()),
+                "ξ {} vs {}",
+                a.xi,
+                b.xi
+            );
         }
     }
 
     fn check<E: FinslerEnergy>(e: &E, x: &[f64], xd: &[f64]) {
-        assert_close(&e.equations_of_motion(x, xd), &euler_lagrange_ad(e, x, xd), 1e-10);
+        assert_close(
+            &e.equations_of_motion(x, xd),
+            &euler_lagrange_ad(e, x, xd),
+            1e-10,
+        );
     }
 
     #[test]
@@ -404,15 +429,63 @@ mod tests {
             (&[4.0, 1.0, -2.0], &[0.0, 0.0, 0.0]),
         ];
         for (x, xd) in states {
-            check(&IsotropicEnergy { mass: ConstantMass { dim: 3, mass: 1.7 } }, x, xd);
-            check(&IsotropicEnergy { mass: TanhMass { dim: 3, mass_max: 2.0, mass_min: 0.3, sharpness: 4.0 } }, x, xd);
-            check(&IsotropicEnergy { mass: GaussianMass { dim: 3, mass_max: 2.0, mass_min: 0.3, width: 0.8 } }, x, xd);
+            check(
+                &IsotropicEnergy {
+                    mass: ConstantMass { dim: 3, mass: 1.7 },
+                },
+                x,
+                xd,
+            );
+            check(
+                &IsotropicEnergy {
+                    mass: TanhMass {
+                        dim: 3,
+                        mass_max: 2.0,
+                        mass_min: 0.3,
+                        sharpness: 4.0,
+                    },
+                },
+                x,
+                xd,
+            );
+            check(
+                &IsotropicEnergy {
+                    mass: GaussianMass {
+                        dim: 3,
+                        mass_max: 2.0,
+                        mass_min: 0.3,
+                        width: 0.8,
+                    },
+                },
+                x,
+                xd,
+            );
         }
         for &x in &[0.5, 0.02, 0.004, -0.3] {
             for &xd in &[-1.2, -0.01, 0.0, 0.7] {
                 for switched in [true, false] {
-                    check(&SwitchedEnergy1D { metric: BarrierMetric { gain: 0.4, x_min: 0.005 }, switched }, &[x], &[xd]);
-                    check(&SwitchedEnergy1D { metric: InverseSquareMetric { gain: 0.4, x_min: 0.01 }, switched }, &[x], &[xd]);
+                    check(
+                        &SwitchedEnergy1D {
+                            metric: BarrierMetric {
+                                gain: 0.4,
+                                x_min: 0.005,
+                            },
+                            switched,
+                        },
+                        &[x],
+                        &[xd],
+                    );
+                    check(
+                        &SwitchedEnergy1D {
+                            metric: InverseSquareMetric {
+                                gain: 0.4,
+                                x_min: 0.01,
+                            },
+                            switched,
+                        },
+                        &[x],
+                        &[xd],
+                    );
                 }
             }
         }
@@ -420,7 +493,14 @@ mod tests {
 
     #[test]
     fn finsler_properties_hd0_metric_hd2_forces_energy_is_half_xmx() {
-        let e = IsotropicEnergy { mass: TanhMass { dim: 3, mass_max: 2.0, mass_min: 0.3, sharpness: 4.0 } };
+        let e = IsotropicEnergy {
+            mass: TanhMass {
+                dim: 3,
+                mass_max: 2.0,
+                mass_min: 0.3,
+                sharpness: 4.0,
+            },
+        };
         let (x, xd) = ([0.3, -0.2, 0.1], [1.0, 0.5, -0.7]);
         let a = e.equations_of_motion(&x, &xd);
         for l in [0.1, 2.0, 7.5] {
@@ -432,7 +512,13 @@ mod tests {
         }
         let v = DVector::from_column_slice(&xd);
         assert!((a.energy - 0.5 * v.dot(&(&a.m * &v))).abs() < 1e-14);
-        let b = SwitchedEnergy1D { metric: BarrierMetric { gain: 0.4, x_min: 0.005 }, switched: true };
+        let b = SwitchedEnergy1D {
+            metric: BarrierMetric {
+                gain: 0.4,
+                x_min: 0.005,
+            },
+            switched: true,
+        };
         let (m, xi, l) = b.eval(0.2, -0.3);
         let (m2, xi2, l2) = b.eval(0.2, -0.9);
         assert_eq!(m, m2);
@@ -442,7 +528,10 @@ mod tests {
 
     #[test]
     fn barrier_metric_continuation_is_positive_and_c1() {
-        let g = BarrierMetric { gain: 0.4, x_min: 0.01 };
+        let g = BarrierMetric {
+            gain: 0.4,
+            x_min: 0.01,
+        };
         let (a, da) = g.g_dg(0.01 - 1e-12);
         let (b, db) = g.g_dg(0.01 + 1e-12);
         assert!((a - b).abs() < 1e-6 && (da - db).abs() < 1e-3);

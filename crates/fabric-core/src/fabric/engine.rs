@@ -115,13 +115,27 @@ fn sphere_groups(robot: &Robot) -> Vec<SphereGroup> {
     for (k, s) in robot.spheres().iter().enumerate() {
         match groups.iter_mut().find(|g| g.link == s.link) {
             Some(g) => g.spheres.push(k),
-            None => groups.push(SphereGroup { link: s.link, center: Vector3::zeros(), radius: 0.0, spheres: vec![k] }),
+            None => groups.push(SphereGroup {
+                link: s.link,
+                center: Vector3::zeros(),
+                radius: 0.0,
+                spheres: vec![k],
+            }),
         }
     }
     for g in &mut groups {
         let sp = robot.spheres();
-        g.center = g.spheres.iter().map(|&k| sp[k].center).sum::<Vector3<f64>>() / g.spheres.len() as f64;
-        g.radius = g.spheres.iter().map(|&k| (sp[k].center - g.center).norm() + sp[k].radius).fold(0.0, f64::max);
+        g.center = g
+            .spheres
+            .iter()
+            .map(|&k| sp[k].center)
+            .sum::<Vector3<f64>>()
+            / g.spheres.len() as f64;
+        g.radius = g
+            .spheres
+            .iter()
+            .map(|&k| (sp[k].center - g.center).norm() + sp[k].radius)
+            .fold(0.0, f64::max);
     }
     groups
 }
@@ -237,7 +251,11 @@ impl Fabric {
         let r = pose.rotation.to_rotation_matrix();
         Ok(EeTargets {
             position: pose.translation.vector,
-            axes: [r.matrix().column(0).into_owned(), r.matrix().column(1).into_owned(), r.matrix().column(2).into_owned()],
+            axes: [
+                r.matrix().column(0).into_owned(),
+                r.matrix().column(1).into_owned(),
+                r.matrix().column(2).into_owned(),
+            ],
         })
     }
 
@@ -297,9 +315,15 @@ impl Fabric {
         qdd: &mut [f64],
     ) -> Result<()> {
         self.check_inputs(q, qd, command, qdd, ws)?;
-        let finite = targets.position.iter().chain(targets.axes.iter().flat_map(|a| a.iter())).all(|v| v.is_finite());
+        let finite = targets
+            .position
+            .iter()
+            .chain(targets.axes.iter().flat_map(|a| a.iter()))
+            .all(|v| v.is_finite());
         if !finite {
-            return Err(FabricError::NonFinite { what: "end-effector targets".to_string() });
+            return Err(FabricError::NonFinite {
+                what: "end-effector targets".to_string(),
+            });
         }
         self.evaluate(scene, q, qd, command, Some(targets), ws, qdd)
     }
@@ -309,7 +333,14 @@ impl Fabric {
         ws.diag
     }
 
-    fn check_inputs(&self, q: &[f64], qd: &[f64], command: &[f64], qdd: &[f64], ws: &FabricWorkspace) -> Result<()> {
+    fn check_inputs(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        command: &[f64],
+        qdd: &[f64],
+        ws: &FabricWorkspace,
+    ) -> Result<()> {
         let n = self.robot.dof();
         check_len("q", q.len(), n)?;
         check_len("qd", qd.len(), n)?;
@@ -342,8 +373,16 @@ impl Fabric {
         for i in 0..n {
             ws.x[i] = q[i] - command[i];
         }
-        let e = self.joint.eval(&ws.x, qd, &mut ws.scratch[..n], &mut ws.xi[..n], &mut ws.f[..n], &mut ws.grad[..n]);
-        ws.root.add_identity(e.mass, &ws.xi[..n], &ws.f[..n], &ws.grad[..n], e.psi);
+        let e = self.joint.eval(
+            &ws.x,
+            qd,
+            &mut ws.scratch[..n],
+            &mut ws.xi[..n],
+            &mut ws.f[..n],
+            &mut ws.grad[..n],
+        );
+        ws.root
+            .add_identity(e.mass, &ws.xi[..n], &ws.f[..n], &ws.grad[..n], e.psi);
 
         // 2. end-effector attraction (VII-A3, App. G)
         if let Some(t) = targets {
@@ -365,14 +404,21 @@ impl Fabric {
         let (lower, upper) = (robot.lower(), robot.upper());
         let jl = &self.config.joint_limits;
         for i in 0..n {
-            diag.min_joint_margin = diag.min_joint_margin.min(q[i] - lower[i]).min(upper[i] - q[i]);
+            diag.min_joint_margin = diag
+                .min_joint_margin
+                .min(q[i] - lower[i])
+                .min(upper[i] - q[i]);
             if !jl.enabled {
                 continue;
             }
-            for (sign, x) in [(1.0, q[i] - lower[i] - jl.margin), (-1.0, upper[i] - jl.margin - q[i])] {
+            for (sign, x) in [
+                (1.0, q[i] - lower[i] - jl.margin),
+                (-1.0, upper[i] - jl.margin - q[i]),
+            ] {
                 if x < jl.influence {
                     let b = self.joint_limits.eval(x, sign * qd[i]);
-                    ws.root.add_coordinate(i, sign, b.m, b.xi, b.f, b.grad, b.psi);
+                    ws.root
+                        .add_coordinate(i, sign, b.m, b.xi, b.f, b.grad, b.psi);
                     leaves += 1;
                 }
             }
@@ -402,9 +448,18 @@ impl Fabric {
             }
             ensure_sphere(robot, ws, a);
             ensure_sphere(robot, ws, b);
-            let leaf = self_collision_leaf(&ws.spheres[a], ra, &ws.spheres[b], rb, sc.margin, sc.min_curvature_radius, &mut ws.jrow);
+            let leaf = self_collision_leaf(
+                &ws.spheres[a],
+                ra,
+                &ws.spheres[b],
+                rb,
+                sc.margin,
+                sc.min_curvature_radius,
+                &mut ws.jrow,
+            );
             let bv = self.self_collision.eval(leaf.x, leaf.xd);
-            ws.root.add_scalar(&ws.jrow, leaf.jdot_qdot, bv.m, bv.xi, bv.f, bv.grad, bv.psi);
+            ws.root
+                .add_scalar(&ws.jrow, leaf.jdot_qdot, bv.m, bv.xi, bv.f, bv.grad, bv.psi);
             leaves += 1;
         }
 
@@ -429,8 +484,12 @@ impl Fabric {
                             continue;
                         }
                         let id = ws.samples[s].obstacle;
-                        let Some(obstacle) = scene.get(id) else { continue };
-                        let Some(sd) = point_distance(&obstacle.shape, &obstacle.pose, &center, r + reach) else {
+                        let Some(obstacle) = scene.get(id) else {
+                            continue;
+                        };
+                        let Some(sd) =
+                            point_distance(&obstacle.shape, &obstacle.pose, &center, r + reach)
+                        else {
                             continue;
                         };
                         diag.min_clearance = diag.min_clearance.min(sd.distance - r);
@@ -442,12 +501,27 @@ impl Fabric {
                             velocity: obstacle.velocity,
                         };
                         ensure_sphere(robot, ws, k);
-                        let leaf = obstacle_leaf(&ws.spheres[k], r, ob.margin, &sample, ob.min_curvature_radius, &mut ws.jrow);
+                        let leaf = obstacle_leaf(
+                            &ws.spheres[k],
+                            r,
+                            ob.margin,
+                            &sample,
+                            ob.min_curvature_radius,
+                            &mut ws.jrow,
+                        );
                         if leaf.x >= ob.influence {
                             continue;
                         }
                         let bv = self.obstacles.eval(leaf.x, leaf.xd);
-                        ws.root.add_scalar(&ws.jrow, leaf.jdot_qdot, bv.m, bv.xi, bv.f, bv.grad, bv.psi);
+                        ws.root.add_scalar(
+                            &ws.jrow,
+                            leaf.jdot_qdot,
+                            bv.m,
+                            bv.xi,
+                            bv.f,
+                            bv.grad,
+                            bv.psi,
+                        );
                         leaves += 1;
                     }
                 }
@@ -455,15 +529,32 @@ impl Fabric {
         }
 
         // resolve: π̃, energization, forcing, speed control (eq. 7, 17, 40-46)
-        let goal_distance = q.iter().zip(command).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
-        let terms = ws.root.solve(
-            self.config.mode,
-            &self.config.speed,
-            qd,
-            goal_distance,
-            self.config.joint_attraction.mass,
-            qdd,
-        )?;
+        let goal_distance = q
+            .iter()
+            .zip(command)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt();
+        let terms = ws
+            .root
+            .solve(
+                self.config.mode,
+                &self.config.speed,
+                qd,
+                goal_distance,
+                self.config.joint_attraction.mass,
+                qdd,
+            )
+            .map_err(|e| match e {
+                FabricError::NonFinite { what } => FabricError::NonFinite {
+                    what: format!("{what} (q = {q:?}, qd = {qd:?}, command = {command:?})"),
+                },
+                FabricError::Value { what, message } => FabricError::Value {
+                    what,
+                    message: format!("{message} (q = {q:?}, qd = {qd:?}, command = {command:?})"),
+                },
+                other => other,
+            })?;
         diag.energy = terms.energy;
         diag.exec_energy = terms.speed.exec_energy;
         diag.potential = terms.potential;
@@ -493,11 +584,34 @@ impl Fabric {
 
 /// Pull back a 3-D attractor living on the task point / axis stored in `ws.task`, on x = task.x − target.
 fn add_attractor_3d(att: &Attractor<TanhMass>, ws: &mut FabricWorkspace, target: &Vector3<f64>) {
-    let x = [ws.task.x.x - target.x, ws.task.x.y - target.y, ws.task.x.z - target.z];
+    let x = [
+        ws.task.x.x - target.x,
+        ws.task.x.y - target.y,
+        ws.task.x.z - target.z,
+    ];
     let xd = [ws.task.xd.x, ws.task.xd.y, ws.task.xd.z];
-    let e = att.eval(&x, &xd, &mut ws.scratch[..3], &mut ws.xi[..3], &mut ws.f[..3], &mut ws.grad[..3]);
-    let jdqd = [ws.task.jdot_qdot.x, ws.task.jdot_qdot.y, ws.task.jdot_qdot.z];
-    ws.root.add_isotropic(&ws.task.jac, &jdqd, e.mass, &ws.xi[..3], &ws.f[..3], &ws.grad[..3], e.psi);
+    let e = att.eval(
+        &x,
+        &xd,
+        &mut ws.scratch[..3],
+        &mut ws.xi[..3],
+        &mut ws.f[..3],
+        &mut ws.grad[..3],
+    );
+    let jdqd = [
+        ws.task.jdot_qdot.x,
+        ws.task.jdot_qdot.y,
+        ws.task.jdot_qdot.z,
+    ];
+    ws.root.add_isotropic(
+        &ws.task.jac,
+        &jdqd,
+        e.mass,
+        &ws.xi[..3],
+        &ws.f[..3],
+        &ws.grad[..3],
+        e.psi,
+    );
 }
 
 /// Compute the kinematics (J, J̇q̇) of sphere `k` once per evaluation.

@@ -57,7 +57,11 @@ pub fn obstacle_leaf(
         *j = g.x * col[0] + g.y * col[1] + g.z * col[2];
     }
     let h_norm = sample.hessian.norm();
-    let scale = if min_curvature_radius * h_norm > 1.0 { 1.0 / (min_curvature_radius * h_norm) } else { 1.0 };
+    let scale = if min_curvature_radius * h_norm > 1.0 {
+        1.0 / (min_curvature_radius * h_norm)
+    } else {
+        1.0
+    };
     LeafState {
         x: sample.distance - radius - margin,
         xd: g.dot(&rel),
@@ -83,7 +87,10 @@ pub fn self_collision_leaf(
     let (n, curv) = if dist > 1e-12 {
         let n = u / dist;
         let along = n.dot(&ud);
-        (n, (ud.norm_squared() - along * along) / dist.max(min_curvature_radius))
+        (
+            n,
+            (ud.norm_squared() - along * along) / dist.max(min_curvature_radius),
+        )
     } else {
         (Vector3::z(), 0.0)
     };
@@ -91,5 +98,9 @@ pub fn self_collision_leaf(
         let (ca, cb) = (a.jac.column(k), b.jac.column(k));
         *j = n.x * (ca[0] - cb[0]) + n.y * (ca[1] - cb[1]) + n.z * (ca[2] - cb[2]);
     }
-    LeafState { x: dist - ra - rb - margin, xd: n.dot(&ud), jdot_qdot: n.dot(&(a.jdot_qdot - b.jdot_qdot)) + curv }
+    LeafState {
+        x: dist - ra - rb - margin,
+        xd: n.dot(&ud),
+        jdot_qdot: n.dot(&(a.jdot_qdot - b.jdot_qdot)) + curv,
+    }
 }

@@ -14,6 +14,7 @@
 //! * [`particle`]: the four 2-D particle systems of Sec. VI.
 //!
 //! Conventions: a spec (M, f) means M ẍ + f = 0; pullback (JᵀMJ, Jᵀ(f + M J̇q̇)); SI units.
+#![warn(missing_docs)]
 
 pub mod components;
 pub mod config;
@@ -27,7 +28,8 @@ pub mod spec;
 pub mod speed;
 
 pub use config::{
-    BarrierConfig, BarrierPotentialConfig, EeAttractionConfig, FabricConfig, GoalDampingForm, JointAttractionConfig, LogCoshConfig, Mode, SpeedConfig,
+    BarrierConfig, BarrierPotentialConfig, EeAttractionConfig, FabricConfig, GoalDampingForm,
+    JointAttractionConfig, LogCoshConfig, Mode, SpeedConfig,
 };
 pub use engine::{Diagnostics, EeTargets, Fabric, FabricWorkspace};
 pub use particle::{particle_acceleration, ParticleParams, ParticleVariant};

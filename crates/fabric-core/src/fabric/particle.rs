@@ -24,7 +24,9 @@
 //! is taken as +x.
 
 use super::config::{GoalDampingForm, Mode, SpeedConfig};
-use super::energy::{GaussianMass, InverseSquareMetric, IsotropicEnergy, Metric1D, SwitchedEnergy1D};
+use super::energy::{
+    GaussianMass, InverseSquareMetric, IsotropicEnergy, Metric1D, SwitchedEnergy1D,
+};
 use super::potential::{InversePower8, LogCosh, Potential1D};
 use super::root::RootSystem;
 
@@ -43,8 +45,12 @@ pub enum ParticleVariant {
 
 impl ParticleVariant {
     /// All four variants, in the order of GF Fig. 1 (rows Riemannian/Finsler, columns unbent/bent).
-    pub const ALL: [ParticleVariant; 4] =
-        [Self::UnbentRiemannian, Self::BentRiemannian, Self::UnbentFinsler, Self::BentFinsler];
+    pub const ALL: [ParticleVariant; 4] = [
+        Self::UnbentRiemannian,
+        Self::BentRiemannian,
+        Self::UnbentFinsler,
+        Self::BentFinsler,
+    ];
 
     fn bent(self) -> bool {
         matches!(self, Self::BentRiemannian | Self::BentFinsler)
@@ -114,17 +120,36 @@ impl Default for ParticleParams {
 /// Acceleration q̈ (m/s²) of one particle at position `q` and velocity `qd` for a variant (see module docs).
 /// Always finite for finite inputs with positive masses; returns zeros if the metric is degenerate
 /// (only possible with m̲ ≤ 0).
-pub fn particle_acceleration(variant: ParticleVariant, p: &ParticleParams, q: [f64; 2], qd: [f64; 2]) -> [f64; 2] {
+pub fn particle_acceleration(
+    variant: ParticleVariant,
+    p: &ParticleParams,
+    q: [f64; 2],
+    qd: [f64; 2],
+) -> [f64; 2] {
     let mut root = RootSystem::new(2);
     // --- attraction, x = q − q_d, J = I
     let x = [q[0] - p.target[0], q[1] - p.target[1]];
-    let energy = IsotropicEnergy { mass: GaussianMass { dim: 2, mass_max: p.mass_max, mass_min: p.mass_min, width: p.mass_width } };
-    let psi1 = LogCosh { gain: p.attraction_gain / p.attraction_sharpness, sharpness: p.attraction_sharpness };
+    let energy = IsotropicEnergy {
+        mass: GaussianMass {
+            dim: 2,
+            mass_max: p.mass_max,
+            mass_min: p.mass_min,
+            width: p.mass_width,
+        },
+    };
+    let psi1 = LogCosh {
+        gain: p.attraction_gain / p.attraction_sharpness,
+        sharpness: p.attraction_sharpness,
+    };
     let (mut scratch, mut xi, mut g1) = ([0.0; 2], [0.0; 2], [0.0; 2]);
     let (mass, _) = energy.eval(&x, &qd, &mut scratch, &mut xi);
     psi1.eval(&x, &mut g1);
     let v2 = qd[0] * qd[0] + qd[1] * qd[1];
-    let f = if variant.bent() { [mass * v2 * g1[0], mass * v2 * g1[1]] } else { [0.0; 2] };
+    let f = if variant.bent() {
+        [mass * v2 * g1[0], mass * v2 * g1[1]]
+    } else {
+        [0.0; 2]
+    };
     let grad = [mass * g1[0], mass * g1[1]];
     let ident = nalgebra::Matrix2xX::from_column_slice(&[1.0, 0.0, 0.0, 1.0]);
     root.add_isotropic(&ident, &[0.0, 0.0], mass, &xi, &f, &grad, 0.0);
@@ -132,7 +157,11 @@ pub fn particle_acceleration(variant: ParticleVariant, p: &ParticleParams, q: [f
     // --- circle repulsion, x = ‖q − q_o‖/r − 1
     let d = [q[0] - p.obstacle_center[0], q[1] - p.obstacle_center[1]];
     let dist = (d[0] * d[0] + d[1] * d[1]).sqrt();
-    let (nx, ny) = if dist > 1e-12 { (d[0] / dist, d[1] / dist) } else { (1.0, 0.0) };
+    let (nx, ny) = if dist > 1e-12 {
+        (d[0] / dist, d[1] / dist)
+    } else {
+        (1.0, 0.0)
+    };
     let r = p.obstacle_radius;
     let xb = dist / r - 1.0;
     let j = [nx / r, ny / r];
@@ -143,10 +172,19 @@ pub fn particle_acceleration(variant: ParticleVariant, p: &ParticleParams, q: [f
     } else {
         0.0
     };
-    let metric = InverseSquareMetric { gain: p.barrier_gain, x_min: p.x_min };
-    let bar_energy = SwitchedEnergy1D { metric, switched: variant.finsler() };
+    let metric = InverseSquareMetric {
+        gain: p.barrier_gain,
+        x_min: p.x_min,
+    };
+    let bar_energy = SwitchedEnergy1D {
+        metric,
+        switched: variant.finsler(),
+    };
     let (mb, xib, _) = bar_energy.eval(xb, xbd);
-    let pot = InversePower8 { gain: p.barrier_potential_gain, x_min: p.x_min };
+    let pot = InversePower8 {
+        gain: p.barrier_potential_gain,
+        x_min: p.x_min,
+    };
     let (_, dpsi1b, _) = pot.eval(xb);
     let fb = if variant.bent() {
         // ẍ = −s(ẋ) ẋ² ψ₁,b'  ⇒  f = −M π = M s ẋ² ψ₁,b'
@@ -163,7 +201,11 @@ pub fn particle_acceleration(variant: ParticleVariant, p: &ParticleParams, q: [f
     };
     root.add_scalar(&j, jdqd, mb, xib, fb, gb, psib);
 
-    let mode = if variant.bent() { Mode::Bent } else { Mode::Unbent };
+    let mode = if variant.bent() {
+        Mode::Bent
+    } else {
+        Mode::Unbent
+    };
     let goal = (x[0] * x[0] + x[1] * x[1]).sqrt();
     let mut qdd = [0.0; 2];
     match root.solve(mode, &p.speed, &qd, goal, p.mass_min, &mut qdd) {
@@ -176,7 +218,12 @@ pub fn particle_acceleration(variant: ParticleVariant, p: &ParticleParams, q: [f
 mod tests {
     use super::*;
 
-    fn run(variant: ParticleVariant, p: &ParticleParams, q0: [f64; 2], t: f64) -> (Vec<[f64; 2]>, f64) {
+    fn run(
+        variant: ParticleVariant,
+        p: &ParticleParams,
+        q0: [f64; 2],
+        t: f64,
+    ) -> (Vec<[f64; 2]>, f64) {
         let dt = 0.005;
         let (mut q, mut v) = (q0, [0.0; 2]);
         let mut path = vec![q];
@@ -187,7 +234,8 @@ mod tests {
                 v[i] += dt * a[i];
                 q[i] += dt * v[i];
             }
-            let d = ((q[0] - p.obstacle_center[0]).powi(2) + (q[1] - p.obstacle_center[1]).powi(2)).sqrt();
+            let d = ((q[0] - p.obstacle_center[0]).powi(2) + (q[1] - p.obstacle_center[1]).powi(2))
+                .sqrt();
             min_x = min_x.min(d / p.obstacle_radius - 1.0);
             path.push(q);
         }
@@ -202,8 +250,14 @@ mod tests {
                 let (path, min_x) = run(variant, &p, [3.0, y0], 12.0);
                 let end = path.last().unwrap();
                 let err = ((end[0] - p.target[0]).powi(2) + (end[1] - p.target[1]).powi(2)).sqrt();
-                assert!(min_x > 0.0, "{variant:?} from y0={y0} entered the circle (x = {min_x})");
-                assert!(err < 0.05, "{variant:?} from y0={y0} ended {err} from the target");
+                assert!(
+                    min_x > 0.0,
+                    "{variant:?} from y0={y0} entered the circle (x = {min_x})"
+                );
+                assert!(
+                    err < 0.05,
+                    "{variant:?} from y0={y0} ended {err} from the target"
+                );
             }
         }
     }
@@ -212,7 +266,13 @@ mod tests {
     fn finite_everywhere_including_inside_and_at_the_centre() {
         let p = ParticleParams::default();
         for variant in ParticleVariant::ALL {
-            for q in [[0.0, 0.0], [0.5, 0.1], [1.0, 0.0], [-3.0, 0.0], [10.0, -4.0]] {
+            for q in [
+                [0.0, 0.0],
+                [0.5, 0.1],
+                [1.0, 0.0],
+                [-3.0, 0.0],
+                [10.0, -4.0],
+            ] {
                 for qd in [[0.0, 0.0], [-1.0, 0.2], [5.0, 5.0]] {
                     let a = particle_acceleration(variant, &p, q, qd);
                     assert!(a.iter().all(|v| v.is_finite()), "{variant:?} {q:?} {qd:?}");

@@ -57,7 +57,10 @@ pub struct LogCosh {
 impl LogCosh {
     /// From its configuration section.
     pub fn from_config(c: &LogCoshConfig) -> Self {
-        LogCosh { gain: c.gain, sharpness: c.sharpness }
+        LogCosh {
+            gain: c.gain,
+            sharpness: c.sharpness,
+        }
     }
 
     /// ψ(x) and ∂ψ/∂x written into `grad` (same length as `x`).
@@ -147,7 +150,11 @@ impl Potential1D for BarrierPotential {
         self.x_min
     }
     fn exact_slope(&self, x: f64) -> f64 {
-        let relu = if self.relu_sharpness > 0.0 { -self.relu_gain * sigmoid(-self.relu_sharpness * (x - self.relu_shift)) } else { 0.0 };
+        let relu = if self.relu_sharpness > 0.0 {
+            -self.relu_gain * sigmoid(-self.relu_sharpness * (x - self.relu_shift))
+        } else {
+            0.0
+        };
         -self.barrier_gain / (x * x) + relu
     }
     fn exact(&self, x: f64) -> (f64, f64, f64) {
@@ -155,12 +162,20 @@ impl Potential1D for BarrierPotential {
         let z = -a * (x - self.relu_shift);
         let sig = sigmoid(z);
         let (relu, relu1, relu2) = if a > 0.0 {
-            (self.relu_gain / a * softplus(z), -self.relu_gain * sig, self.relu_gain * a * sig * (1.0 - sig))
+            (
+                self.relu_gain / a * softplus(z),
+                -self.relu_gain * sig,
+                self.relu_gain * a * sig * (1.0 - sig),
+            )
         } else {
             (0.0, 0.0, 0.0)
         };
         let b = self.barrier_gain;
-        (b / x + relu, -b / (x * x) + relu1, 2.0 * b / (x * x * x) + relu2)
+        (
+            b / x + relu,
+            -b / (x * x) + relu1,
+            2.0 * b / (x * x * x) + relu2,
+        )
     }
 }
 
@@ -179,7 +194,11 @@ impl Potential1D for InversePower8 {
     }
     fn exact(&self, x: f64) -> (f64, f64, f64) {
         let x8 = x.powi(8);
-        (0.5 * self.gain / x8, -4.0 * self.gain / (x8 * x), 36.0 * self.gain / (x8 * x * x))
+        (
+            0.5 * self.gain / x8,
+            -4.0 * self.gain / (x8 * x),
+            36.0 * self.gain / (x8 * x * x),
+        )
     }
 }
 
@@ -194,11 +213,23 @@ mod tests {
 
     #[test]
     fn barrier_derivatives_match_finite_differences_including_continuation() {
-        let p = BarrierPotential { barrier_gain: 0.02, relu_gain: 3.0, relu_sharpness: 20.0, relu_shift: 0.1, x_min: 0.01 };
+        let p = BarrierPotential {
+            barrier_gain: 0.02,
+            relu_gain: 3.0,
+            relu_sharpness: 20.0,
+            relu_shift: 0.1,
+            x_min: 0.01,
+        };
         for &x in &[-0.05, -0.001, 0.004, 0.0099, 0.0101, 0.05, 0.1, 0.3, 1.0] {
             let (_, d1, d2) = p.eval(x);
-            assert!((d1 - fd(|y| p.eval(y).0, x)).abs() <= 1e-5 * d1.abs().max(1.0), "ψ' at {x}");
-            assert!((d2 - fd(|y| p.eval(y).1, x)).abs() <= 1e-4 * d2.abs().max(1.0), "ψ'' at {x}");
+            assert!(
+                (d1 - fd(|y| p.eval(y).0, x)).abs() <= 1e-5 * d1.abs().max(1.0),
+                "ψ' at {x}"
+            );
+            assert!(
+                (d2 - fd(|y| p.eval(y).1, x)).abs() <= 1e-4 * d2.abs().max(1.0),
+                "ψ'' at {x}"
+            );
             assert!(d1 < 0.0, "outward push at {x}");
         }
         for &x in &[-0.05, 0.004, 0.02, 0.3] {
@@ -212,7 +243,10 @@ mod tests {
 
     #[test]
     fn inverse_power8_derivatives() {
-        let p = InversePower8 { gain: 0.5, x_min: 0.05 };
+        let p = InversePower8 {
+            gain: 0.5,
+            x_min: 0.05,
+        };
         for &x in &[0.01, 0.06, 0.3, 2.0] {
             let (_, d1, d2) = p.eval(x);
             assert!((d1 - fd(|y| p.eval(y).0, x)).abs() <= 1e-5 * d1.abs().max(1.0));
@@ -222,7 +256,10 @@ mod tests {
 
     #[test]
     fn log_cosh_gradient_and_limits() {
-        let p = LogCosh { gain: 1.5, sharpness: 4.0 };
+        let p = LogCosh {
+            gain: 1.5,
+            sharpness: 4.0,
+        };
         let x = [0.3, -0.2, 0.05];
         let mut g = [0.0; 3];
         p.eval(&x, &mut g);
@@ -246,7 +283,12 @@ mod tests {
         // Sec. VI-A identity: k(r + ln(1 + e^{−2αr})/α) = (k/α)(ln cosh(αr) + ln 2)
         let (k, a, r): (f64, f64, f64) = (2.0, 3.0, 0.7);
         let lhs = k * (r + (1.0 + (-2.0 * a * r).exp()).ln() / a);
-        let rhs = LogCosh { gain: k / a, sharpness: a }.eval(&[r], &mut [0.0]) + k / a * std::f64::consts::LN_2;
+        let rhs = LogCosh {
+            gain: k / a,
+            sharpness: a,
+        }
+        .eval(&[r], &mut [0.0])
+            + k / a * std::f64::consts::LN_2;
         assert!((lhs - rhs).abs() < 1e-12);
     }
 }

@@ -149,7 +149,16 @@ impl RootSystem {
     /// M̃ += m jjᵀ, ξ̃ += j(ξ + m J̇q̇), f̃ += j(f + m J̇q̇), ∂ψ += j grad, ψ += psi.
     /// Only the upper triangle of M̃ is updated here; [`solve`](RootSystem::solve) mirrors it.
     #[allow(clippy::too_many_arguments)]
-    pub fn add_scalar(&mut self, j: &[f64], jdqd: f64, m: f64, xi: f64, f: f64, grad: f64, psi: f64) {
+    pub fn add_scalar(
+        &mut self,
+        j: &[f64],
+        jdqd: f64,
+        m: f64,
+        xi: f64,
+        f: f64,
+        grad: f64,
+        psi: f64,
+    ) {
         let n = self.dim();
         let c = m * jdqd;
         let (ex, ef) = (xi + c, f + c);
@@ -173,7 +182,16 @@ impl RootSystem {
 
     /// Add a 1-D component on coordinate `i` with J = sign · e_iᵀ (sign = ±1) and J̇q̇ = 0 (joint limits).
     #[allow(clippy::too_many_arguments)]
-    pub fn add_coordinate(&mut self, i: usize, sign: f64, m: f64, xi: f64, f: f64, grad: f64, psi: f64) {
+    pub fn add_coordinate(
+        &mut self,
+        i: usize,
+        sign: f64,
+        m: f64,
+        xi: f64,
+        f: f64,
+        grad: f64,
+        psi: f64,
+    ) {
         self.m[(i, i)] += m;
         self.xi[i] += sign * xi;
         self.f[i] += sign * f;
@@ -247,9 +265,21 @@ impl RootSystem {
         };
         let speed_terms = regulate(
             speed,
-            &SpeedInputs { qd, pi: self.pi.as_slice(), minv_grad: self.minv_grad.as_slice(), alpha_le, goal_distance },
+            &SpeedInputs {
+                qd,
+                pi: self.pi.as_slice(),
+                minv_grad: self.minv_grad.as_slice(),
+                alpha_le,
+                goal_distance,
+            },
         );
-        regulated_acceleration(self.minv_grad.as_slice(), self.pi.as_slice(), speed_terms.alpha_reg, qd, qdd);
+        regulated_acceleration(
+            self.minv_grad.as_slice(),
+            self.pi.as_slice(),
+            speed_terms.alpha_reg,
+            qd,
+            qdd,
+        );
         let d = speed_terms.force_damping * damping_mass;
         if d != 0.0 {
             self.scratch.as_mut_slice().copy_from_slice(qd);
@@ -259,8 +289,15 @@ impl RootSystem {
             }
         }
         if !qdd.iter().all(|v| v.is_finite()) {
-            return Err(FabricError::NonFinite { what: "fabric acceleration q̈ at this state".to_string() });
+            return Err(FabricError::NonFinite {
+                what: "fabric acceleration q̈ at this state".to_string(),
+            });
         }
-        Ok(RootTerms { energy: 0.5 * qmq, potential: self.psi, alpha_le, speed: speed_terms })
+        Ok(RootTerms {
+            energy: 0.5 * qmq,
+            potential: self.psi,
+            alpha_le,
+            speed: speed_terms,
+        })
     }
 }

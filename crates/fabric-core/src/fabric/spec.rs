@@ -27,13 +27,20 @@ pub struct Spec {
 }
 
 fn shape_error(what: &str, expected: String, got: String) -> FabricError {
-    FabricError::Shape { what: what.to_string(), expected, got }
+    FabricError::Shape {
+        what: what.to_string(),
+        expected,
+        got,
+    }
 }
 
 impl Spec {
     /// The zero spec (0, 0) on R^k.
     pub fn zeros(k: usize) -> Spec {
-        Spec { m: DMatrix::zeros(k, k), f: DVector::zeros(k) }
+        Spec {
+            m: DMatrix::zeros(k, k),
+            f: DVector::zeros(k),
+        }
     }
 
     /// A spec from M (k × k) and f (k,); errors when the shapes disagree.
@@ -62,7 +69,11 @@ impl Spec {
     /// self += w · other (GF eq. 15).
     pub fn add_scaled(&mut self, w: f64, other: &Spec) -> Result<()> {
         if other.dim() != self.dim() {
-            return Err(shape_error("spec sum", format!("dimension {}", self.dim()), format!("dimension {}", other.dim())));
+            return Err(shape_error(
+                "spec sum",
+                format!("dimension {}", self.dim()),
+                format!("dimension {}", other.dim()),
+            ));
         }
         self.m += &other.m * w;
         self.f += &other.f * w;
@@ -78,13 +89,26 @@ impl Spec {
     }
 
     /// out += pull(self) (GF eq. 12, 16); `out` must have dimension n = jac.ncols().
-    pub fn pullback_add_into(&self, jac: &DMatrix<f64>, jdot_qdot: &DVector<f64>, out: &mut Spec) -> Result<()> {
+    pub fn pullback_add_into(
+        &self,
+        jac: &DMatrix<f64>,
+        jdot_qdot: &DVector<f64>,
+        out: &mut Spec,
+    ) -> Result<()> {
         let k = self.dim();
         if jac.nrows() != k || jdot_qdot.len() != k || out.dim() != jac.ncols() {
             return Err(shape_error(
                 "spec pullback",
-                format!("J ({k}, {n}), J̇q̇ ({k},), output dimension {n}", n = out.dim()),
-                format!("J ({}, {}), J̇q̇ ({},)", jac.nrows(), jac.ncols(), jdot_qdot.len()),
+                format!(
+                    "J ({k}, {n}), J̇q̇ ({k},), output dimension {n}",
+                    n = out.dim()
+                ),
+                format!(
+                    "J ({}, {}), J̇q̇ ({},)",
+                    jac.nrows(),
+                    jac.ncols(),
+                    jdot_qdot.len()
+                ),
             ));
         }
         let mj = &self.m * jac;
@@ -96,10 +120,14 @@ impl Spec {
 
     /// Resolve ẍ = −M⁻¹ f (Cholesky); errors when M is not positive definite.
     pub fn resolve(&self) -> Result<DVector<f64>> {
-        let chol = self.m.clone().cholesky().ok_or_else(|| FabricError::Value {
-            what: "spec metric M".to_string(),
-            message: "not positive definite".to_string(),
-        })?;
+        let chol = self
+            .m
+            .clone()
+            .cholesky()
+            .ok_or_else(|| FabricError::Value {
+                what: "spec metric M".to_string(),
+                message: "not positive definite".to_string(),
+            })?;
         Ok(-chol.solve(&self.f))
     }
 }
@@ -107,7 +135,12 @@ impl Spec {
 /// Energization coefficient of GF Thm IV.5 eq. 7, α = −(ẋᵀMẋ)⁻¹ ẋᵀ(Mπ + ξ), from the energy's (M, ξ),
 /// the geometry π and the velocity ẋ (all length k); α := 0 when ẋᵀMẋ ≤ [`ENERGIZATION_EPSILON`].
 /// The energized system ẍ = π + α ẋ conserves the energy L_e.
-pub fn energization_coefficient(m: &DMatrix<f64>, xi: &DVector<f64>, pi: &DVector<f64>, xd: &DVector<f64>) -> f64 {
+pub fn energization_coefficient(
+    m: &DMatrix<f64>,
+    xi: &DVector<f64>,
+    pi: &DVector<f64>,
+    xd: &DVector<f64>,
+) -> f64 {
     let mxd = m * xd;
     let den = xd.dot(&mxd);
     if den <= ENERGIZATION_EPSILON {
@@ -118,14 +151,24 @@ pub fn energization_coefficient(m: &DMatrix<f64>, xi: &DVector<f64>, pi: &DVecto
 }
 
 /// The energized geometry ẍ = π + α ẋ (GF eq. 7-8).
-pub fn energize(m: &DMatrix<f64>, xi: &DVector<f64>, pi: &DVector<f64>, xd: &DVector<f64>) -> DVector<f64> {
+pub fn energize(
+    m: &DMatrix<f64>,
+    xi: &DVector<f64>,
+    pi: &DVector<f64>,
+    xd: &DVector<f64>,
+) -> DVector<f64> {
     let a = energization_coefficient(m, xi, pi, xd);
     pi + xd * a
 }
 
 /// The bending term of the energized fabric, f_f = −P_e[Mπ + ξ] (GF eq. 8-9), with
 /// P_e w = w − Mẋ (ẋᵀw)/(ẋᵀMẋ) (GF Lemma C.2). It is zero-work: ẋᵀ f_f = 0. At ẋᵀMẋ ≤ ε, P_e := I.
-pub fn bending_force(m: &DMatrix<f64>, xi: &DVector<f64>, pi: &DVector<f64>, xd: &DVector<f64>) -> DVector<f64> {
+pub fn bending_force(
+    m: &DMatrix<f64>,
+    xi: &DVector<f64>,
+    pi: &DVector<f64>,
+    xd: &DVector<f64>,
+) -> DVector<f64> {
     let w = m * pi + xi;
     let mxd = m * xd;
     let den = xd.dot(&mxd);
@@ -188,7 +231,9 @@ mod tests {
     fn spd(n: usize, seed: u64) -> DMatrix<f64> {
         let mut s = seed;
         let mut next = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((s >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
         };
         let a = DMatrix::from_fn(n, n, |_, _| next());
@@ -244,6 +289,9 @@ mod tests {
         assert!(Spec::new(DMatrix::zeros(2, 2), DVector::zeros(3)).is_err());
         let mut t = Spec::zeros(3);
         assert!(t.add_scaled(1.0, &s).is_err());
-        assert!(Spec::new(DMatrix::zeros(2, 2), DVector::zeros(2)).unwrap().resolve().is_err());
+        assert!(Spec::new(DMatrix::zeros(2, 2), DVector::zeros(2))
+            .unwrap()
+            .resolve()
+            .is_err());
     }
 }

@@ -133,7 +133,13 @@ pub fn regulate(cfg: &SpeedConfig, inp: &SpeedInputs<'_>) -> SpeedTerms {
 }
 
 /// Eq. 40: qdd = −M̃⁻¹∂ψ + π̃ + α_reg q̇ (all slices of length n).
-pub fn regulated_acceleration(minv_grad: &[f64], pi: &[f64], alpha_reg: f64, qd: &[f64], qdd: &mut [f64]) {
+pub fn regulated_acceleration(
+    minv_grad: &[f64],
+    pi: &[f64],
+    alpha_reg: f64,
+    qd: &[f64],
+    qdd: &mut [f64],
+) {
     for i in 0..qdd.len() {
         qdd[i] = -minv_grad[i] + pi[i] + alpha_reg * qd[i];
     }
@@ -162,7 +168,16 @@ mod tests {
         let qd = [0.0; 3];
         let pi = [0.0; 3];
         let g = [0.5, -1.0, 0.2];
-        let t = regulate(&c, &SpeedInputs { qd: &qd, pi: &pi, minv_grad: &g, alpha_le: 0.0, goal_distance: 1.0 });
+        let t = regulate(
+            &c,
+            &SpeedInputs {
+                qd: &qd,
+                pi: &pi,
+                minv_grad: &g,
+                alpha_le: 0.0,
+                goal_distance: 1.0,
+            },
+        );
         assert!(t.alpha_reg.is_finite() && t.alpha_boost.is_finite());
         let mut a = [0.0; 3];
         regulated_acceleration(&g, &pi, t.alpha_reg, &qd, &mut a);
@@ -170,9 +185,22 @@ mod tests {
         // tiny velocities: α q̇ stays bounded by ‖M⁻¹∂ψ‖ + ‖π‖ + boost gain
         for e in [1e-3, 1e-6, 1e-9] {
             let qd = [e, 0.3 * e, -e];
-            let t = regulate(&c, &SpeedInputs { qd: &qd, pi: &pi, minv_grad: &g, alpha_le: 0.0, goal_distance: 1.0 });
+            let t = regulate(
+                &c,
+                &SpeedInputs {
+                    qd: &qd,
+                    pi: &pi,
+                    minv_grad: &g,
+                    alpha_le: 0.0,
+                    goal_distance: 1.0,
+                },
+            );
             let n = dot(&qd, &qd).sqrt();
-            assert!((t.alpha_reg * n).abs() <= 1.2 + 2.0 + 1e-9, "{}", t.alpha_reg * n);
+            assert!(
+                (t.alpha_reg * n).abs() <= 1.2 + 2.0 + 1e-9,
+                "{}",
+                t.alpha_reg * n
+            );
         }
     }
 
@@ -182,7 +210,16 @@ mod tests {
         let qd = [1.0, 0.5];
         let pi = [0.2, -0.4];
         let g = [1.0, 1.0];
-        let t = regulate(&c, &SpeedInputs { qd: &qd, pi: &pi, minv_grad: &g, alpha_le: -0.1, goal_distance: 0.2 });
+        let t = regulate(
+            &c,
+            &SpeedInputs {
+                qd: &qd,
+                pi: &pi,
+                minv_grad: &g,
+                alpha_le: -0.1,
+                goal_distance: 0.2,
+            },
+        );
         let v2 = 1.25;
         assert!((t.alpha_ex0 - 0.0 / v2).abs() < 1e-15); // q̇ᵀπ = 0.2 − 0.2 = 0
         assert!((t.alpha_expsi - 1.5 / v2).abs() < 1e-15);
@@ -192,7 +229,10 @@ mod tests {
         assert!((t.s_beta - sb).abs() < 1e-15);
         let ex = eta * 0.0 + (1.0 - eta) * 1.5 / v2;
         assert!((t.beta - (sb * 8.0 + 0.5 + (ex + 0.1).max(0.0))).abs() < 1e-14);
-        assert!(t.alpha_reg < -0.1 + t.alpha_boost, "damped w.r.t. the energized fabric");
+        assert!(
+            t.alpha_reg < -0.1 + t.alpha_boost,
+            "damped w.r.t. the energized fabric"
+        );
         // the execution energy is conserved by the η = 1 energized geometry: q̇ᵀ(π + α_ex^0 q̇) = 0
         let mut a = [0.0; 2];
         regulated_acceleration(&[0.0, 0.0], &pi, t.alpha_ex0, &qd, &mut a);
@@ -211,14 +251,41 @@ mod tests {
 
     #[test]
     fn disabled_is_plain_damped_energization() {
-        let c = SpeedConfig { enabled: false, goal_damping_form: GoalDampingForm::Velocity, ..SpeedConfig::default() };
-        let t = regulate(&c, &SpeedInputs { qd: &[1.0], pi: &[3.0], minv_grad: &[0.0], alpha_le: -3.0, goal_distance: 5.0 });
+        let c = SpeedConfig {
+            enabled: false,
+            goal_damping_form: GoalDampingForm::Velocity,
+            ..SpeedConfig::default()
+        };
+        let t = regulate(
+            &c,
+            &SpeedInputs {
+                qd: &[1.0],
+                pi: &[3.0],
+                minv_grad: &[0.0],
+                alpha_le: -3.0,
+                goal_distance: 5.0,
+            },
+        );
         assert!((t.alpha_reg - (-3.0 - t.beta)).abs() < 1e-15);
         assert!((t.beta - (t.s_beta * c.goal_damping + c.base_damping)).abs() < 1e-15);
         assert_eq!(t.force_damping, 0.0);
-        let f = SpeedConfig { goal_damping_form: GoalDampingForm::Force, ..c };
-        let t = regulate(&f, &SpeedInputs { qd: &[1.0], pi: &[3.0], minv_grad: &[0.0], alpha_le: -3.0, goal_distance: 0.0 });
+        let f = SpeedConfig {
+            goal_damping_form: GoalDampingForm::Force,
+            ..c
+        };
+        let t = regulate(
+            &f,
+            &SpeedInputs {
+                qd: &[1.0],
+                pi: &[3.0],
+                minv_grad: &[0.0],
+                alpha_le: -3.0,
+                goal_distance: 0.0,
+            },
+        );
         assert!((t.beta - f.base_damping).abs() < 1e-15);
-        assert!((t.force_damping - t.s_beta * f.goal_damping).abs() < 1e-15 && t.force_damping > 0.0);
+        assert!(
+            (t.force_damping - t.s_beta * f.goal_damping).abs() < 1e-15 && t.force_damping > 0.0
+        );
     }
 }

@@ -20,34 +20,56 @@ pub fn shared_dir() -> Option<PathBuf> {
         return Some(dir);
     }
     if std::env::var("CI").as_deref() == Ok("true") {
-        panic!("shared data directory {} is missing and CI=true", dir.display());
+        panic!(
+            "shared data directory {} is missing and CI=true",
+            dir.display()
+        );
     }
-    eprintln!("skipping: shared data directory {} not found (set GFCS_SHARED)", dir.display());
+    eprintln!(
+        "skipping: shared data directory {} not found (set GFCS_SHARED)",
+        dir.display()
+    );
     None
 }
 
 /// The spherized MotionBenchMaker Panda with its SRDF self-collision pairs.
 pub fn mbm_panda(shared: &Path) -> Robot {
     let dir = shared.join("robots/mbm_panda");
-    let opts = RobotOptions { ee_link: Some("panda_hand".into()), ..RobotOptions::default() };
-    let mut robot = Robot::from_urdf_file(&dir.join("panda_spherized.urdf"), &opts).expect("MBM Panda URDF");
+    let opts = RobotOptions {
+        ee_link: Some("panda_hand".into()),
+        ..RobotOptions::default()
+    };
+    let mut robot =
+        Robot::from_urdf_file(&dir.join("panda_spherized.urdf"), &opts).expect("MBM Panda URDF");
     let srdf = std::fs::read_to_string(dir.join("panda.srdf")).expect("MBM Panda SRDF");
-    robot.set_self_collision_from_srdf(&srdf, "panda.srdf").expect("SRDF");
+    robot
+        .set_self_collision_from_srdf(&srdf, "panda.srdf")
+        .expect("SRDF");
     robot
 }
 
 /// One MotionBenchMaker problem: scene, start and goal (in the robot's joint order).
-pub fn mbm_problem(shared: &Path, robot: &Robot, class: &str, index: usize) -> (Scene, Vec<f64>, Vec<f64>) {
+pub fn mbm_problem(
+    shared: &Path,
+    robot: &Robot,
+    class: &str,
+    index: usize,
+) -> (Scene, Vec<f64>, Vec<f64>) {
     let dir = shared.join("mbm").join(class);
-    let scene = Scene::from_moveit_yaml_file(&dir.join(format!("scene{index:04}.yaml"))).expect("scene");
-    let req = moveit::parse_request_file(&dir.join(format!("request{index:04}.yaml"))).expect("request");
+    let scene =
+        Scene::from_moveit_yaml_file(&dir.join(format!("scene{index:04}.yaml"))).expect("scene");
+    let req =
+        moveit::parse_request_file(&dir.join(format!("request{index:04}.yaml"))).expect("request");
     let start = req.start_for(robot.joint_names()).expect("start");
     let goal = req.goal_for(robot.joint_names()).expect("goal");
     (scene, start, goal)
 }
 
 fn pose(t: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
-    Isometry3::from_parts(Translation3::new(t[0], t[1], t[2]), UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]))
+    Isometry3::from_parts(
+        Translation3::new(t[0], t[1], t[2]),
+        UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+    )
 }
 
 /// A MotionBenchMaker-like "box" scene built in code (like mbm/box/scene0001.yaml): a tray with a back
@@ -55,13 +77,51 @@ fn pose(t: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
 pub fn box_scene() -> Scene {
     let mut s = Scene::new();
     let mut add = |name: &str, shape: Shape, p: Isometry3<f64>| {
-        s.add(Obstacle { name: name.into(), shape, pose: p, velocity: Vector3::zeros() }).expect("obstacle");
+        s.add(Obstacle {
+            name: name.into(),
+            shape,
+            pose: p,
+            velocity: Vector3::zeros(),
+        })
+        .expect("obstacle");
     };
-    add("base", Shape::Cuboid { half_extents: Vector3::new(0.35, 0.35, 0.02) }, pose([0.57, 0.16, -0.49], [0.0, 0.0, 0.15]));
-    add("side_back", Shape::Cuboid { half_extents: Vector3::new(0.02, 0.35, 0.35) }, pose([0.92, 0.21, -0.13], [0.0, 0.0, 0.15]));
-    add("side_cap", Shape::Cuboid { half_extents: Vector3::new(0.35, 0.35, 0.02) }, pose([0.67, 0.18, 0.42], [-0.05, 0.78, 0.15]));
-    add("can", Shape::Cylinder { half_height: 0.07, radius: 0.03 }, pose([0.54, 0.36, -0.38], [0.0, 0.0, 0.15]));
-    add("post", Shape::Cylinder { half_height: 0.3, radius: 0.04 }, pose([0.3, -0.45, -0.2], [0.0, 0.0, 0.0]));
+    add(
+        "base",
+        Shape::Cuboid {
+            half_extents: Vector3::new(0.35, 0.35, 0.02),
+        },
+        pose([0.57, 0.16, -0.49], [0.0, 0.0, 0.15]),
+    );
+    add(
+        "side_back",
+        Shape::Cuboid {
+            half_extents: Vector3::new(0.02, 0.35, 0.35),
+        },
+        pose([0.92, 0.21, -0.13], [0.0, 0.0, 0.15]),
+    );
+    add(
+        "side_cap",
+        Shape::Cuboid {
+            half_extents: Vector3::new(0.35, 0.35, 0.02),
+        },
+        pose([0.67, 0.18, 0.42], [-0.05, 0.78, 0.15]),
+    );
+    add(
+        "can",
+        Shape::Cylinder {
+            half_height: 0.07,
+            radius: 0.03,
+        },
+        pose([0.54, 0.36, -0.38], [0.0, 0.0, 0.15]),
+    );
+    add(
+        "post",
+        Shape::Cylinder {
+            half_height: 0.3,
+            radius: 0.04,
+        },
+        pose([0.3, -0.45, -0.2], [0.0, 0.0, 0.0]),
+    );
     s
 }
 
@@ -88,7 +148,15 @@ pub struct Run {
 }
 
 /// Semi-implicit Euler (q̇ += dt q̈; q += dt q̇) of the fabric toward `goal` for `t_max` s at step `dt`.
-pub fn euler_rollout(fabric: &Fabric, scene: &Scene, q0: &[f64], goal: &[f64], dt: f64, t_max: f64, tol: f64) -> Run {
+pub fn euler_rollout(
+    fabric: &Fabric,
+    scene: &Scene,
+    q0: &[f64],
+    goal: &[f64],
+    dt: f64,
+    t_max: f64,
+    tol: f64,
+) -> Run {
     let n = q0.len();
     let mut ws = FabricWorkspace::new(fabric);
     let (mut q, mut qd, mut qdd) = (q0.to_vec(), vec![0.0; n], vec![0.0; n]);
@@ -105,7 +173,10 @@ pub fn euler_rollout(fabric: &Fabric, scene: &Scene, q0: &[f64], goal: &[f64], d
     };
     let steps = (t_max / dt).round() as usize;
     for k in 0..steps {
-        if fabric.acceleration(scene, &q, &qd, goal, &mut ws, &mut qdd).is_err() {
+        if fabric
+            .acceleration(scene, &q, &qd, goal, &mut ws, &mut qdd)
+            .is_err()
+        {
             run.ok = false;
             break;
         }
@@ -118,8 +189,15 @@ pub fn euler_rollout(fabric: &Fabric, scene: &Scene, q0: &[f64], goal: &[f64], d
             q[i] += dt * qd[i];
         }
         run.path.push(q.clone());
-        run.max_speed = run.max_speed.max(qd.iter().map(|v| v * v).sum::<f64>().sqrt());
-        let err = q.iter().zip(goal).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+        run.max_speed = run
+            .max_speed
+            .max(qd.iter().map(|v| v * v).sum::<f64>().sqrt());
+        let err = q
+            .iter()
+            .zip(goal)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt();
         if run.reached.is_none() && err < tol {
             run.reached = Some((k + 1) as f64 * dt);
             break;
