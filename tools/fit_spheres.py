@@ -57,7 +57,7 @@ import yourdfpy
 from scipy.optimize import minimize
 from scipy.spatial.distance import cdist
 
-#: Slack (m) when testing whether a target is inside a sphere (float32 distances of the cover matrix).
+#: Slack (normalised length) when deciding which sphere holds a target (see :func:`split_largest`).
 COVER_TOL = 1e-7
 
 #: Coverage weights ``mu`` of the successive :class:`UnionObjective` minimisations.
@@ -284,7 +284,8 @@ def inside(mesh: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
 
 def centred_grid(lower: np.ndarray, upper: np.ndarray, count: int) -> tuple[np.ndarray, float]:
     """About ``count`` points of a cubic grid centred on the box [lower, upper]; returns (points (N,3), step)."""
-    extent = np.maximum(upper - lower, 1e-9)
+    span = np.asarray(upper, dtype=float) - np.asarray(lower, dtype=float)
+    extent = np.maximum(span, 1e-3 * max(float(span.max()), 1e-9))  # flat boxes: no vanishing step
     step = float((np.prod(extent) / max(count, 1)) ** (1.0 / 3.0))
     axes = []
     for lo, hi in zip(lower, upper):
@@ -305,9 +306,9 @@ def surface_distance(mesh: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
 def sample_points(mesh: trimesh.Trimesh, surface_count: int, grid_count: int, seed: int) -> np.ndarray:
     """Vertices + ``surface_count`` seeded surface samples + interior points of a ``grid_count`` grid, (N, 3)."""
     surface, _ = trimesh.sample.sample_surface(mesh, surface_count, seed=seed)
-    grid, _ = centred_grid(mesh.bounds[0], mesh.bounds[1], grid_count)
-    # shift the grid by a seeded fraction of a step so successive samples do not share points
-    grid = grid + np.random.default_rng(seed).uniform(-0.5, 0.5, 3) * (np.ptp(grid, axis=0) > 0) * 1e-3
+    grid, step = centred_grid(mesh.bounds[0], mesh.bounds[1], grid_count)
+    # shift the grid by a seeded fraction of a step so samples of different seeds do not share points
+    grid = grid + np.random.default_rng(seed).uniform(-0.5, 0.5, 3) * step
     return np.vstack([mesh.vertices, surface, grid[inside(mesh, grid)]])
 
 
@@ -463,10 +464,13 @@ class LinkFitter:
         self.scale = float(np.linalg.norm(np.ptp(mesh.bounds, axis=0)))
         if not self.scale > 0:
             raise FitError("collision geometry has zero extent")
-        norm = lambda p: (p - self.origin) / self.scale  # noqa: E731
+
+        def norm(points: np.ndarray) -> np.ndarray:
+            return (np.asarray(points) - self.origin) / self.scale
+
         self.targets = norm(sample_points(mesh, opts.fit_surface_points, opts.fit_grid_points, opts.seed))
         surface, _ = trimesh.sample.sample_surface(mesh, opts.fit_surface_points, seed=opts.seed)
-        self.surface = norm(np.asarray(surface))
+        self.surface = norm(surface)
         pad = 0.15 * self.scale  # the objective only sees excess volume within `pad` of the mesh
         grid, step = centred_grid(mesh.bounds[0] - pad, mesh.bounds[1] + pad, opts.outside_grid_points)
         grid = grid[~inside(mesh, grid)]
@@ -482,6 +486,7 @@ class LinkFitter:
         return [Sphere(s.center * self.scale + self.origin, s.radius * self.scale) for s in spheres], volume
 
     def _search(self, k: int) -> tuple[list[Sphere], float]:
+        """Best normalised cover with at most ``k`` spheres and its union volume (m^3)."""
         rng = np.random.default_rng([self.opts.seed, k])
         starts = [spheres_around(self.targets, kmeans(self.surface, k, rng)) for _ in range(self.opts.restarts)]
         if self.covers:
@@ -493,6 +498,7 @@ class LinkFitter:
         return min(results, key=lambda item: (item[1], len(item[0])))
 
     def _optimise(self, spheres: list[Sphere]) -> list[Sphere]:
+        """Minimise :class:`UnionObjective` from ``spheres`` (normalised) over ``PENALTY_STAGES``."""
         k = len(spheres)
         x = np.concatenate([np.array([s.center for s in spheres]).ravel(), [s.radius for s in spheres]])
         objective = UnionObjective(self.targets, self.outside, self.cell, self.opts.tau)
