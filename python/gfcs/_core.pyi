@@ -283,7 +283,7 @@ class Rollout:
     def steps(self) -> int: ...
     @property
     def reason(self) -> str:
-        """"reached" | "timeout" | "non_finite"."""
+        """"reached" | "timeout" | "non_finite" | "stalled" (at rest away from the command for 0.5 s: counted as not reached)."""
     @property
     def reached(self) -> bool: ...
     @property

@@ -39,6 +39,7 @@ from typing import Any, Callable, Dict, List, Optional, Protocol, Tuple, Union
 import numpy as np
 
 from gfcs import metrics as _metrics
+from gfcs.blend import append_goal_blend
 from gfcs.results import SolveResult, Trajectory
 
 __all__ = [
@@ -372,7 +373,12 @@ def rollout_commands(
     dof = int(np.asarray(goal).shape[0])
     cmds = np.asarray(commands, dtype=np.float64).reshape(-1, dof)
     seq = fabric.rollout_sequence(q0, qd0, cmds, goal, **settings.as_kwargs())
-    traj = Trajectory(seq.t, seq.q, seq.qd)
+    t, q, qd = np.asarray(seq.t), np.asarray(seq.q), np.asarray(seq.qd)
+    if seq.reached:
+        # End exactly at the goal, at rest (see gfcs.blend): the fabric only converges asymptotically.
+        t, q, qd = append_goal_blend(t, q, qd, np.asarray(seq.qdd)[-1], np.asarray(goal, dtype=np.float64),
+                                     settings.dt)
+    traj = Trajectory(t, q, qd)
     return traj, float(seq.cost), bool(seq.reached), np.asarray(seq.t_stars, dtype=np.float64)
 
 
@@ -461,6 +467,10 @@ def solve(
         if y.ndim != 2 or y.shape[1] != dim:
             raise ValueError(f"sampler {type(sampler).__name__}: expected shape ({n}, {dim}) "
                              f"({n_commands} commands × {dof} joints), got {y.shape}")
+        # The last candidate commands the goal itself: the local fabric (GF) is always among the
+        # candidates, so GFCS is never worse than its local baseline.
+        y = y.copy()
+        y[-1] = np.tile(np.asarray(goal, dtype=np.float64), n_commands)
         return y
 
     bar = None

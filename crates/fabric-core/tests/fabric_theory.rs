@@ -157,7 +157,7 @@ fn component_metrics_are_hd0_and_forces_hd2() {
         energy: SwitchedEnergy1D {
             metric: BarrierMetric {
                 gain: 0.3,
-                x_min: 0.005,
+                x_min: 0.005, influence: f64::INFINITY
             },
             switched: true,
         },
@@ -494,7 +494,7 @@ impl Toy {
                 energy: SwitchedEnergy1D {
                     metric: BarrierMetric {
                         gain: 0.5,
-                        x_min: 0.01,
+                        x_min: 0.01, influence: f64::INFINITY
                     },
                     switched: false,
                 },

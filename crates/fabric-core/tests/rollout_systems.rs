@@ -81,7 +81,7 @@ impl System for Diverging {
 }
 
 fn opts(dt: f64, t_max: f64, tol: f64) -> RolloutOptions {
-    RolloutOptions { dt, t_max, tol, integrator: Integrator::SemiImplicitEuler, record: true }
+    RolloutOptions { dt, t_max, tol, integrator: Integrator::SemiImplicitEuler, record: true, stall_speed: 0.0, stall_time: 0.5 }
 }
 
 /// Steps for the constant-speed system to get strictly within `tol` from distance `d`: the smallest k

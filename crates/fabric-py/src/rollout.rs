@@ -11,12 +11,13 @@ use pyo3::prelude::*;
 use crate::convert::output;
 use crate::errors::error;
 
-/// Python name of a stop reason: "reached", "timeout" or "non_finite".
+/// Python name of a stop reason: "reached", "timeout", "non_finite" or "stalled".
 pub fn reason_name(r: StopReason) -> &'static str {
     match r {
         StopReason::Reached => "reached",
         StopReason::Timeout => "timeout",
         StopReason::NonFinite => "non_finite",
+        StopReason::Stalled => "stalled",
     }
 }
 
@@ -48,6 +49,7 @@ pub fn rollout_options(
         tol: tol.unwrap_or(d.tol),
         integrator: parse_integrator(integrator)?,
         record,
+        ..d
     };
     opts.validate().map_err(error)?;
     Ok(opts)

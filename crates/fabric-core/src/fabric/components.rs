@@ -141,6 +141,7 @@ impl Barrier {
                 metric: BarrierMetric {
                     gain: cfg.metric_gain,
                     x_min: cfg.x_min,
+                    influence: cfg.influence,
                 },
                 switched: true,
             },

@@ -288,13 +288,19 @@ pub trait Metric1D {
     }
 }
 
-/// Barrier metric g(x) = k / x of the distance-space repulsion energy L_e = (k / 2x) s(ẋ) ẋ² (GF VII-A2).
+/// Barrier metric g(x) = k / x of the distance-space repulsion energy L_e = (k / 2x) s(ẋ) ẋ² (GF VII-A2),
+/// tapered to zero at the influence radius r: g(x) = (k / x)·(1 − x/r)² for x < r, 0 beyond. The taper is
+/// a position-only factor (the metric stays HD0 in ẋ) that makes g and g' continuous where a leaf enters or
+/// leaves the transform tree, so the fabric's acceleration does not jump there (smoother motion, lower
+/// jerk); near the barrier (x ≪ r) it is ≈ 1. `influence = ∞` gives the paper's untapered k / x.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BarrierMetric {
     /// k: barrier metric gain (units: metric · m).
     pub gain: f64,
     /// x_min (> 0): below it the metric continues linearly.
     pub x_min: f64,
+    /// Influence radius r (> x_min, m or rad) where the metric reaches zero; `f64::INFINITY` for no taper.
+    pub influence: f64,
 }
 
 impl Metric1D for BarrierMetric {
@@ -302,10 +308,26 @@ impl Metric1D for BarrierMetric {
         self.x_min
     }
     fn exact<D: DualNum<f64>>(&self, x: D) -> D {
-        x.recip() * self.gain
+        if !self.influence.is_finite() {
+            return x.recip() * self.gain;
+        }
+        if x.re() >= self.influence {
+            return x * 0.0;
+        }
+        let w = -x.clone() / self.influence + 1.0;
+        x.recip() * self.gain * w.clone() * w
     }
     fn exact_with_derivative(&self, x: f64) -> (f64, f64) {
-        (self.gain / x, -self.gain / (x * x))
+        if !self.influence.is_finite() {
+            return (self.gain / x, -self.gain / (x * x));
+        }
+        if x >= self.influence {
+            return (0.0, 0.0);
+        }
+        let w = 1.0 - x / self.influence;
+        let dw = -1.0 / self.influence;
+        let g = self.gain / x;
+        (g * w * w, -g / x * w * w + g * 2.0 * w * dw)
     }
 }
 
@@ -468,7 +490,7 @@ mod tests {
                         &SwitchedEnergy1D {
                             metric: BarrierMetric {
                                 gain: 0.4,
-                                x_min: 0.005,
+                                x_min: 0.005, influence: f64::INFINITY
                             },
                             switched,
                         },
@@ -515,7 +537,7 @@ mod tests {
         let b = SwitchedEnergy1D {
             metric: BarrierMetric {
                 gain: 0.4,
-                x_min: 0.005,
+                x_min: 0.005, influence: f64::INFINITY
             },
             switched: true,
         };
@@ -530,7 +552,7 @@ mod tests {
     fn barrier_metric_continuation_is_positive_and_c1() {
         let g = BarrierMetric {
             gain: 0.4,
-            x_min: 0.01,
+            x_min: 0.01, influence: f64::INFINITY
         };
         let (a, da) = g.g_dg(0.01 - 1e-12);
         let (b, db) = g.g_dg(0.01 + 1e-12);
@@ -538,6 +560,22 @@ mod tests {
         for &x in &[0.0, -0.05, -3.0] {
             let (v, d) = g.g_dg(x);
             assert!(v > 40.0 && v.is_finite() && d < 0.0);
+        }
+    }
+
+    #[test]
+    fn tapered_barrier_metric_is_c1_at_the_influence_radius_and_matches_ad() {
+        let g = BarrierMetric { gain: 0.4, x_min: 0.01, influence: 0.3 };
+        let (a, da) = g.g_dg(0.3 - 1e-9);
+        assert!(a.abs() < 1e-12 && da.abs() < 1e-7, "g and g' vanish at r: {a} {da}");
+        assert_eq!(g.g_dg(0.5), (0.0, 0.0));
+        for &x in &[0.02, 0.1, 0.25] {
+            let (v, d) = g.g_dg(x);
+            let h = 1e-6;
+            let fd = (g.g_dg(x + h).0 - g.g_dg(x - h).0) / (2.0 * h);
+            assert!((d - fd).abs() < 1e-6 * (1.0 + d.abs()), "g' vs FD at {x}: {d} {fd}");
+            let ad = g.g(num_dual::Dual64::from(x).derivative());
+            assert!((ad.re - v).abs() < 1e-12 && (ad.eps - d).abs() < 1e-9);
         }
     }
 }

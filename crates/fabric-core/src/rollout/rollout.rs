@@ -27,11 +27,27 @@ pub struct RolloutOptions {
     pub integrator: Integrator,
     /// Keep the trajectory (t, q, q̇, q̈ at every step). Default false.
     pub record: bool,
+    /// Stall detection (an extension of eq. 2 that saves computation, not a change of the cost): when
+    /// ‖q̇‖ stays below `stall_speed` (rad/s) for `stall_time` seconds without reaching the command, the
+    /// fabric has come to rest at a local minimum away from the command (Thm IV.4) and would sit there until
+    /// t_max, so the rollout stops with [`StopReason::Stalled`] and t* = t_max. Default 0.01 rad/s over 0.5 s;
+    /// `stall_speed = 0` turns it off.
+    pub stall_speed: f64,
+    /// See `stall_speed` (s). Default 0.5 s.
+    pub stall_time: f64,
 }
 
 impl Default for RolloutOptions {
     fn default() -> Self {
-        RolloutOptions { dt: 0.01, t_max: 7.0, tol: 0.01, integrator: Integrator::SemiImplicitEuler, record: false }
+        RolloutOptions {
+            dt: 0.01,
+            t_max: 7.0,
+            tol: 0.01,
+            integrator: Integrator::SemiImplicitEuler,
+            record: false,
+            stall_speed: 0.01,
+            stall_time: 0.5,
+        }
     }
 }
 
@@ -50,6 +66,13 @@ impl RolloutOptions {
         check_positive("RolloutOptions.dt", self.dt)?;
         check_positive("RolloutOptions.t_max", self.t_max)?;
         check_positive("RolloutOptions.tol", self.tol)?;
+        if !(self.stall_speed.is_finite() && self.stall_speed >= 0.0) {
+            return Err(FabricError::Value {
+                what: "RolloutOptions.stall_speed".to_string(),
+                message: format!("must be finite and >= 0, got {}", self.stall_speed),
+            });
+        }
+        check_positive("RolloutOptions.stall_time", self.stall_time)?;
         let ratio = self.t_max / self.dt;
         if ratio > MAX_STEPS as f64 {
             return Err(FabricError::Value {
@@ -79,6 +102,9 @@ pub enum StopReason {
     /// The acceleration or the integrated state became NaN or infinite; the rollout stopped at the last
     /// finite state.
     NonFinite,
+    /// The system came to rest away from the command (see [`RolloutOptions::stall_speed`]); counted as
+    /// not reached, t* = t_max.
+    Stalled,
 }
 
 /// A recorded trajectory: T rows, each (t, q, q̇, q̈) with q̈ = f(q, q̇) the acceleration applied from
@@ -251,6 +277,9 @@ pub(crate) fn run<S: System>(
     let tol2 = tol * tol;
     let mut trajectory = opts.record.then(|| Trajectory::with_capacity(dof, (n_max + 1).min(RECORD_RESERVE)));
     let mut min_clearance = f64::INFINITY;
+    let stall2 = opts.stall_speed * opts.stall_speed;
+    let stall_steps = (opts.stall_time / opts.dt).ceil() as usize;
+    let mut slow_steps = 0usize;
     let mut k = 0usize;
     let reason = loop {
         let t = k as f64 * opts.dt;
@@ -267,6 +296,10 @@ pub(crate) fn run<S: System>(
         }
         if k >= n_max {
             break StopReason::Timeout;
+        }
+        slow_steps = if b.qd.iter().map(|v| v * v).sum::<f64>() < stall2 { slow_steps + 1 } else { 0 };
+        if stall2 > 0.0 && slow_steps > stall_steps {
+            break StopReason::Stalled;
         }
         let mut accel = |q: &[f64], qd: &[f64], out: &mut [f64]| system.acceleration(ws, q, qd, command, out);
         let ok = opts.integrator.step(
@@ -289,7 +322,7 @@ pub(crate) fn run<S: System>(
     let t_end = k as f64 * opts.dt;
     let t_star = match reason {
         StopReason::Reached => t_end.min(opts.t_max),
-        StopReason::Timeout | StopReason::NonFinite => opts.t_max,
+        StopReason::Timeout | StopReason::NonFinite | StopReason::Stalled => opts.t_max,
     };
     Ok(RolloutResult { t_star, t_end, steps: k, q: b.q.clone(), qd: b.qd.clone(), reason, min_clearance, trajectory })
 }
