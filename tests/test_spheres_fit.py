@@ -97,8 +97,8 @@ def test_shipped_spheres_cover_mbm_collision_mesh(mbm_meshes, link):
     assert fs.excess(np.asarray(mesh.vertices), spheres).max() <= 1e-9
     assert fs.coverage(mesh, spheres, surface_points=30000, grid_points=20000, seed=12345) <= COVER_TOL
     # "not wildly larger than the mesh"
-    ratio = fs.union_volume(spheres, 200_000) / fs.mesh_volume(mesh)
-    assert 1.0 <= ratio < 3.0, ratio
+    ratio = fs.union_volume(spheres, 200_000) / fs.mesh_volume(mesh, 40_000)
+    assert 1.0 <= ratio < 3.5, ratio  # fitted: 1.4-1.8 on arm links, 2.2 link7, 2.9 fingers
 
 
 def test_mbm_collision_meshes_are_placed_in_link_frames(mbm_meshes):

@@ -47,6 +47,7 @@ import sys
 # file is run as a program (numpy not yet imported); the caller's own settings win.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -460,6 +461,7 @@ class LinkFitter:
 
     def __init__(self, mesh: trimesh.Trimesh, opts: FitOptions):
         self.mesh, self.opts = mesh, opts
+        self.volume = mesh_volume(mesh)  # m^3
         self.origin = mesh.bounds.mean(axis=0)
         self.scale = float(np.linalg.norm(np.ptp(mesh.bounds, axis=0)))
         if not self.scale > 0:
@@ -555,8 +557,10 @@ def rounded(spheres: Sequence[Sphere]) -> list[Sphere]:
     return out
 
 
-def finish_link(name: str, mesh: trimesh.Trimesh, spheres: list[Sphere], opts: FitOptions) -> LinkFit:
-    """Add the margin, repair against a dense sample, round, and measure on an independent sample."""
+def finish_link(name: str, mesh: trimesh.Trimesh, spheres: list[Sphere], opts: FitOptions,
+                volume: float | None = None) -> LinkFit:
+    """Add the margin, repair against a dense sample, round, and measure on an independent sample
+    (``volume``: the mesh volume in m^3 when already known)."""
     spheres = [Sphere(s.center, s.radius + opts.margin) for s in spheres]
     dense = sample_points(mesh, opts.check_surface_points, opts.check_grid_points, opts.seed + 1)
     spheres = rounded(repair(dense, spheres))
@@ -566,7 +570,7 @@ def finish_link(name: str, mesh: trimesh.Trimesh, spheres: list[Sphere], opts: F
         spheres=len(spheres),
         max_uncovered=float(max(0.0, excess(check, spheres).max())),
         max_uncovered_vertices=float(max(0.0, excess(np.asarray(mesh.vertices), spheres).max())),
-        mesh_volume=mesh_volume(mesh),
+        mesh_volume=mesh_volume(mesh) if volume is None else volume,
         union_volume=union_volume(spheres),
         max_protrusion=max_protrusion(mesh, spheres),
         checked_points=len(check),
@@ -579,7 +583,7 @@ def allocate(fitters: dict[str, LinkFitter], opts: FitOptions, log=None) -> dict
     union volume drops most, while the drop is at least ``opts.min_gain`` times the total mesh volume, no
     link exceeds ``opts.max_per_link`` and the total stays within ``opts.max_total``."""
     budget = {name: 1 for name in fitters}
-    threshold = opts.min_gain * sum(mesh_volume(f.mesh) for f in fitters.values())
+    threshold = opts.min_gain * sum(f.volume for f in fitters.values())
     while sum(budget.values()) < opts.max_total:
         gains = {name: f.best(budget[name])[1] - f.best(budget[name] + 1)[1]
                  for name, f in fitters.items() if budget[name] < opts.max_per_link}
@@ -607,7 +611,8 @@ def fit_robot(meshes: dict[str, trimesh.Trimesh], opts: FitOptions, log=None) ->
         except FitError as exc:
             raise FitError(f"link {name!r}: {exc}") from exc
     budget = allocate(fitters, opts, log)
-    return [finish_link(name, meshes[name], fitters[name].best(budget[name])[0], opts) for name in meshes]
+    return [finish_link(name, meshes[name], fitters[name].best(budget[name])[0], opts, fitters[name].volume)
+            for name in meshes]
 
 
 # ------------------------------------------------------------------------------------------------ output

@@ -31,6 +31,7 @@ from gfcs import errors
 from gfcs._core import (
     Fabric,
     FabricConfig,
+    MeshChecker,
     Robot,
     Rollout,
     Scene,
@@ -68,6 +69,7 @@ __all__ = [
     "Scene",
     "Fabric",
     "FabricConfig",
+    "MeshChecker",
     "Rollout",
     "SequenceRollout",
     "load_motion_plan_request",

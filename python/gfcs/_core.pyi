@@ -385,6 +385,38 @@ class Fabric:
         """Candidates (N, n·dof) -> (costs (N,), reached (N,) bool, min_clearance (N,)) [+ N
         SequenceRollout when ``return_trajectories``]; parallel, deterministic, GIL released."""
 
+class MeshChecker:
+    """Clearance of a robot's URDF collision meshes and primitives (not its spheres), m.
+
+    ``MeshChecker(robot, max_distance=0.5)`` loads every ``<collision>`` element once (``MeshError`` naming
+    the file and link for a missing mesh; ``InvalidValueError`` for a robot without collision geometry).
+    Clearances above ``max_distance`` are reported as ``inf``.
+    """
+
+    def __init__(self, robot: Robot, max_distance: float = 0.5) -> None: ...
+    @property
+    def num_shapes(self) -> int:
+        """Number of collision shapes S."""
+    @property
+    def shape_links(self) -> List[str]:
+        """(S,) link name of each shape."""
+    @property
+    def num_self_pairs(self) -> int:
+        """Shape pairs checked by ``self_clearance`` (non-adjacent, not disabled by the SRDF)."""
+    @property
+    def max_distance(self) -> float: ...
+    @property
+    def dof(self) -> int: ...
+    @property
+    def joint_names(self) -> List[str]: ...
+    @property
+    def robot(self) -> Robot: ...
+    def clearance(self, scene: Scene, q: ArrayLike, threads: Optional[int] = None) -> Union[float, FloatArray]:
+        """q (dof,) -> float, q (T, dof) -> (T,): min distance of the shapes to the scene, m (≤ 0: contact;
+        inf: nothing within max_distance). Trajectories in parallel, GIL released."""
+    def self_clearance(self, q: ArrayLike, threads: Optional[int] = None) -> Union[float, FloatArray]:
+        """q (dof,) -> float, q (T, dof) -> (T,): min distance over the self-collision shape pairs, m."""
+
 # ------------------------------------------------------------------------------------------- particles
 
 def particle_acceleration(

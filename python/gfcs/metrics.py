@@ -9,11 +9,15 @@ Pure numpy. Every function documents its array shapes; units are SI (m, rad, s).
 * clearance of the robot's collision-sphere model against obstacles and against itself, joint-limit check,
   and ``trajectory_metrics``, which gathers everything Table I reports for one trajectory plus the success
   criterion (goal reached, no collision, joint limits respected).
+* ``mesh_clearance``: the clearance of the robot's collision *meshes* (a :class:`gfcs.MeshChecker`), the
+  model independent validators judge motions with; ``trajectory_metrics`` reports it (and the meshes'
+  self-clearance) and requires both > 0 when given a checker.
 
 The functions that need a robot or a scene (``obstacle_clearance``, ``self_clearance``,
 ``trajectory_metrics``) only use the documented methods of :class:`gfcs.Robot` and :class:`gfcs.Scene`
 (``sphere_centers``, ``sphere_radii``, ``self_collision_pairs``, ``ee_position``, ``lower``, ``upper``,
-``signed_distance``, ``len``), so this module does not import the compiled extension.
+``signed_distance``, ``len``) and of :class:`gfcs.MeshChecker` (``clearance``), so this module does not
+import the compiled extension.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ __all__ = [
     "within_limits",
     "obstacle_clearance",
     "self_clearance",
+    "mesh_clearance",
     "uniform_resample",
     "trajectory_metrics",
     "DEFAULT_SUCCESS_TOL",
@@ -198,6 +203,27 @@ def self_clearance(robot: Any, q: Any) -> np.ndarray:
     return gaps.min(axis=1)
 
 
+def mesh_clearance(mesh_checker: Any, scene: Any, q: Any) -> np.ndarray:
+    """Per-sample clearance of the robot's collision meshes to the obstacles.
+
+    clearance_k = min over the URDF collision shapes of their distance to the scene at q_k (exact mesh
+    distances, see :class:`gfcs.MeshChecker`); ≤ 0 means contact, +inf nothing within the checker's
+    ``max_distance``.
+
+    Args:
+        mesh_checker: a :class:`gfcs.MeshChecker` (joints in the order of ``q``).
+        scene: a :class:`gfcs.Scene`.
+        q: (T, dof) joint positions.
+
+    Returns:
+        (T,) clearances [m].
+    """
+    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    if qa.shape[0] == 0:
+        return np.zeros(0)
+    return np.asarray(mesh_checker.clearance(scene, qa), dtype=np.float64).reshape(qa.shape[0])
+
+
 def uniform_resample(t: Any, x: Any) -> "tuple[np.ndarray, float]":
     """Resample a path onto a uniform time grid by linear interpolation (for the LDJ).
 
@@ -238,6 +264,7 @@ def trajectory_metrics(
     tol: float = DEFAULT_SUCCESS_TOL,
     limit_tol: float = DEFAULT_LIMIT_TOL,
     ee: Optional[Any] = None,
+    mesh_checker: Optional[Any] = None,
 ) -> Dict[str, Any]:
     """Everything GFCS Table I reports about one trajectory, plus the success criterion.
 
@@ -250,12 +277,17 @@ def trajectory_metrics(
         tol: success tolerance on ‖q_T − q_g‖ [rad].
         limit_tol: slack on the joint limits [rad].
         ee: optional (T, 3) end-effector positions (computed with ``robot.ee_position`` when omitted).
+        mesh_checker: optional :class:`gfcs.MeshChecker` of the robot's collision meshes (e.g.
+            ``problem.mesh_checker``); when given, every sample is checked against the meshes too.
 
     Returns:
         dict with keys ``success`` (bool: final error ≤ tol, min clearance ≥ 0 against obstacles and self,
-        limits respected), ``final_error`` [rad], ``min_clearance`` [m] (obstacles), ``min_self_clearance``
-        [m], ``within_limits`` (bool), ``duration`` [s], ``ee_length`` [m], ``cspace_length`` [rad],
-        ``ee_ldj``, ``cspace_ldj`` (NaN when undefined), ``n_samples``.
+        limits respected, and with a checker mesh clearances > 0), ``final_error`` [rad], ``min_clearance``
+        [m] (obstacles, spheres), ``min_self_clearance`` [m], ``within_limits`` (bool), ``duration`` [s],
+        ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``, ``cspace_ldj`` (NaN when undefined),
+        ``n_samples``, and with a checker ``mesh_clearance`` [m] (min over the samples, see
+        :func:`mesh_clearance`) and ``mesh_self_clearance`` [m] (min over the samples of
+        ``mesh_checker.self_clearance``: link meshes on non-adjacent bodies not disabled by the SRDF).
     """
     qa = _as_path(q, "q")
     ta = np.asarray(t, dtype=np.float64).reshape(-1)
@@ -278,8 +310,16 @@ def trajectory_metrics(
     q_u, dt = uniform_resample(ta, qa)
     ee_u, _ = uniform_resample(ta, ee_a)
     ok_dt = math.isfinite(dt) and dt > 0.0
+    mesh_ok = True
+    extra: Dict[str, Any] = {}
+    if mesh_checker is not None:
+        mesh_clear = float(np.min(mesh_clearance(mesh_checker, scene, qa)))
+        mesh_self = float(np.min(np.asarray(mesh_checker.self_clearance(qa), dtype=np.float64)))
+        mesh_ok = mesh_clear > 0.0 and mesh_self > 0.0
+        extra["mesh_clearance"] = mesh_clear
+        extra["mesh_self_clearance"] = mesh_self
     return {
-        "success": bool(final_error <= tol and clear >= 0.0 and self_clear >= 0.0 and limits_ok),
+        "success": bool(final_error <= tol and clear >= 0.0 and self_clear >= 0.0 and limits_ok and mesh_ok),
         "final_error": final_error,
         "min_clearance": clear,
         "min_self_clearance": self_clear,
@@ -290,4 +330,5 @@ def trajectory_metrics(
         "ee_ldj": log_dimensionless_jerk(ee_u, dt) if ok_dt else math.nan,
         "cspace_ldj": log_dimensionless_jerk(q_u, dt) if ok_dt else math.nan,
         "n_samples": int(qa.shape[0]),
+        **extra,
     }

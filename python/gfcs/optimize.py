@@ -13,6 +13,16 @@ Two layers:
   only command, no optimisation). :func:`replay` re-runs a solved command sequence in a changed scene
   without re-optimising (reactivity, GFCS Sec. V).
 
+Mesh validation: the fabric and the cost see the robot's collision *spheres*; benchmarks judge motions with
+its collision *meshes*. When the problem carries a ``mesh_checker`` (:class:`gfcs.MeshChecker`, see
+:mod:`gfcs.problems`), :func:`solve` rolls out the top-m candidates of the optimisation in cost order and
+returns the first whose full trajectory keeps every mesh clear of the obstacles and of the robot itself
+(``metrics["mesh_clearance"] > 0`` and ``metrics["mesh_self_clearance"] > 0``); if none does, the
+lowest-cost candidate is returned (and reported as failed). ``result.top`` and the per-batch data are the
+optimiser's, unchanged (anytime / top-m semantics of Alg. 1); ``metrics["mesh_candidate_rank"]`` is the rank
+in ``result.top`` of the returned candidate and ``metrics["mesh_candidates_checked"]`` how many were rolled
+out.
+
 Warm start (Alg. 1, first line): CMA-ES runs in normalised coordinates u = (y − lower)/(upper − lower) ∈
 [0, 1]^dim with pycma's ``BoundTransform`` box handling. The sampler's candidates are passed to
 ``CMAEvolutionStrategy.inject(..., force=True)`` as genotypes (``boundary_handler.inverse``), so the first
@@ -388,6 +398,48 @@ def _settings_dict(settings: RolloutSettings, **extra: Any) -> Dict[str, Any]:
     return d
 
 
+def _mesh_clear(met: Dict[str, Any]) -> bool:
+    """Whether trajectory metrics computed with a mesh checker show no mesh contact."""
+    return met.get("mesh_clearance", math.inf) > 0.0 and met.get("mesh_self_clearance", math.inf) > 0.0
+
+
+def _select_candidate(
+    fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
+    mesh_checker: Any,
+) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray, Dict[str, Any]]:
+    """The candidate :func:`solve` returns, rolled out: (commands (n, dof), trajectory, cost, reached,
+    t_stars, metrics).
+
+    Without a mesh checker: the lowest-cost candidate. With one: the first of ``opt.top_x`` (cost order)
+    whose trajectory is clear of mesh contact (see the module docstring), else the lowest-cost one.
+    """
+    robot, scene = problem.robot, problem.scene
+    dof = int(robot.dof)
+    q0, qd0 = np.asarray(problem.q0, dtype=np.float64), np.asarray(problem.qd0, dtype=np.float64)
+    goal = np.asarray(problem.goal, dtype=np.float64)
+    candidates = opt.top_x if mesh_checker is not None and opt.top_x.shape[0] > 0 else opt.best_x[None, :]
+    first = None
+    for rank, x in enumerate(candidates):
+        commands = np.asarray(x, dtype=np.float64).reshape(n_commands, dof)
+        traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, commands, settings)
+        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, tol=settings.tol,
+                                          mesh_checker=mesh_checker)
+        chosen = (commands, traj, cost, reached, t_stars, met)
+        if mesh_checker is None:
+            return chosen
+        met["mesh_candidates_checked"] = rank + 1
+        if first is None:
+            first = chosen
+        if _mesh_clear(met):
+            met["mesh_candidate_rank"] = rank
+            return chosen
+    if first is None:  # unreachable: `candidates` has at least one row
+        raise RuntimeError("no candidate to roll out")
+    first[5]["mesh_candidates_checked"] = int(candidates.shape[0])
+    first[5]["mesh_candidate_rank"] = 0
+    return first
+
+
 def solve(
     problem: Any,
     method: str = "gfcs",
@@ -408,7 +460,9 @@ def solve(
     """Solve a motion problem with GFCS (Alg. 1) or with the local fabric alone (``method="gf"``).
 
     Args:
-        problem: a :class:`gfcs.problems.Problem` (robot, scene, q0, qd0, goal).
+        problem: a :class:`gfcs.problems.Problem` (robot, scene, q0, qd0, goal; with a ``mesh_checker``
+            the returned candidate is the best mesh-collision-free one of the top-m, see the module
+            docstring).
         method: ``"gfcs"``: optimise n free commands with CMA-ES, cost eq. 4 evaluated in Rust;
             ``"gf"``: roll the fabric out toward the goal only (no optimisation).
         batches: CMA-ES batches (the paper reports 1 and 5).
@@ -436,6 +490,7 @@ def solve(
     qd0 = np.asarray(problem.qd0, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
     fabric = make_fabric(problem, fabric_config)
+    mesh_checker = getattr(problem, "mesh_checker", None)
     common = dict(problem=str(problem.name), cls=str(getattr(problem, "cls", "")), seed=int(seed),
                   q0=q0, qd0=qd0, goal=goal, fabric_config=fabric.config.to_dict(), robot=robot)
 
@@ -443,7 +498,8 @@ def solve(
         start = time.perf_counter()
         traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, np.zeros((0, dof)), settings)
         elapsed = time.perf_counter() - start
-        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, tol=settings.tol)
+        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, tol=settings.tol,
+                                          mesh_checker=mesh_checker)
         return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached,
                            t_stars=t_stars, trajectory=traj, success=bool(met["success"]), metrics=met,
                            n_evaluations=1, solve_time=elapsed, settings=_settings_dict(settings),
@@ -493,9 +549,8 @@ def solve(
         if bar is not None:
             bar.close()
 
-    commands = opt.best_x.reshape(n_commands, dof)
-    traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, commands, settings)
-    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, tol=settings.tol)
+    commands, traj, cost, reached, t_stars, met = _select_candidate(
+        fabric, problem, opt, n_commands, settings, mesh_checker)
     return SolveResult(
         method="gfcs",
         commands=commands,
@@ -525,6 +580,7 @@ def replay(
     fabric_config: Any = None,
     settings: Optional[RolloutSettings] = None,
     commands: Optional[Any] = None,
+    mesh_checker: Optional[Any] = None,
 ) -> SolveResult:
     """Replay a solved command sequence in another scene without re-optimising (GFCS Sec. V, Fig. 4).
 
@@ -539,6 +595,8 @@ def replay(
         settings: default: the rollout settings stored in ``result``.
         commands: (n, dof) commands to replay instead of ``result.commands`` (e.g. a row of
             ``result.batch_best_commands`` to get the first-batch solution).
+        mesh_checker: optional :class:`gfcs.MeshChecker` (e.g. ``problem.mesh_checker``): the replay's
+            metrics then include the mesh clearances, and success requires them > 0.
 
     Returns:
         A copy of ``result`` whose trajectory, cost, reached flag, t_stars, metrics and success are those
@@ -560,6 +618,7 @@ def replay(
     dof = result.dof
     cmds = np.asarray(result.commands if commands is None else commands, dtype=np.float64).reshape(-1, dof)
     traj, cost, reached, t_stars = rollout_commands(fabric, result.q0, result.qd0, result.goal, cmds, settings)
-    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, tol=settings.tol)
+    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, tol=settings.tol,
+                                      mesh_checker=mesh_checker)
     return dataclasses.replace(result, commands=cmds, trajectory=traj, cost=cost, reached=reached,
                                t_stars=t_stars, metrics=met, success=bool(met["success"]), robot=robot)

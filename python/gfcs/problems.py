@@ -5,6 +5,11 @@ A :class:`Problem` is one GFCOP instance: robot, scene E, start q₀ (and q̇₀
 ``requestNNNN.yaml`` motion plan requests, one folder per class) or from the procedural generators of
 :mod:`gfcs.generators`.
 
+A problem may carry a ``mesh_checker`` (:class:`gfcs.MeshChecker`): the robot's collision meshes, against which
+:mod:`gfcs.metrics` and :mod:`gfcs.optimize` validate trajectories the way independent benchmarks judge them
+(the fabric itself avoids obstacles with collision spheres). :func:`mbm_panda` builds one from the MBM Panda's
+``panda.urdf`` and :func:`load_mbm` / :func:`load_mbm_dir` attach it to problems solved with that robot.
+
 Problem classes use the MotionBenchMaker folder names (:data:`CLASSES`); :func:`canonical_class`
 also accepts the names used in the GFCS paper's Table I (e.g. ``"table_under"``, ``"single_shelf"``).
 """
@@ -12,11 +17,12 @@ also accepts the names used in the GFCS paper's Table I (e.g. ``"table_under"``,
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -28,6 +34,8 @@ __all__ = [
     "load_mbm",
     "load_mbm_dir",
     "mbm_panda",
+    "mbm_mesh_checker",
+    "mesh_checker_for",
     "shared_dir",
 ]
 
@@ -90,6 +98,8 @@ class Problem:
         qd0: (dof,) start velocity [rad/s]; None means zeros.
         cls: problem class (:data:`CLASSES`), "" when unknown.
         meta: free-form provenance (source files, generator parameters, obstacle primitives).
+        mesh_checker: optional :class:`gfcs.MeshChecker` of the robot's collision meshes (same joints, same
+            order as ``robot``); when set, metrics report ``mesh_clearance`` and success requires it > 0.
     """
 
     name: str
@@ -100,9 +110,13 @@ class Problem:
     qd0: Optional[np.ndarray] = None
     cls: str = ""
     meta: Dict[str, Any] = field(default_factory=dict)
+    mesh_checker: Any = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         dof = int(self.robot.dof)
+        if self.mesh_checker is not None and list(self.mesh_checker.joint_names) != list(self.robot.joint_names):
+            raise ValueError(f"mesh_checker: joints {list(self.mesh_checker.joint_names)} differ from the robot's "
+                             f"{list(self.robot.joint_names)} (q must mean the same for both)")
         self.q0 = _vector(self.q0, "q0", dof)
         self.goal = _vector(self.goal, "goal", dof)
         self.qd0 = np.zeros(dof) if self.qd0 is None else _vector(self.qd0, "qd0", dof)
@@ -143,6 +157,7 @@ def load_mbm(
     robot: Any = None,
     name: Optional[str] = None,
     cls: Optional[str] = None,
+    mesh_checker: Any = None,
 ) -> Problem:
     """One MotionBenchMaker problem from its scene and request files.
 
@@ -157,6 +172,8 @@ def load_mbm(
             conservative spheres.
         name: problem name (default ``"<folder>/<NNNN>"``).
         cls: problem class (default: the folder name).
+        mesh_checker: the problem's :class:`gfcs.MeshChecker`; default :func:`mesh_checker_for` ``(robot)``
+            (the MBM Panda's meshes when ``robot`` came from :func:`mbm_panda`, else none).
 
     Raises:
         gfcs.LinkError: a joint of the robot is missing from the request's start state or goal (the
@@ -191,6 +208,7 @@ def load_mbm(
         cls=cls if cls is not None else folder,
         meta={"scene_file": str(scene_path), "request_file": str(request_path),
               "group": request.get("group", "")},
+        mesh_checker=mesh_checker if mesh_checker is not None else mesh_checker_for(robot),
     )
 
 
@@ -210,6 +228,7 @@ def load_mbm_dir(
     classes: Optional[Sequence[str]] = None,
     limit: Optional[int] = None,
     robot: Any = None,
+    mesh_checker: Any = None,
 ) -> List[Problem]:
     """Every problem of a MotionBenchMaker folder, sorted by class then number.
 
@@ -220,6 +239,7 @@ def load_mbm_dir(
             other names are kept only when listed verbatim).
         limit: at most this many problems per class (the first ones by number).
         robot: shared by all problems (default :meth:`gfcs.Robot.panda`).
+        mesh_checker: shared by all problems (default: as :func:`load_mbm`).
 
     Raises:
         FileNotFoundError: ``directory`` does not exist, or a scene has no matching request.
@@ -254,34 +274,89 @@ def load_mbm_dir(
             if request is None:
                 raise FileNotFoundError(f"{scene_path}: no matching request{digits}.yaml")
             problems.append(load_mbm(scene_path, request, robot=robot,
-                                     name=f"{class_dir.name}/{digits}", cls=class_dir.name))
+                                     name=f"{class_dir.name}/{digits}", cls=class_dir.name,
+                                     mesh_checker=mesh_checker))
     if not problems:
         raise ValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
                          + (f" for classes {sorted(wanted)}" if wanted else ""))
     return problems
 
 
-def mbm_panda(path: Optional[PathLike] = None) -> Any:
-    """The Panda model MotionBenchMaker problems were made for (spherized URDF + SRDF, EE panda_hand).
+def _mbm_folder(path: Optional[PathLike]) -> Path:
+    """The ``mbm_panda`` folder: ``path``, or ``shared_dir()/robots/mbm_panda``."""
+    if path is not None:
+        return Path(path)
+    base = shared_dir()
+    if base is None:
+        raise FileNotFoundError("shared data folder not found (set GFCS_SHARED)")
+    return base / "robots" / "mbm_panda"
 
-    Args:
-        path: the ``mbm_panda`` folder (``panda_spherized.urdf``, ``panda.srdf``); default
-            ``shared_dir()/robots/mbm_panda``.
 
-    Raises:
-        FileNotFoundError: the folder or its files are missing.
-    """
+#: Mesh checkers attached to robot models by :func:`mbm_panda`, keyed by ``id(robot)``; each entry keeps its
+#: robot alive, so an id is never reused while it is registered (one entry per folder, see ``_mbm_models``).
+_MESH_CHECKERS: Dict[int, Tuple[Any, Any]] = {}
+
+
+@functools.lru_cache(maxsize=None)
+def _mbm_models(folder: str) -> Tuple[Any, Any]:
+    """(spherized robot, mesh checker or None) of one ``mbm_panda`` folder, built once per folder."""
     import gfcs
 
-    if path is None:
-        base = shared_dir()
-        if base is None:
-            raise FileNotFoundError("shared data folder not found (set GFCS_SHARED)")
-        folder = base / "robots" / "mbm_panda"
-    else:
-        folder = Path(path)
-    urdf, srdf = folder / "panda_spherized.urdf", folder / "panda.srdf"
+    root = Path(folder)
+    urdf, srdf = root / "panda_spherized.urdf", root / "panda.srdf"
     for f in (urdf, srdf):
         if not f.is_file():
             raise FileNotFoundError(f"MBM Panda file not found: {f}")
-    return gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", srdf=str(srdf), mesh_dir=str(folder))
+    robot = gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", srdf=str(srdf), mesh_dir=str(root))
+    checker = mbm_mesh_checker(root)
+    if checker is not None:
+        _MESH_CHECKERS[id(robot)] = (robot, checker)
+    return robot, checker
+
+
+def mbm_mesh_checker(path: Optional[PathLike] = None) -> Any:
+    """A :class:`gfcs.MeshChecker` of the MBM Panda's collision meshes, or None without ``panda.urdf``.
+
+    Built from ``panda.urdf`` (collision meshes under ``meshes/collision``, resolved with ``mesh_dir`` = the
+    folder) with the same end effector and SRDF as :func:`mbm_panda`, so its joints match that robot's.
+
+    Args:
+        path: the ``mbm_panda`` folder; default ``shared_dir()/robots/mbm_panda``.
+
+    Raises:
+        FileNotFoundError: no folder given and the shared data folder is missing.
+        gfcs.MeshError: ``panda.urdf`` names a mesh file that is missing or malformed.
+    """
+    import gfcs
+
+    root = _mbm_folder(path)
+    urdf, srdf = root / "panda.urdf", root / "panda.srdf"
+    if not urdf.is_file():
+        return None
+    robot = gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", mesh_dir=str(root),
+                                 srdf=str(srdf) if srdf.is_file() else None)
+    return gfcs.MeshChecker(robot)
+
+
+def mesh_checker_for(robot: Any) -> Any:
+    """The mesh checker :func:`mbm_panda` attached to ``robot``, None for any other robot."""
+    entry = _MESH_CHECKERS.get(id(robot))
+    return entry[1] if entry is not None and entry[0] is robot else None
+
+
+def mbm_panda(path: Optional[PathLike] = None) -> Any:
+    """The Panda model MotionBenchMaker problems were made for (spherized URDF + SRDF, EE panda_hand).
+
+    The model is built once per folder and shared (robots are immutable). When the folder also holds the
+    mesh model ``panda.urdf``, a :class:`gfcs.MeshChecker` of its collision meshes is attached: see
+    :func:`mesh_checker_for`; :func:`load_mbm` and :func:`load_mbm_dir` give it to their problems.
+
+    Args:
+        path: the ``mbm_panda`` folder (``panda_spherized.urdf``, ``panda.srdf``, optionally ``panda.urdf``
+            and ``meshes/``); default ``shared_dir()/robots/mbm_panda``.
+
+    Raises:
+        FileNotFoundError: the folder or its files are missing.
+        gfcs.MeshError: ``panda.urdf`` exists but names a missing or malformed mesh file.
+    """
+    return _mbm_models(str(_mbm_folder(path).resolve()))[0]

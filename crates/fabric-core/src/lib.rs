@@ -9,5 +9,6 @@ pub mod fabric;
 pub mod robot;
 pub mod rollout;
 pub mod scene;
+pub mod validate;
 
 pub use error::{FabricError, Result};

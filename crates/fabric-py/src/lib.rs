@@ -16,6 +16,7 @@ mod particle;
 mod robot;
 mod rollout;
 mod scene;
+mod validate;
 
 use pyo3::prelude::*;
 
@@ -44,5 +45,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fabric::PyFabric>()?;
     m.add_class::<rollout::PyRollout>()?;
     m.add_class::<rollout::PySequenceRollout>()?;
+    m.add_class::<validate::PyMeshChecker>()?;
     Ok(())
 }

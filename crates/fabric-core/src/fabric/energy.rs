@@ -289,10 +289,11 @@ pub trait Metric1D {
 }
 
 /// Barrier metric g(x) = k / x of the distance-space repulsion energy L_e = (k / 2x) s(ẋ) ẋ² (GF VII-A2),
-/// tapered to zero at the influence radius r: g(x) = (k / x)·(1 − x/r)² for x < r, 0 beyond. The taper is
-/// a position-only factor (the metric stays HD0 in ẋ) that makes g and g' continuous where a leaf enters or
-/// leaves the transform tree, so the fabric's acceleration does not jump there (smoother motion, lower
-/// jerk); near the barrier (x ≪ r) it is ≈ 1. `influence = ∞` gives the paper's untapered k / x.
+/// tapered to zero over the outer half of the influence radius r: g(x) = (k / x)·w(u) with
+/// u = (x − r/2)/(r/2) clamped to [0, 1] and w(u) = 1 − 3u² + 2u³ (so g = k/x exactly for x ≤ r/2 and
+/// g = 0 for x ≥ r). The taper is a position-only factor (the metric stays HD0 in ẋ) that makes g and g'
+/// continuous where a leaf enters or leaves the transform tree, so the fabric's acceleration does not jump
+/// there (smoother motion, lower jerk). `influence = ∞` gives the paper's untapered k / x.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BarrierMetric {
     /// k: barrier metric gain (units: metric · m).
@@ -311,23 +312,33 @@ impl Metric1D for BarrierMetric {
         if !self.influence.is_finite() {
             return x.recip() * self.gain;
         }
+        let half = 0.5 * self.influence;
         if x.re() >= self.influence {
             return x * 0.0;
         }
-        let w = -x.clone() / self.influence + 1.0;
-        x.recip() * self.gain * w.clone() * w
+        if x.re() <= half {
+            return x.recip() * self.gain;
+        }
+        let u = (x.clone() - half) / half;
+        let w = u.clone() * u.clone() * (u * 2.0 - 3.0) + 1.0;
+        x.recip() * self.gain * w
     }
     fn exact_with_derivative(&self, x: f64) -> (f64, f64) {
         if !self.influence.is_finite() {
             return (self.gain / x, -self.gain / (x * x));
         }
+        let half = 0.5 * self.influence;
         if x >= self.influence {
             return (0.0, 0.0);
         }
-        let w = 1.0 - x / self.influence;
-        let dw = -1.0 / self.influence;
         let g = self.gain / x;
-        (g * w * w, -g / x * w * w + g * 2.0 * w * dw)
+        if x <= half {
+            return (g, -g / x);
+        }
+        let u = (x - half) / half;
+        let w = 1.0 - 3.0 * u * u + 2.0 * u * u * u;
+        let dw = (-6.0 * u + 6.0 * u * u) / half;
+        (g * w, -g / x * w + g * dw)
     }
 }
 
@@ -567,9 +578,11 @@ mod tests {
     fn tapered_barrier_metric_is_c1_at_the_influence_radius_and_matches_ad() {
         let g = BarrierMetric { gain: 0.4, x_min: 0.01, influence: 0.3 };
         let (a, da) = g.g_dg(0.3 - 1e-9);
-        assert!(a.abs() < 1e-12 && da.abs() < 1e-7, "g and g' vanish at r: {a} {da}");
+        assert!(a.abs() < 1e-12 && da.abs() < 1e-6, "g and g' vanish at r: {a} {da}");
         assert_eq!(g.g_dg(0.5), (0.0, 0.0));
-        for &x in &[0.02, 0.1, 0.25] {
+        let (g_in, dg_in) = g.g_dg(0.1);
+        assert!((g_in - 4.0).abs() < 1e-12 && (dg_in + 40.0).abs() < 1e-10, "exact k/x inside r/2");
+        for &x in &[0.02, 0.1, 0.16, 0.25, 0.29] {
             let (v, d) = g.g_dg(x);
             let h = 1e-6;
             let fd = (g.g_dg(x + h).0 - g.g_dg(x - h).0) / (2.0 * h);

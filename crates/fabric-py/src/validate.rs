@@ -1,0 +1,159 @@
+//! `gfcs._core.MeshChecker`: exact clearance of a robot's URDF collision meshes and primitives against a
+//! scene and against itself (fabric-core `validate`), for judging trajectories the way independent
+//! validators do (GFCS Sec. V success criterion) rather than with the fabric's collision spheres.
+//!
+//! Frames: q in the robot's joint order, the scene in the robot base frame. Units: m, rad.
+
+use std::sync::Arc;
+
+use fabric_core::validate::{MeshChecker, DEFAULT_MAX_DISTANCE};
+use numpy::PyArrayDyn;
+use pyo3::prelude::*;
+
+use crate::convert::{self, output};
+use crate::errors::{detached, guarded};
+use crate::robot::PyRobot;
+use crate::scene::PyScene;
+
+/// A float for q (dof,) or a (T,) array for q (T, dof).
+fn scalar_or_array(py: Python<'_>, values: Vec<f64>, batch: Option<usize>) -> PyResult<Py<PyAny>> {
+    match (batch, values.first()) {
+        (None, Some(v)) => Ok(v.into_pyobject(py)?.into_any().unbind()),
+        _ => {
+            let n = values.len();
+            let array: Bound<'_, PyArrayDyn<f64>> = output(py, values, &[n])?;
+            Ok(array.into_any().unbind())
+        }
+    }
+}
+
+/// Clearance of a robot's URDF collision geometry (meshes scaled by their URDF scale; boxes, cylinders,
+/// capsules, spheres), independent of its collision spheres.
+///
+/// `MeshChecker(robot, max_distance=0.5)`: loads every `<collision>` element of `robot` once (the robot
+/// must come from a URDF with collision geometry, e.g. the MotionBenchMaker `panda.urdf` with
+/// `mesh_dir`). `max_distance` (m) keeps queries local: clearances above it are reported as `inf`.
+/// Raises `MeshError` naming the file and link for a missing or malformed mesh, `InvalidValueError`
+/// for a robot without collision geometry or a negative `max_distance`.
+#[pyclass(
+    frozen,
+    skip_from_py_object,
+    name = "MeshChecker",
+    module = "gfcs._core"
+)]
+pub struct PyMeshChecker {
+    inner: Arc<MeshChecker>,
+}
+
+#[pymethods]
+impl PyMeshChecker {
+    #[new]
+    #[pyo3(signature = (robot, max_distance=DEFAULT_MAX_DISTANCE))]
+    fn py_new(py: Python<'_>, robot: PyRef<'_, PyRobot>, max_distance: f64) -> PyResult<Self> {
+        let robot = robot.inner.clone();
+        let checker = detached(py, move || {
+            MeshChecker::new(&robot)?.with_max_distance(max_distance)
+        })?;
+        Ok(PyMeshChecker {
+            inner: Arc::new(checker),
+        })
+    }
+
+    /// Number of collision shapes S (one per URDF `<collision>` element).
+    #[getter]
+    fn num_shapes(&self) -> usize {
+        self.inner.num_shapes()
+    }
+
+    /// Link name of each collision shape, (S,) in URDF order.
+    #[getter]
+    fn shape_links(&self) -> Vec<String> {
+        let names = self.inner.robot().link_names();
+        self.inner
+            .shapes()
+            .iter()
+            .map(|s| names.get(s.link).cloned().unwrap_or_default())
+            .collect()
+    }
+
+    /// Number of shape pairs checked by `self_clearance` (links on different, non-adjacent rigid bodies
+    /// not disabled by the SRDF).
+    #[getter]
+    fn num_self_pairs(&self) -> usize {
+        self.inner.self_pairs().len()
+    }
+
+    /// Cutoff (m): clearances above it are reported as `inf`.
+    #[getter]
+    fn max_distance(&self) -> f64 {
+        self.inner.max_distance()
+    }
+
+    /// Number of joints (length of q).
+    #[getter]
+    fn dof(&self) -> usize {
+        self.inner.robot().dof()
+    }
+
+    /// Joint names, in q order.
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.inner.robot().joint_names().to_vec()
+    }
+
+    /// A copy of the robot the checker was built from.
+    #[getter]
+    fn robot(&self) -> PyRobot {
+        PyRobot::new(self.inner.robot().clone())
+    }
+
+    /// Clearance (m) of the collision geometry against `scene`: float for q (dof,), (T,) array for
+    /// q (T, dof). Positive when separated, ≤ 0 in contact (negative: penetration depth), `inf` when no
+    /// obstacle is within `max_distance`. Trajectories run in parallel (`threads`, None: all cores) with
+    /// the GIL released.
+    #[pyo3(signature = (scene, q, threads=None))]
+    fn clearance(
+        &self,
+        py: Python<'_>,
+        scene: PyRef<'_, PyScene>,
+        q: &Bound<'_, PyAny>,
+        threads: Option<usize>,
+    ) -> PyResult<Py<PyAny>> {
+        let checker = &self.inner;
+        let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
+        let scene = &scene.inner;
+        let values = match batch {
+            None => guarded(py, || checker.clearance(scene, &qs).map(|d| vec![d]))?,
+            Some(_) => detached(py, || checker.trajectory_clearance(scene, &qs, threads))?,
+        };
+        scalar_or_array(py, values, batch)
+    }
+
+    /// Self-clearance (m) over the checked shape pairs: float for q (dof,), (T,) array for q (T, dof);
+    /// ≤ 0 in contact, `inf` when no pair is within `max_distance`. Parallel as `clearance`.
+    #[pyo3(signature = (q, threads=None))]
+    fn self_clearance(
+        &self,
+        py: Python<'_>,
+        q: &Bound<'_, PyAny>,
+        threads: Option<usize>,
+    ) -> PyResult<Py<PyAny>> {
+        let checker = &self.inner;
+        let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
+        let values = match batch {
+            None => guarded(py, || checker.self_clearance(&qs).map(|d| vec![d]))?,
+            Some(_) => detached(py, || checker.trajectory_self_clearance(&qs, threads))?,
+        };
+        scalar_or_array(py, values, batch)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "MeshChecker(robot='{}', shapes={}, self_pairs={}, max_distance={})",
+            self.inner.robot().name(),
+            self.inner.num_shapes(),
+            self.inner.self_pairs().len(),
+            self.inner.max_distance()
+        )
+    }
+}
