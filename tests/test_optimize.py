@@ -190,8 +190,11 @@ def test_solve_is_reproducible(shelf_problem, solved):
     again = opt.solve(shelf_problem, batches=3, population=16, seed=0, threads=1)
     np.testing.assert_array_equal(again.commands, solved.commands)
     np.testing.assert_array_equal(again.batch_best_costs, solved.batch_best_costs)
+    # Another seed draws other candidates (the goal-as-command candidate is in every first batch, so
+    # the best may coincide: compare the whole top-m).
+    first = opt.solve(shelf_problem, batches=1, population=16, seed=0)
     other = opt.solve(shelf_problem, batches=1, population=16, seed=1)
-    assert not np.array_equal(other.top[0][0], solved.batch_best_commands[0])
+    assert any(not np.array_equal(a, b) for (a, _), (b, _) in zip(other.top, first.top))
 
 
 def test_gf_baseline(shelf_problem):

@@ -3,8 +3,8 @@
 //!
 //! The GFCS evaluation (GFCS Sec. V, Table I) counts a motion as a success when it reaches the goal
 //! without collision; independent validators check every state against the robot's collision *meshes*.
-//! The fabric's repulsion (GF Sec. VII-A) only sees spheres, so a sphere-free trajectory may still have a
-//! mesh in contact: [`MeshChecker`] measures that exactly.
+//! The fabric's repulsion (GF Sec. VII-A) only sees collision spheres, so a trajectory whose spheres
+//! clear every obstacle may still bring a mesh into contact: [`MeshChecker`] measures that exactly.
 //!
 //! * [`MeshChecker::new`] loads every URDF `<collision>` element of a [`Robot`] once (meshes scaled by
 //!   their URDF `scale`; boxes, cylinders, capsules and spheres as parry shapes).
@@ -341,7 +341,9 @@ impl MeshChecker {
                     .to_string(),
             });
         }
-        let mut cache: HashMap<(PathBuf, [u64; 3]), SharedShape> = HashMap::new();
+        // (file, scale bits) -> (mesh, hull): elements sharing both share the shapes.
+        type Loaded = (SharedShape, Option<SharedShape>);
+        let mut cache: HashMap<(PathBuf, [u64; 3]), Loaded> = HashMap::new();
         let mut shapes = Vec::with_capacity(geometry.len());
         for g in geometry {
             let link_name = robot
@@ -350,7 +352,7 @@ impl MeshChecker {
                 .cloned()
                 .unwrap_or_else(|| format!("#{}", g.link));
             let mut origin = g.origin;
-            let (shape, label) = match &g.kind {
+            let (shape, hull, label) = match &g.kind {
                 GeometryKind::Mesh {
                     path,
                     scale,
@@ -367,17 +369,19 @@ impl MeshChecker {
                         path.clone(),
                         [scale.x.to_bits(), scale.y.to_bits(), scale.z.to_bits()],
                     );
-                    let shape = match cache.get(&key) {
-                        Some(s) => s.clone(),
+                    let (shape, hull) = match cache.get(&key) {
+                        Some(loaded) => loaded.clone(),
                         None => {
-                            let s = SharedShape::new(load_scaled_mesh(path, scale, &link_name)?);
-                            cache.insert(key, s.clone());
-                            s
+                            let mesh = load_scaled_mesh(path, scale, &link_name)?;
+                            let hull = mesh_hull(&mesh);
+                            let loaded = (SharedShape::new(mesh), hull);
+                            cache.insert(key, loaded.clone());
+                            loaded
                         }
                     };
-                    (shape, format!("mesh {}", path.display()))
+                    (shape, hull, format!("mesh {}", path.display()))
                 }
-                GeometryKind::Box { size } => (box_shape(size), "box".to_string()),
+                GeometryKind::Box { size } => (box_shape(size), None, "box".to_string()),
                 GeometryKind::Cylinder { radius, length } => {
                     origin *= Isometry3::from_parts(
                         Translation3::identity(),
@@ -388,18 +392,19 @@ impl MeshChecker {
                     );
                     (
                         SharedShape::cylinder(length / 2.0, *radius),
+                        None,
                         "cylinder".to_string(),
                     )
                 }
                 GeometryKind::Capsule { radius, length } => (
                     SharedShape::capsule_z(length / 2.0, *radius),
+                    None,
                     "capsule".to_string(),
                 ),
                 GeometryKind::Sphere { radius } => {
-                    (SharedShape::ball(*radius), "sphere".to_string())
+                    (SharedShape::ball(*radius), None, "sphere".to_string())
                 }
             };
-            let hull = shape.as_trimesh().and_then(mesh_hull);
             shapes.push(CollisionShape {
                 link: g.link,
                 origin,
@@ -543,6 +548,10 @@ impl MeshChecker {
     /// negative penetration depth or 0 when in contact), with obstacles wholly enclosed by a solid link
     /// mesh counted as contact. `f64::INFINITY` when no obstacle is within
     /// [`MeshChecker::max_distance`] of any shape (or the scene is empty).
+    ///
+    /// Positive values are exact distances. Negative values of a mesh are the penetration depths parry
+    /// reports against its triangles, which underestimate the solid's once an obstacle crosses deeper
+    /// than the nearest face: read them as "in contact", not as a depth.
     ///
     /// Errors: `Shape` (q of the wrong length), `NonFinite`.
     pub fn clearance(&self, scene: &Scene, q: &[f64]) -> Result<f64> {

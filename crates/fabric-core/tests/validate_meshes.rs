@@ -269,6 +269,18 @@ fn mbm_panda_meshes_free_start_and_table_contact() {
     let robot = mbm_mesh_panda(&shared);
     let checker = MeshChecker::new(&robot).unwrap();
     assert_eq!(checker.num_shapes(), 11);
+    // Both fingers use finger.obj: loaded once, shared.
+    let fingers: Vec<_> = checker
+        .shapes()
+        .iter()
+        .filter(|s| s.label.ends_with("finger.obj"))
+        .collect();
+    assert_eq!(fingers.len(), 2);
+    assert!(std::sync::Arc::ptr_eq(
+        &fingers[0].shape.0,
+        &fingers[1].shape.0
+    ));
+    assert!(fingers.iter().all(|f| f.hull.is_some()));
     let (scene, start, _goal) = mbm_problem(&shared, &robot, "table_pick", 1);
     let free = checker.clearance(&scene, &start).unwrap();
     assert!(

@@ -1,0 +1,289 @@
+"""gfcs.MeshChecker (collision-mesh validation) against closed forms, and its use by problems, metrics and
+optimize. Tests that read the MotionBenchMaker data skip without ``../shared`` (fail under CI=true)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gfcs
+from gfcs import generators, metrics, problems
+from gfcs import optimize as opt
+from gfcs.problems import Problem
+
+LIMIT = '<limit lower="-3.2" upper="3.2" velocity="1" effort="1"/>'
+
+
+def slider_urdf(collision: str) -> str:
+    """One prismatic joint along x moving ``link``, whose ``<collision>`` holds ``collision``."""
+    return f"""<robot name="slider"><link name="base"/>
+      <link name="link"><collision>{collision}</collision></link>
+      <joint name="x" type="prismatic"><parent link="base"/><child link="link"/><axis xyz="1 0 0"/>{LIMIT}</joint>
+    </robot>"""
+
+
+def write_cube_obj(path: Path) -> Path:
+    """A unit cube centred on the origin (OBJ, outward quads)."""
+    lines = [f"v {x} {y} {z}" for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)]
+    faces = [(1, 2, 4, 3), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 3, 7, 5), (2, 6, 8, 4)]
+    lines += ["f " + " ".join(map(str, f)) for f in faces]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def box_sdf(p: np.ndarray, half: np.ndarray) -> float:
+    """Closed-form signed distance from p to the origin-centred box of half extents ``half``."""
+    q = np.abs(p) - half
+    return float(np.linalg.norm(np.maximum(q, 0.0)) + min(q.max(), 0.0))
+
+
+@pytest.fixture(scope="module")
+def cube_checker(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("cube")
+    write_cube_obj(folder / "cube.obj")
+    urdf = folder / "slider.urdf"
+    urdf.write_text(slider_urdf('<geometry><mesh filename="cube.obj" scale="0.4 0.4 0.4"/></geometry>'))
+    robot = gfcs.Robot.from_urdf(urdf)
+    return gfcs.MeshChecker(robot, max_distance=math.inf)
+
+
+# --------------------------------------------------------------------------------------- the binding
+def test_properties_and_repr(cube_checker):
+    c = cube_checker
+    assert c.num_shapes == 1 and c.shape_links == ["link"] and c.dof == 1 and c.joint_names == ["x"]
+    assert c.max_distance == math.inf and c.num_self_pairs == 0 and c.robot.name == "slider"
+    assert "MeshChecker(robot='slider', shapes=1" in repr(c)
+
+
+def test_cube_mesh_against_sphere_closed_form(cube_checker):
+    half = np.full(3, 0.2)  # unit cube scaled by 0.4
+    rng = np.random.default_rng(0)
+    qs, expected = [], []
+    while len(qs) < 60:
+        c, q = rng.uniform(-0.8, 0.8, 3), rng.uniform(-0.3, 0.3)
+        sdf = box_sdf(c - [q, 0.0, 0.0], half)
+        if sdf < 1e-3:
+            continue
+        scene = gfcs.Scene()
+        scene.add_sphere(c, 0.05)
+        d = cube_checker.clearance(scene, [q])
+        assert isinstance(d, float)
+        assert d == pytest.approx(sdf - 0.05, abs=1e-7)
+        qs.append(q)
+        expected.append(sdf - 0.05)
+    # one scene, a trajectory: (T,) array equal to the per-state values, whatever the thread count
+    scene = gfcs.Scene()
+    scene.add_sphere([0.6, 0.1, 0.0], 0.05)
+    traj = np.linspace(-0.3, 0.38, 35)[:, None]  # the ball centre stays outside the cube
+    along = cube_checker.clearance(scene, traj, threads=2)
+    assert along.shape == (35,) and along.dtype == np.float64
+    np.testing.assert_array_equal(along, cube_checker.clearance(scene, traj, threads=1))
+    for q, d in zip(traj, along):
+        assert d == cube_checker.clearance(scene, q)
+    want = [box_sdf(np.array([0.6 - q[0], 0.1, 0.0]), half) - 0.05 for q in traj]
+    np.testing.assert_allclose(along, want, atol=1e-7)
+    assert along.min() < 0.0 < along.max()  # the cube pushes into the ball at the end
+    # Deeper, with the centre inside the cube, a mesh penetration depth is measured from the triangles,
+    # not the solid: only its sign is reliable.
+    assert np.all(cube_checker.clearance(scene, np.linspace(0.4, 0.6, 9)[:, None]) <= 0.0)
+
+
+def test_cutoff_reports_inf_and_empty_trajectory():
+    urdf = slider_urdf('<geometry><box size="0.2 0.2 0.2"/></geometry>')
+    checker = gfcs.MeshChecker(gfcs.Robot.from_urdf(urdf))
+    assert checker.max_distance == 0.5
+    scene = gfcs.Scene()
+    scene.add_box([0.4, 0.4, 0.4], ([1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]))  # face at x = 0.8
+    assert checker.clearance(scene, [0.0]) == math.inf  # 0.7 m > cutoff
+    assert checker.clearance(scene, [0.3]) == pytest.approx(0.4, abs=1e-9)
+    assert checker.clearance(scene, np.zeros((0, 1))).shape == (0,)
+
+
+def test_self_clearance_closed_form():
+    # base cube 0.2 m; hand ball r = 0.05 at x = 0.3 of a link on an elbow at x = 0.42: for θ1 = 0 the
+    # ball centre is (0.42 + 0.3 cos θ2, 0.3 sin θ2, 0), and the clearance sdf_box(c) − 0.05.
+    urdf = f"""<robot name="folding">
+      <link name="base"><collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
+      <link name="arm"/>
+      <link name="hand"><collision><origin xyz="0.3 0 0"/><geometry><sphere radius="0.05"/></geometry></collision></link>
+      <joint name="j1" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>{LIMIT}</joint>
+      <joint name="j2" type="revolute"><parent link="arm"/><child link="hand"/><origin xyz="0.42 0 0"/>
+        <axis xyz="0 0 1"/>{LIMIT}</joint></robot>"""
+    checker = gfcs.MeshChecker(gfcs.Robot.from_urdf(urdf), max_distance=math.inf)
+    assert checker.num_self_pairs == 1
+    t2 = np.linspace(-3.1, 3.1, 25)
+    qs = np.column_stack([np.zeros_like(t2), t2])
+    got = checker.self_clearance(qs)
+    want = [box_sdf(np.array([0.42 + 0.3 * math.cos(a), 0.3 * math.sin(a), 0.0]), np.full(3, 0.1)) - 0.05
+            for a in t2]
+    np.testing.assert_allclose(got, want, atol=1e-7)
+    assert checker.self_clearance([0.0, math.pi]) == pytest.approx(-0.03, abs=1e-7)
+
+
+def test_errors(tmp_path, cube_checker):
+    scene = gfcs.Scene()
+    with pytest.raises(gfcs.ShapeError, match=r"q: expected shape \(1,\) or \(N, 1\)"):
+        cube_checker.clearance(scene, [0.0, 1.0])
+    with pytest.raises(gfcs.NonFiniteError, match="q"):
+        cube_checker.clearance(scene, [math.nan])
+    with pytest.raises(gfcs.InvalidValueError, match="threads"):
+        cube_checker.clearance(scene, np.zeros((3, 1)), threads=0)
+    with pytest.raises(gfcs.InvalidValueError, match="no URDF <collision> geometry"):
+        gfcs.MeshChecker(gfcs.Robot.panda())
+    robot = gfcs.Robot.from_urdf(slider_urdf('<geometry><box size="0.2 0.2 0.2"/></geometry>'))
+    with pytest.raises(gfcs.InvalidValueError, match="max_distance"):
+        gfcs.MeshChecker(robot, max_distance=-1.0)
+    urdf = tmp_path / "missing.urdf"
+    urdf.write_text(slider_urdf('<geometry><mesh filename="meshes/nothing_here.obj"/></geometry>'))
+    with pytest.raises(gfcs.MeshError, match=r"nothing_here\.obj.*link 'link'") as info:
+        gfcs.MeshChecker(gfcs.Robot.from_urdf(urdf))
+    assert isinstance(info.value, OSError)
+
+
+# --------------------------------------------------------------------------------- metrics, problems
+@pytest.fixture(scope="module")
+def sphere_and_mesh_sliders():
+    """The same slider twice: a 0.05 m collision sphere (the fabric's model) and a 0.4 m box (its mesh)."""
+    spheres = gfcs.Robot.from_urdf(slider_urdf('<geometry><sphere radius="0.05"/></geometry>'))
+    boxes = gfcs.Robot.from_urdf(slider_urdf('<geometry><box size="0.4 0.4 0.4"/></geometry>'))
+    scene = gfcs.Scene()
+    scene.add_sphere([0.5, 0.0, 0.0], 0.1)
+    return spheres, gfcs.MeshChecker(boxes), scene
+
+
+def test_trajectory_metrics_report_mesh_contact(sphere_and_mesh_sliders):
+    spheres, checker, scene = sphere_and_mesh_sliders
+    t = np.linspace(0.0, 1.0, 51)
+    q = (0.25 * t)[:, None]  # slides to x = 0.25: sphere gap 0.1, box face at 0.45 inside the ball
+    plain = metrics.trajectory_metrics(spheres, scene, t, q, [0.25])
+    assert plain["success"] and "mesh_clearance" not in plain
+    assert plain["min_clearance"] == pytest.approx(0.1, abs=1e-9)
+    meshed = metrics.trajectory_metrics(spheres, scene, t, q, [0.25], mesh_checker=checker)
+    assert not meshed["success"]
+    assert meshed["mesh_clearance"] == pytest.approx(0.4 - 0.45, abs=1e-7)
+    assert meshed["mesh_self_clearance"] == math.inf  # one link: no pair
+    np.testing.assert_allclose(metrics.mesh_clearance(checker, scene, q), 0.4 - (0.2 + 0.25 * t), atol=1e-7)
+    short = metrics.trajectory_metrics(spheres, scene, t[:21], q[:21], q[20], mesh_checker=checker)
+    assert short["success"] and short["mesh_clearance"] == pytest.approx(0.1, abs=1e-7)
+
+
+def test_problem_carries_a_matching_checker(sphere_and_mesh_sliders):
+    spheres, checker, scene = sphere_and_mesh_sliders
+    p = Problem("slide", spheres, scene, q0=[0.0], goal=[0.2], mesh_checker=checker)
+    assert p.with_scene(gfcs.Scene()).mesh_checker is checker
+    assert dataclasses.replace(p, name="other").mesh_checker is checker
+    panda_meshless = Problem("p", gfcs.Robot.panda(), gfcs.Scene(), generators.READY, generators.READY)
+    assert panda_meshless.mesh_checker is None
+    with pytest.raises(ValueError, match="mesh_checker: joints"):
+        Problem("p", gfcs.Robot.panda(), gfcs.Scene(), generators.READY, generators.READY, mesh_checker=checker)
+
+
+def test_mbm_mesh_checker_is_none_without_panda_urdf(tmp_path):
+    assert problems.mbm_mesh_checker(tmp_path) is None
+    assert problems.mesh_checker_for(gfcs.Robot.panda()) is None
+
+
+# ------------------------------------------------------------------------------------------ optimize
+class FlaggingChecker:
+    """Duck-typed mesh checker that reports contact for the first ``bad`` trajectories it sees."""
+
+    def __init__(self, robot, bad):
+        self.joint_names = list(robot.joint_names)
+        self.bad, self.seen = bad, 0
+
+    def clearance(self, scene, q):
+        self.seen += 1
+        return np.full(np.atleast_2d(q).shape[0], -0.01 if self.seen <= self.bad else 0.2)
+
+    def self_clearance(self, q):
+        return np.full(np.atleast_2d(q).shape[0], 0.1)
+
+
+@pytest.fixture(scope="module")
+def shelf():
+    return generators.generate("bookshelf_small", 1, seed=0, robot=gfcs.Robot.panda())[0]
+
+
+def test_solve_returns_the_best_mesh_free_candidate(shelf):
+    plain = opt.solve(shelf, batches=1, population=8, seed=0, top_m=3)
+    flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=1))
+    r = opt.solve(flagged, batches=1, population=8, seed=0, top_m=3)
+    assert r.metrics["mesh_candidate_rank"] == 1 and r.metrics["mesh_candidates_checked"] == 2
+    np.testing.assert_array_equal(r.commands.ravel(), plain.top[1][0])
+    assert r.cost == pytest.approx(plain.top[1][1], abs=1e-12)
+    assert [c for _, c in r.top] == [c for _, c in plain.top]  # the optimiser's top-m is unchanged
+    # every candidate in contact: the lowest-cost one comes back, reported as failed
+    hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=99))
+    r = opt.solve(hopeless, batches=1, population=8, seed=0, top_m=3)
+    np.testing.assert_array_equal(r.commands, plain.commands)
+    assert not r.success and r.metrics["mesh_candidate_rank"] == 0
+    assert r.metrics["mesh_candidates_checked"] == 3 and r.metrics["mesh_clearance"] < 0
+    gf = opt.solve(hopeless, method="gf")
+    assert "mesh_clearance" in gf.metrics and not gf.success
+
+
+# ------------------------------------------------------------------------------ MotionBenchMaker Panda
+def test_mbm_panda_attaches_its_mesh_checker(shared_dir):
+    folder = shared_dir / "robots" / "mbm_panda"
+    robot = problems.mbm_panda(folder)
+    assert problems.mbm_panda(folder) is robot
+    checker = problems.mesh_checker_for(robot)
+    assert checker is not None and checker.num_shapes == 11 and checker.joint_names == robot.joint_names
+    assert checker.shape_links[-3:] == ["panda_hand", "panda_leftfinger", "panda_rightfinger"]
+    suite = problems.load_mbm_dir(shared_dir / "mbm", classes=["table_pick"], limit=2, robot=robot)
+    assert all(p.mesh_checker is checker for p in suite)
+    plain = problems.load_mbm_dir(shared_dir / "mbm", classes=["table_pick"], limit=1,
+                                  robot=gfcs.Robot.panda())
+    assert plain[0].mesh_checker is None
+
+
+@pytest.mark.parametrize("cls", problems.CLASSES)
+def test_mbm_starts_and_goals_are_mesh_free(shared_dir, cls):
+    robot = problems.mbm_panda(shared_dir / "robots" / "mbm_panda")
+    for p in problems.load_mbm_dir(shared_dir / "mbm", classes=[cls], limit=3, robot=robot):
+        states = np.vstack([p.q0, p.goal])
+        assert np.all(p.mesh_checker.clearance(p.scene, states) > 0.0), p.name
+        assert np.all(p.mesh_checker.self_clearance(states) > 0.0), p.name
+
+
+def test_mbm_arm_pushed_into_the_table_is_in_contact(shared_dir):
+    checker = problems.mesh_checker_for(problems.mbm_panda(shared_dir / "robots" / "mbm_panda"))
+    scene = gfcs.Scene.from_moveit_yaml(shared_dir / "mbm" / "table_pick" / "scene0001.yaml")
+    for o in scene.obstacles():
+        if o["name"] != "table_top":
+            scene.remove(o["id"])
+    bend = np.array([[1.17, q2, 0.0, -1.5, 0.0, 1.6, 0.785] for q2 in np.linspace(0.3, 0.7, 21)])
+    d = checker.clearance(scene, bend)
+    assert d[0] > 0.05 and d[-1] <= 0.0
+    first = int(np.argmax(d <= 0.0))
+    assert np.all(d[:first] > 0.0)
+
+
+def test_mbm_clearance_matches_dense_surface_samples(shared_dir):
+    """Independent reference: the scene's signed distance at dense samples of every collision mesh surface
+    (trimesh) is never below the mesh clearance and approaches it (sample spacing ~2 mm)."""
+    trimesh = pytest.importorskip("trimesh")
+    checker = problems.mesh_checker_for(problems.mbm_panda(shared_dir / "robots" / "mbm_panda"))
+    robot = checker.robot
+    local = []
+    for g in robot.collision_geometry():
+        mesh = trimesh.load(g["path"], force="mesh")
+        pts, _ = trimesh.sample.sample_surface_even(mesh, 4000, seed=0)
+        pts = np.vstack([pts, mesh.vertices]) * g["scale"]
+        local.append((robot.link_index(g["link"]), pts @ g["origin"][:3, :3].T + g["origin"][:3, 3]))
+    mbm = problems.mbm_panda(shared_dir / "robots" / "mbm_panda")
+    for cls in ("cage", "table_under_pick", "bookshelf_thin"):
+        for p in problems.load_mbm_dir(shared_dir / "mbm", classes=[cls], limit=2, robot=mbm):
+            for q in (p.q0, p.goal):
+                poses = robot.link_poses(q)
+                ref = min(float(np.min(p.scene.signed_distance(pts @ poses[k][:3, :3].T + poses[k][:3, 3])))
+                          for k, pts in local)
+                got = checker.clearance(p.scene, q)
+                if ref > checker.max_distance:
+                    assert got == math.inf or got > checker.max_distance - 2e-3
+                    continue
+                assert got <= ref + 1e-9 and ref - got < 2e-3, (p.name, got, ref)
