@@ -212,7 +212,7 @@ def test_solve_returns_the_best_mesh_free_candidate(shelf):
     plain = opt.solve(shelf, batches=1, population=8, seed=0, top_m=3)
     flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=1))
     r = opt.solve(flagged, batches=1, population=8, seed=0, top_m=3)
-    assert r.metrics["mesh_candidate_rank"] == 1 and r.metrics["mesh_candidates_checked"] == 2
+    assert r.metrics["mesh_candidate_rank"] == 1 and r.metrics["mesh_candidates_checked"] == 2 and r.success
     np.testing.assert_array_equal(r.commands.ravel(), plain.top[1][0])
     assert r.cost == pytest.approx(plain.top[1][1], abs=1e-12)
     assert [c for _, c in r.top] == [c for _, c in plain.top]  # the optimiser's top-m is unchanged

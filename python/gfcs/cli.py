@@ -286,7 +286,8 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
             continue
         if batches > 1:
             first = optimize.replay(res, problem.scene,
-                                    commands=res.batch_best_commands[0].reshape(res.n_commands, -1))
+                                    commands=res.batch_best_commands[0].reshape(res.n_commands, -1),
+                                    mesh_checker=getattr(problem, "mesh_checker", None))
             rows.append(bench_row(problem.name, problem.cls, "Ours (1 b)", "gfcs", 1, seed,
                                   float(res.batch_times[0]), first.cost, first.metrics))
         rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b)", "gfcs", batches, seed,

@@ -16,9 +16,10 @@ Two layers:
 Mesh validation: the fabric and the cost see the robot's collision *spheres*; benchmarks judge motions with
 its collision *meshes*. When the problem carries a ``mesh_checker`` (:class:`gfcs.MeshChecker`, see
 :mod:`gfcs.problems`), :func:`solve` rolls out the top-m candidates of the optimisation in cost order and
-returns the first whose full trajectory keeps every mesh clear of the obstacles and of the robot itself
-(``metrics["mesh_clearance"] > 0`` and ``metrics["mesh_self_clearance"] > 0``); if none does, the
-lowest-cost candidate is returned (and reported as failed). ``result.top`` and the per-batch data are the
+returns the first whose full trajectory succeeds with every mesh clear of the obstacles and of the robot
+itself (``metrics["success"]``, which then requires ``mesh_clearance > 0`` and ``mesh_self_clearance > 0``
+besides reaching the goal with the spheres clear); if none does, the lowest-cost candidate is returned (and
+reported as failed): a mesh-free candidate that misses the goal is no better. ``result.top`` and the per-batch data are the
 optimiser's, unchanged (anytime / top-m semantics of Alg. 1); ``metrics["mesh_candidate_rank"]`` is the rank
 in ``result.top`` of the returned candidate and ``metrics["mesh_candidates_checked"]`` how many were rolled
 out.
@@ -398,11 +399,6 @@ def _settings_dict(settings: RolloutSettings, **extra: Any) -> Dict[str, Any]:
     return d
 
 
-def _mesh_clear(met: Dict[str, Any]) -> bool:
-    """Whether trajectory metrics computed with a mesh checker show no mesh contact."""
-    return met.get("mesh_clearance", math.inf) > 0.0 and met.get("mesh_self_clearance", math.inf) > 0.0
-
-
 def _select_candidate(
     fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
     mesh_checker: Any,
@@ -411,7 +407,7 @@ def _select_candidate(
     t_stars, metrics).
 
     Without a mesh checker: the lowest-cost candidate. With one: the first of ``opt.top_x`` (cost order)
-    whose trajectory is clear of mesh contact (see the module docstring), else the lowest-cost one.
+    whose trajectory succeeds, meshes included (see the module docstring), else the lowest-cost one.
     """
     robot, scene = problem.robot, problem.scene
     dof = int(robot.dof)
@@ -430,7 +426,7 @@ def _select_candidate(
         met["mesh_candidates_checked"] = rank + 1
         if first is None:
             first = chosen
-        if _mesh_clear(met):
+        if met["success"]:
             met["mesh_candidate_rank"] = rank
             return chosen
     if first is None:  # unreachable: `candidates` has at least one row
