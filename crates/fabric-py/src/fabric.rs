@@ -47,12 +47,25 @@ impl PyFabric {
         self.fabric.robot().dof()
     }
 
-    /// q̇₀: zeros when None.
-    fn velocity_or_zeros(&self, qd: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
-        match qd {
-            Some(v) if !v.is_none() => convert::vector(v, what, self.dof()),
-            _ => Ok(vec![0.0; self.dof()]),
-        }
+    /// The initial state of a rollout: `q0` (dof,) rad and `qd0` (dof,) rad/s, zeros when None; checked
+    /// in that order.
+    fn initial_state(
+        &self,
+        q0: &Bound<'_, PyAny>,
+        qd0: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<(Vec<f64>, Vec<f64>)> {
+        let n = self.dof();
+        let q0 = convert::vector(q0, "q0", n)?;
+        let qd0 = match qd0 {
+            Some(v) if !v.is_none() => convert::vector(v, "qd0", n)?,
+            _ => vec![0.0; n],
+        };
+        Ok((q0, qd0))
+    }
+
+    /// The fabric and a snapshot of its current scene, to move into a GIL-free computation.
+    fn shared(&self) -> (Arc<Fabric>, Arc<Scene>) {
+        (self.fabric.clone(), self.scene_snapshot())
     }
 }
 
@@ -280,12 +293,10 @@ impl PyFabric {
         record: bool,
     ) -> PyResult<PyRollout> {
         let n = self.dof();
-        let q0 = convert::vector(q0, "q0", n)?;
-        let qd0 = self.velocity_or_zeros(qd0, "qd0")?;
+        let (q0, qd0) = self.initial_state(q0, qd0)?;
         let command = convert::vector(command, "command", n)?;
         let opts = rollout_options(dt, t_max, tol, integrator, record)?;
-        let fabric = self.fabric.clone();
-        let scene = self.scene_snapshot();
+        let (fabric, scene) = self.shared();
         let result = detached(py, move || {
             let mut ws = FabricWorkspace::new(&fabric);
             core_rollout::rollout(&fabric, &scene, &q0, &qd0, &command, &opts, &mut ws)
@@ -327,13 +338,11 @@ impl PyFabric {
             integrator,
         };
         let n = self.dof();
-        let q0 = convert::vector(q0, "q0", n)?;
-        let qd0 = self.velocity_or_zeros(qd0, "qd0")?;
+        let (q0, qd0) = self.initial_state(q0, qd0)?;
         let (commands, n_commands) = convert::rows(commands, "commands", n)?;
         let goal = convert::vector(goal, "goal", n)?;
         let opts = kwargs.options(n_commands, record)?;
-        let fabric = self.fabric.clone();
-        let scene = self.scene_snapshot();
+        let (fabric, scene) = self.shared();
         let result = detached(py, move || {
             let mut ws = FabricWorkspace::new(&fabric);
             core_rollout::rollout_sequence(
@@ -379,8 +388,7 @@ impl PyFabric {
             integrator,
         };
         let n = self.dof();
-        let q0 = convert::vector(q0, "q0", n)?;
-        let qd0 = self.velocity_or_zeros(qd0, "qd0")?;
+        let (q0, qd0) = self.initial_state(q0, qd0)?;
         let goal = convert::vector(goal, "goal", n)?;
         let cand = convert::array(candidates, "candidates")?;
         let (rows, n_commands) = match cand.shape.as_slice() {
@@ -401,8 +409,7 @@ impl PyFabric {
             }));
         }
         let opts = kwargs.options(n_commands, return_trajectories)?;
-        let fabric = self.fabric.clone();
-        let scene = self.scene_snapshot();
+        let (fabric, scene) = self.shared();
         let data = cand.data;
         let results = detached(py, move || {
             core_rollout::evaluate_batch(&fabric, &scene, &q0, &qd0, &goal, &data, &opts, threads)

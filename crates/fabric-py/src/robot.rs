@@ -343,18 +343,15 @@ impl PyRobot {
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let robot = self.inner.clone();
-        let (qs, batch_n) = convert::vector_or_rows(q, "q", robot.dof())?;
-        let poses = detached(py, move || batch::link_poses(&robot, &qs))?;
         let links = self.inner.link_names().len();
-        let mut data = Vec::with_capacity(poses.len() * 16);
-        for p in &poses {
-            convert::push_pose(&mut data, p);
-        }
-        match batch_n {
-            None => output(py, data, &[links, 4, 4]),
-            Some(n) => output(py, data, &[n, links, 4, 4]),
-        }
+        self.per_configuration(py, q, &[links, 4, 4], |robot, qs, _| {
+            let poses = batch::link_poses(robot, qs)?;
+            let mut data = Vec::with_capacity(poses.len() * 16);
+            for p in &poses {
+                convert::push_pose(&mut data, p);
+            }
+            Ok(data)
+        })
     }
 
     /// World centres of the collision spheres, (S, 3) for q (dof,) or (N, S, 3) for q (N, dof), m.
@@ -363,15 +360,11 @@ impl PyRobot {
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let robot = self.inner.clone();
-        let (qs, batch_n) = convert::vector_or_rows(q, "q", robot.dof())?;
-        let centers = detached(py, move || batch::sphere_centers(&robot, &qs))?;
         let s = self.inner.spheres().len();
-        let data = centers.iter().flat_map(|c| [c.x, c.y, c.z]).collect();
-        match batch_n {
-            None => output(py, data, &[s, 3]),
-            Some(n) => output(py, data, &[n, s, 3]),
-        }
+        self.per_configuration(py, q, &[s, 3], |robot, qs, _| {
+            let centers = batch::sphere_centers(robot, qs)?;
+            Ok(centers.iter().flat_map(|c| [c.x, c.y, c.z]).collect())
+        })
     }
 
     /// World position of the end-effector link origin, (3,) for q (dof,) or (N, 3) for q (N, dof), m.
@@ -380,12 +373,9 @@ impl PyRobot {
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let robot = self.inner.clone();
-        let dof = robot.dof();
-        let (qs, batch_n) = convert::vector_or_rows(q, "q", dof)?;
-        let n = batch_n.unwrap_or(1);
-        let data = detached(py, move || {
-            let mut ws = KinematicsWorkspace::new(&robot);
+        self.per_configuration(py, q, &[3], |robot, qs, n| {
+            let dof = robot.dof();
+            let mut ws = KinematicsWorkspace::new(robot);
             let zeros = vec![0.0; dof];
             let mut out = Vec::with_capacity(3 * n);
             for i in 0..n {
@@ -394,11 +384,7 @@ impl PyRobot {
                 out.extend_from_slice(&[x.x, x.y, x.z]);
             }
             Ok(out)
-        })?;
-        match batch_n {
-            None => output(py, data, &[3]),
-            Some(n) => output(py, data, &[n, 3]),
-        }
+        })
     }
 
     /// Jacobian ∂x/∂q (3, dof) of the point `point` (3,) m, fixed in the frame of `link` (name or index),
@@ -516,6 +502,29 @@ impl PyRobot {
 }
 
 impl PyRobot {
+    /// Values per configuration of `q`, (dof,) or (N, dof): `f(robot, qs, n)` gets the n row-major
+    /// configurations (n = 1 for a single q), runs with the GIL released, and returns n × prod(`item`)
+    /// values; the result has shape `item` for q (dof,) and (N, *item) for q (N, dof).
+    fn per_configuration<'py, F>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        item: &[usize],
+        f: F,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>>
+    where
+        F: FnOnce(&Robot, &[f64], usize) -> fabric_core::Result<Vec<f64>> + Send,
+    {
+        let robot = self.inner.clone();
+        let (qs, batch_n) = convert::vector_or_rows(q, "q", robot.dof())?;
+        let n = batch_n.unwrap_or(1);
+        let data = detached(py, move || f(&robot, &qs, n))?;
+        match batch_n {
+            None => output(py, data, item),
+            Some(n) => output(py, data, &[&[n], item].concat()),
+        }
+    }
+
     /// Kinematics of a link-fixed point (`is_axis = false`) or direction (`true`) at (q, q̇); q̇ = 0 when
     /// `qd` is None. `local` defaults to the link origin (only meaningful for points).
     fn task_point(

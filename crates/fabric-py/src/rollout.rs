@@ -90,6 +90,52 @@ impl Recorded {
     }
 }
 
+/// The `#[pymethods]` block of a result class holding `rec: Recorded` and a `result` with final `q`, `qd`:
+/// the trajectory getters `t` (T,) s (documented by `t_doc`), `q`, `qd` (T, dof), `qdd` (T, dof)
+/// (documented by `qdd_doc`), the final state `q_final`, `qd_final` (dof,) and `__len__` (T), followed by
+/// the class's own methods.
+macro_rules! recorded_pymethods {
+    ($class:ident, t_doc = $t_doc:literal, qdd_doc = $qdd_doc:literal, $($methods:tt)*) => {
+        #[pymethods]
+        impl $class {
+            #[doc = $t_doc]
+            #[getter]
+            fn t<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+                output(py, self.rec.t.clone(), &[self.rec.t.len()])
+            }
+            /// Configurations (T, dof).
+            #[getter]
+            fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+                self.rec.rows(py, &self.rec.q)
+            }
+            /// Velocities (T, dof).
+            #[getter]
+            fn qd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+                self.rec.rows(py, &self.rec.qd)
+            }
+            #[doc = $qdd_doc]
+            #[getter]
+            fn qdd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+                self.rec.rows(py, &self.rec.qdd)
+            }
+            /// Final configuration (dof,).
+            #[getter]
+            fn q_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+                output(py, self.result.q.clone(), &[self.result.q.len()])
+            }
+            /// Final velocity (dof,).
+            #[getter]
+            fn qd_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+                output(py, self.result.qd.clone(), &[self.result.qd.len()])
+            }
+            fn __len__(&self) -> usize {
+                self.rec.t.len()
+            }
+            $($methods)*
+        }
+    };
+}
+
 /// One rollout toward one command (GFCS eq. 1–3). Trajectory arrays are empty ((0,), (0, dof)) when the
 /// rollout was not recorded.
 #[pyclass(frozen, skip_from_py_object, name = "Rollout", module = "gfcs._core")]
@@ -107,28 +153,10 @@ impl PyRollout {
     }
 }
 
-#[pymethods]
-impl PyRollout {
-    /// Times (T,), s.
-    #[getter]
-    fn t<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        output(py, self.rec.t.clone(), &[self.rec.t.len()])
-    }
-    /// Configurations (T, dof).
-    #[getter]
-    fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.rec.rows(py, &self.rec.q)
-    }
-    /// Velocities (T, dof).
-    #[getter]
-    fn qd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.rec.rows(py, &self.rec.qd)
-    }
-    /// Accelerations f(q, q̇) (T, dof) applied from each row to the next.
-    #[getter]
-    fn qdd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.rec.rows(py, &self.rec.qdd)
-    }
+recorded_pymethods! {
+    PyRollout,
+    t_doc = "Times (T,), s.",
+    qdd_doc = "Accelerations f(q, q̇) (T, dof) applied from each row to the next.",
     /// t* = min(t, t_max), s (eq. 2): the first time ‖q − command‖ < tol, t_max if never.
     #[getter]
     fn t_star(&self) -> f64 {
@@ -160,19 +188,6 @@ impl PyRollout {
     #[getter]
     fn min_clearance(&self) -> f64 {
         self.result.min_clearance
-    }
-    /// Final configuration (dof,).
-    #[getter]
-    fn q_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        output(py, self.result.q.clone(), &[self.result.q.len()])
-    }
-    /// Final velocity (dof,).
-    #[getter]
-    fn qd_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        output(py, self.result.qd.clone(), &[self.result.qd.len()])
-    }
-    fn __len__(&self) -> usize {
-        self.rec.t.len()
     }
     fn __repr__(&self) -> String {
         format!(
@@ -208,28 +223,10 @@ impl PySequenceRollout {
     }
 }
 
-#[pymethods]
-impl PySequenceRollout {
-    /// Times (T,), s, strictly increasing across the commands.
-    #[getter]
-    fn t<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        output(py, self.rec.t.clone(), &[self.rec.t.len()])
-    }
-    /// Configurations (T, dof).
-    #[getter]
-    fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.rec.rows(py, &self.rec.q)
-    }
-    /// Velocities (T, dof).
-    #[getter]
-    fn qd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.rec.rows(py, &self.rec.qd)
-    }
-    /// Accelerations (T, dof).
-    #[getter]
-    fn qdd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.rec.rows(py, &self.rec.qdd)
-    }
+recorded_pymethods! {
+    PySequenceRollout,
+    t_doc = "Times (T,), s, strictly increasing across the commands.",
+    qdd_doc = "Accelerations (T, dof).",
     /// Cost Σ tᵢ* + p·1[goal not reached] + collision_penalty·1[collided], s (eq. 4, 8).
     #[getter]
     fn cost(&self) -> f64 {
@@ -273,19 +270,6 @@ impl PySequenceRollout {
     #[getter]
     fn min_clearance(&self) -> f64 {
         self.result.min_clearance
-    }
-    /// Final configuration (dof,).
-    #[getter]
-    fn q_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        output(py, self.result.q.clone(), &[self.result.q.len()])
-    }
-    /// Final velocity (dof,).
-    #[getter]
-    fn qd_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        output(py, self.result.qd.clone(), &[self.result.qd.len()])
-    }
-    fn __len__(&self) -> usize {
-        self.rec.t.len()
     }
     fn __repr__(&self) -> String {
         format!(

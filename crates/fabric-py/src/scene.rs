@@ -76,6 +76,25 @@ impl PyScene {
         Ok(id.0)
     }
 
+    /// Add a cylinder or capsule along the pose's local z axis: `height` (full length, m) and `radius`
+    /// (m) must be > 0 (checked in that order, then `pose`); `shape(half_height, radius)` builds it.
+    #[allow(clippy::too_many_arguments)]
+    fn add_axial(
+        &mut self,
+        py: Python<'_>,
+        height: &Bound<'_, PyAny>,
+        radius: &Bound<'_, PyAny>,
+        pose: Option<&Bound<'_, PyAny>>,
+        name: Option<String>,
+        velocity: Option<&Bound<'_, PyAny>>,
+        shape: impl FnOnce(f64, f64) -> Shape,
+    ) -> PyResult<u64> {
+        let half_height = positive(height, "height")? / 2.0;
+        let radius = positive(radius, "radius")?;
+        let pose = convert::pose_or_identity(pose, "pose")?;
+        self.add_obstacle(py, shape(half_height, radius), pose, name, velocity)
+    }
+
     /// The obstacle with id `id`; `InvalidValueError` for an unknown id.
     fn obstacle(&self, id: u64) -> PyResult<&Obstacle> {
         self.inner.get(ObstacleId(id)).ok_or_else(|| unknown_id(id))
@@ -211,19 +230,11 @@ impl PyScene {
         name: Option<String>,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<u64> {
-        let half_height = positive(height, "height")? / 2.0;
-        let radius = positive(radius, "radius")?;
-        let pose = convert::pose_or_identity(pose, "pose")?;
-        self.add_obstacle(
-            py,
-            Shape::Cylinder {
-                half_height,
-                radius,
-            },
-            pose,
-            name,
-            velocity,
-        )
+        let shape = |half_height, radius| Shape::Cylinder {
+            half_height,
+            radius,
+        };
+        self.add_axial(py, height, radius, pose, name, velocity, shape)
     }
 
     /// A capsule: a segment of length `height` m along the pose's local z axis (between the two cap
@@ -238,19 +249,11 @@ impl PyScene {
         name: Option<String>,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<u64> {
-        let half_height = positive(height, "height")? / 2.0;
-        let radius = positive(radius, "radius")?;
-        let pose = convert::pose_or_identity(pose, "pose")?;
-        self.add_obstacle(
-            py,
-            Shape::Capsule {
-                half_height,
-                radius,
-            },
-            pose,
-            name,
-            velocity,
-        )
+        let shape = |half_height, radius| Shape::Capsule {
+            half_height,
+            radius,
+        };
+        self.add_axial(py, height, radius, pose, name, velocity, shape)
     }
 
     /// A half-space {p : n·p <= offset} (free side +n). Give `normal` (3,) (normalised here) and `offset`

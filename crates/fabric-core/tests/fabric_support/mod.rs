@@ -2,7 +2,10 @@
 //! a scene built in code, and a plain semi-implicit Euler rollout (independent of `rollout::`).
 #![allow(dead_code)]
 
-use std::path::{Path, PathBuf};
+#[path = "../common/mod.rs"]
+mod common;
+
+use std::path::Path;
 use std::sync::Arc;
 
 use fabric_core::fabric::{Fabric, FabricWorkspace};
@@ -10,27 +13,10 @@ use fabric_core::robot::{Robot, RobotOptions};
 use fabric_core::scene::{moveit, Obstacle, Scene, Shape};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-/// `<repo>/../shared` (or `$GFCS_SHARED`). `None` (test skipped, reason printed) when absent, unless
-/// `CI=true`: then the test fails.
-pub fn shared_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("GFCS_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared")));
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var("CI").as_deref() == Ok("true") {
-        panic!(
-            "shared data directory {} is missing and CI=true",
-            dir.display()
-        );
-    }
-    eprintln!(
-        "skipping: shared data directory {} not found (set GFCS_SHARED)",
-        dir.display()
-    );
-    None
-}
+/// The shared-data skip rule (`tests/common`): `<repo>/../shared` (or `$GFCS_SHARED`), `None` (test
+/// skipped, reason printed) when absent, unless `CI=true`: then the test fails.
+#[allow(unused_imports)] // not every test crate that includes this module calls it
+pub use common::shared_dir;
 
 /// The spherized MotionBenchMaker Panda with its SRDF self-collision pairs.
 pub fn mbm_panda(shared: &Path) -> Robot {

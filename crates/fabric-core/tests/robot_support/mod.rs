@@ -2,6 +2,9 @@
 //! finite-difference references.
 #![allow(dead_code)]
 
+#[path = "../common/mod.rs"]
+mod common;
+
 use std::path::PathBuf;
 
 use fabric_core::robot::{KinematicsWorkspace, Robot, RobotOptions, TaskPoint};
@@ -9,27 +12,10 @@ use nalgebra::{Matrix3xX, Point3, Vector3};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-/// `<repo>/../shared` (or `$GFCS_SHARED`). `None` (test skipped, reason printed) when absent, unless
-/// `CI=true`: then the test fails.
-pub fn shared_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("GFCS_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared")));
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var("CI").as_deref() == Ok("true") {
-        panic!(
-            "shared data directory {} is missing and CI=true",
-            dir.display()
-        );
-    }
-    eprintln!(
-        "skipping: shared data directory {} not found (set GFCS_SHARED)",
-        dir.display()
-    );
-    None
-}
+/// The shared-data skip rule (`tests/common`): `<repo>/../shared` (or `$GFCS_SHARED`), `None` (test
+/// skipped, reason printed) when absent, unless `CI=true`: then the test fails.
+#[allow(unused_imports)] // not every test crate that includes this module calls it
+pub use common::shared_dir;
 
 /// The MotionBenchMaker Panda directory, or `None` (skip rule of [`shared_dir`]).
 pub fn mbm_panda_dir() -> Option<PathBuf> {

@@ -2,35 +2,18 @@
 //! and finite-difference derivatives of a scalar field.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+#[path = "../common/mod.rs"]
+mod common;
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use rand::Rng;
 use rand_chacha::rand_core::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-/// `<repo root>/../shared/<sub>` (or `$GFCS_SHARED/<sub>`). `None` (after printing why) when absent and
-/// `CI` is not `"true"`; panics when absent and `CI == "true"`.
-pub fn shared_dir(sub: &str) -> Option<PathBuf> {
-    let root = std::env::var("GFCS_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared")));
-    let dir = root.join(sub);
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var("CI").as_deref() == Ok("true") {
-        panic!(
-            "{} is missing and CI=true: the shared data must be present",
-            dir.display()
-        );
-    }
-    eprintln!(
-        "skipping: {} not found (set GFCS_SHARED to the shared data directory)",
-        dir.display()
-    );
-    None
-}
+/// `<repo root>/../shared/<sub>` (or `$GFCS_SHARED/<sub>`), by the skip rule of `tests/common`: `None`
+/// (after printing why) when absent and `CI` is not `"true"`; panics when absent and `CI == "true"`.
+#[allow(unused_imports)] // not every test crate that includes this module calls it
+pub use common::shared_subdir as shared_dir;
 
 pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)
