@@ -9,72 +9,21 @@
 //!
 //! Run: `cargo bench -p fabric-core --bench acceleration`.
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use fabric_core::fabric::{Fabric, FabricConfig, FabricWorkspace};
-use fabric_core::robot::{Robot, RobotOptions};
-use fabric_core::scene::{Obstacle, Scene, Shape};
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use fabric_core::robot::Robot;
+use fabric_core::scene::Scene;
+
+/// The box scene, the MBM Panda loader and the shared-data root are the integration tests' own.
+#[path = "../tests/fabric_support/mod.rs"]
+mod fabric_support;
+use fabric_support::{box_scene, mbm_panda, shared_root};
 
 const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
 /// A goal with the hand inside the box (sphere-model clearance of a few cm).
 const GOAL: [f64; 7] = [0.45, 0.35, 0.19, -1.9, -0.1, 2.3, 0.8];
-
-fn pose(t: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
-    Isometry3::from_parts(
-        Translation3::new(t[0], t[1], t[2]),
-        UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
-    )
-}
-
-/// Like mbm/box/scene0001.yaml: a tray (base), a back wall, a tilted lid, a can inside, plus a post.
-fn box_scene() -> Scene {
-    let mut s = Scene::new();
-    let mut add = |name: &str, shape: Shape, p: Isometry3<f64>| {
-        s.add(Obstacle::new(name, shape, p))
-            .expect("valid benchmark obstacle");
-    };
-    add(
-        "base",
-        Shape::Cuboid {
-            half_extents: Vector3::new(0.35, 0.35, 0.02),
-        },
-        pose([0.57, 0.16, -0.49], [0.0, 0.0, 0.15]),
-    );
-    add(
-        "side_back",
-        Shape::Cuboid {
-            half_extents: Vector3::new(0.02, 0.35, 0.35),
-        },
-        pose([0.92, 0.21, -0.13], [0.0, 0.0, 0.15]),
-    );
-    add(
-        "side_cap",
-        Shape::Cuboid {
-            half_extents: Vector3::new(0.35, 0.35, 0.02),
-        },
-        pose([0.67, 0.18, 0.42], [-0.05, 0.78, 0.15]),
-    );
-    add(
-        "can",
-        Shape::Cylinder {
-            half_height: 0.07,
-            radius: 0.03,
-        },
-        pose([0.54, 0.36, -0.38], [0.0, 0.0, 0.15]),
-    );
-    add(
-        "post",
-        Shape::Cylinder {
-            half_height: 0.3,
-            radius: 0.04,
-        },
-        pose([0.3, -0.45, -0.2], [0.0, 0.0, 0.0]),
-    );
-    s
-}
 
 /// (q, q̇) every 5th step of a 4 s semi-implicit Euler rollout toward GOAL.
 fn recorded_states(fabric: &Fabric, scene: &Scene) -> Vec<(Vec<f64>, Vec<f64>)> {
@@ -151,25 +100,14 @@ fn bench_robot(c: &mut Criterion, name: &str, robot: Robot) {
     });
 }
 
-fn shared_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("GFCS_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared")));
-    dir.is_dir().then_some(dir)
-}
-
 fn acceleration(c: &mut Criterion) {
     bench_robot(c, "panda", Robot::panda());
-    match shared_dir() {
-        Some(dir) => {
-            let dir = dir.join("robots/mbm_panda");
-            let opts = RobotOptions { ee_link: Some("panda_hand".into()), ..RobotOptions::default() };
-            let mut robot = Robot::from_urdf_file(&dir.join("panda_spherized.urdf"), &opts).expect("MBM Panda");
-            let srdf = std::fs::read_to_string(dir.join("panda.srdf")).expect("MBM Panda SRDF");
-            robot.set_self_collision_from_srdf(&srdf, "panda.srdf").expect("SRDF");
-            bench_robot(c, "mbm_panda", robot);
-        }
-        None => eprintln!("skipping the MotionBenchMaker Panda: shared data directory not found (set GFCS_SHARED)"),
+    // A benchmark never fails for missing data (unlike the tests under CI): it only skips.
+    let shared = shared_root();
+    if shared.is_dir() {
+        bench_robot(c, "mbm_panda", mbm_panda(&shared));
+    } else {
+        eprintln!("skipping the MotionBenchMaker Panda: shared data directory not found (set GFCS_SHARED)");
     }
 }
 

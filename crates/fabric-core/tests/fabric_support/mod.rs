@@ -15,8 +15,8 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
 /// The shared-data skip rule (`tests/common`): `<repo>/../shared` (or `$GFCS_SHARED`), `None` (test
 /// skipped, reason printed) when absent, unless `CI=true`: then the test fails.
-#[allow(unused_imports)] // not every test crate that includes this module calls it
-pub use common::shared_dir;
+#[allow(unused_imports)] // not every test crate that includes this module calls them
+pub use common::{shared_dir, shared_root};
 
 /// The spherized MotionBenchMaker Panda with its SRDF self-collision pairs.
 pub fn mbm_panda(shared: &Path) -> Robot {
