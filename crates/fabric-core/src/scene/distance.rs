@@ -243,28 +243,17 @@ fn flat(d: f64, g: Vector3<f64>) -> Local {
 
 /// `d = s|v| - offset` about a point feature (`v = p - c`).
 fn about_point(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) -> Local {
-    let r = v.norm();
-    if r <= SINGULAR_EPS {
-        return flat(s * r - offset, fallback);
-    }
-    let inv = 1.0 / r;
-    let u = v * inv;
-    let k = s * inv;
-    Local {
-        d: s * r - offset,
-        g: u * s,
-        h: Curvature::new(k, &[(-k, u)]),
-    }
+    radial(v, s, offset, fallback, None)
 }
 
 /// `d = s|v| - offset` about a straight line of unit direction `e` (`v = p - c ⟂ e`).
-fn about_line(
-    v: &Vector3<f64>,
-    e: &Vector3<f64>,
-    s: f64,
-    offset: f64,
-    fallback: Vector3<f64>,
-) -> Local {
+fn about_line(v: &Vector3<f64>, e: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) -> Local {
+    radial(v, s, offset, fallback, Some(e))
+}
+
+/// `d = s|v| - offset` with `v` the offset from a point or (with `axis`) from a line: gradient `s·v/|v|`,
+/// Hessian `(s/|v|)(I − uuᵀ)`, minus `eeᵀ` along the line. At `|v| ≤ SINGULAR_EPS`: flat, `fallback` normal.
+fn radial(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>, axis: Option<&Vector3<f64>>) -> Local {
     let r = v.norm();
     if r <= SINGULAR_EPS {
         return flat(s * r - offset, fallback);
@@ -272,11 +261,11 @@ fn about_line(
     let inv = 1.0 / r;
     let u = v * inv;
     let k = s * inv;
-    Local {
-        d: s * r - offset,
-        g: u * s,
-        h: Curvature::new(k, &[(-k, u), (-k, *e)]),
-    }
+    let h = match axis {
+        None => Curvature::new(k, &[(-k, u)]),
+        Some(e) => Curvature::new(k, &[(-k, u), (-k, *e)]),
+    };
+    Local { d: s * r - offset, g: u * s, h }
 }
 
 /// Widen a search limit so that features at exactly `max` are not lost to strict comparisons.
