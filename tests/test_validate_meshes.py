@@ -287,3 +287,28 @@ def test_mbm_clearance_matches_dense_surface_samples(shared_dir):
                     assert got == math.inf or got > checker.max_distance - 2e-3
                     continue
                 assert got <= ref + 1e-9 and ref - got < 2e-3, (p.name, got, ref)
+
+
+def _fake_optimum(xs, costs):
+    """An OptimResult holding the candidates ``xs`` (K, 1) with ``costs`` (K,), as solve_gfcop returns."""
+    xs, costs = np.asarray(xs, dtype=float), np.asarray(costs, dtype=float)
+    order = np.argsort(costs, kind="stable")
+    return opt.OptimResult(best_x=xs[order[0]], best_cost=float(costs[order[0]]), top_x=xs[order],
+                           top_costs=costs[order], all_x=xs, all_costs=costs, all_batches=np.zeros(len(xs), int),
+                           batch_best_costs=costs[order[:1]], batch_best_x=xs[order[:1]], batch_times=np.zeros(1))
+
+
+def test_selection_skips_candidates_whose_meshes_collide(sphere_and_mesh_sliders):
+    """The cheapest command (x = 0.25) keeps the 0.05 m sphere clear of the ball at x = 0.5 but drives the
+    0.4 m box into it; the dearer one (x = −0.3) stays clear. An unreached candidate is never tried."""
+    spheres, checker, scene = sphere_and_mesh_sliders
+    p = Problem("slide", spheres, scene, q0=[-0.2], goal=[-0.1], mesh_checker=checker)
+    fabric = opt.make_fabric(p)
+    settings = opt.RolloutSettings()
+    result = _fake_optimum([[0.25], [-0.9], [-0.3]], [1.0, 150.0, 2.0])
+    commands, _, _, reached, _, met = opt._select_candidate(fabric, p, result, 1, settings, checker, 8)
+    assert reached and met["success"] and met["mesh_clearance"] > 0
+    assert commands[0, 0] == -0.3 and met["mesh_candidate_rank"] == 1 and met["mesh_candidates_checked"] == 2
+    commands, _, _, _, _, met = opt._select_candidate(fabric, p, result, 1, settings, checker, 1)
+    assert commands[0, 0] == 0.25 and not met["success"] and met["mesh_clearance"] < 0
+    assert met["mesh_candidates_checked"] == 1

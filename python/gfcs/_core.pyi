@@ -283,7 +283,7 @@ class Rollout:
     def steps(self) -> int: ...
     @property
     def reason(self) -> str:
-        """"reached" | "timeout" | "non_finite" | "stalled" (at rest away from the command for 0.5 s: counted as not reached)."""
+        """"reached" | "timeout" | "non_finite" | "stalled" (no progress toward the command over the stall window: counted as not reached)."""
     @property
     def reached(self) -> bool: ...
     @property
@@ -359,15 +359,19 @@ class Fabric:
         alpha_boost, alpha_reg, leaves."""
     def rollout(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, dt: Optional[float] = None,
-        t_max: Optional[float] = None, tol: Optional[float] = None, integrator: str = "euler",
-        record: bool = True,
+        t_max: Optional[float] = None, tol: Optional[float] = None,
+        stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
+        integrator: str = "euler", record: bool = True,
     ) -> Rollout:
-        """rollout_t (GFCS eq. 1-3); defaults dt 0.01 s, t_max 7 s, tol 0.01; integrator "euler" | "rk4"."""
+        """rollout_t (GFCS eq. 1-3); defaults dt 0.01 s, t_max 7 s, tol 0.01; integrator "euler" | "rk4".
+        Stall detection: stops as "stalled" (t* = t_max) when ‖q − command‖ has not shrunk by
+        ``stall_progress`` (default 0.01 rad) over a window of ``stall_window`` s (default 1 s; 0 = off)."""
     def rollout_sequence(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], commands: ArrayLike, goal: ArrayLike,
         dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
         waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
         collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
+        stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
         integrator: str = "euler", record: bool = True,
     ) -> SequenceRollout:
         """Commands (n, dof) then the goal (dof,) (GFCS eq. 4-8). Defaults: waypoint_tol 0.1,
@@ -377,6 +381,7 @@ class Fabric:
         dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
         waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
         collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
+        stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
         integrator: str = "euler", threads: Optional[int] = None, return_trajectories: bool = False,
     ) -> Union[
         Tuple[FloatArray, BoolArray, FloatArray],

@@ -15,8 +15,8 @@ Two layers:
 
 Mesh validation: the fabric and the cost see the robot's collision *spheres*; benchmarks judge motions with
 its collision *meshes*. When the problem carries a ``mesh_checker`` (:class:`gfcs.MeshChecker`, see
-:mod:`gfcs.problems`), :func:`solve` rolls out the top-m candidates of the optimisation in cost order and
-returns the first whose full trajectory succeeds with every mesh clear of the obstacles and of the robot
+:mod:`gfcs.problems`), :func:`solve` rolls out the evaluated candidates in cost order (the lowest-cost one,
+then those that reached the goal, at most ``mesh_candidates``) and returns the first whose full trajectory succeeds with every mesh clear of the obstacles and of the robot
 itself (``metrics["success"]``, which then requires ``mesh_clearance > 0`` and ``mesh_self_clearance > 0``
 besides reaching the goal with the spheres clear); if none does, the lowest-cost candidate is returned (and
 reported as failed): a mesh-free candidate that misses the goal is no better. ``result.top`` and the per-batch data are the
@@ -328,6 +328,9 @@ class RolloutSettings:
             eq. 4 (the paper's cost has no collision term): success requires a collision-free motion, so
             colliding candidates must rank behind collision-free ones.
         integrator: ``"euler"`` (semi-implicit Euler, the paper's) or ``"rk4"``.
+        stall_window, stall_progress: a rollout stops as "stalled" (t* = t_max, not reached) when its
+            distance to the command has not shrunk by ``stall_progress`` [rad] over ``stall_window`` [s]
+            (0 = off): it saves the steps of candidates stuck at a local minimum.
 
     The defaults equal the core's (``RolloutOptions`` / ``SequenceOptions`` in ``fabric-core``).
     """
@@ -339,6 +342,8 @@ class RolloutSettings:
     penalty: float = 100.0
     collision_penalty: float = 100.0
     integrator: str = "euler"
+    stall_window: float = 1.0
+    stall_progress: float = 0.01
 
     def as_kwargs(self) -> Dict[str, Any]:
         """Keyword arguments for ``gfcs.Fabric.rollout_sequence`` / ``evaluate``."""
@@ -350,6 +355,8 @@ class RolloutSettings:
             "penalty": self.penalty,
             "collision_penalty": self.collision_penalty,
             "integrator": self.integrator,
+            "stall_window": self.stall_window,
+            "stall_progress": self.stall_progress,
         }
 
 
@@ -401,19 +408,26 @@ def _settings_dict(settings: RolloutSettings, **extra: Any) -> Dict[str, Any]:
 
 def _select_candidate(
     fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
-    mesh_checker: Any,
+    mesh_checker: Any, mesh_candidates: int,
 ) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray, Dict[str, Any]]:
     """The candidate :func:`solve` returns, rolled out: (commands (n, dof), trajectory, cost, reached,
     t_stars, metrics).
 
-    Without a mesh checker: the lowest-cost candidate. With one: the first of ``opt.top_x`` (cost order)
-    whose trajectory succeeds, meshes included (see the module docstring), else the lowest-cost one.
+    Without a mesh checker: the lowest-cost candidate. With one: the first, in cost order over every
+    evaluated candidate, whose trajectory succeeds with meshes included (see the module docstring); at most
+    ``mesh_candidates`` are rolled out, and after the lowest-cost one only those that reached the goal
+    (cost below the penalty). If none succeeds, the lowest-cost one.
     """
     robot, scene = problem.robot, problem.scene
     dof = int(robot.dof)
     q0, qd0 = np.asarray(problem.q0, dtype=np.float64), np.asarray(problem.qd0, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
-    candidates = opt.top_x if mesh_checker is not None and opt.top_x.shape[0] > 0 else opt.best_x[None, :]
+    if mesh_checker is None:
+        candidates = opt.best_x[None, :]
+    else:
+        order = np.argsort(opt.all_costs, kind="stable")
+        keep = [order[0]] + [k for k in order[1:] if opt.all_costs[k] < settings.penalty]
+        candidates = opt.all_x[keep[:max(1, int(mesh_candidates))]]
     first = None
     for rank, x in enumerate(candidates):
         commands = np.asarray(x, dtype=np.float64).reshape(n_commands, dof)
@@ -451,6 +465,7 @@ def solve(
     settings: Optional[RolloutSettings] = None,
     top_m: int = 4,
     sigma0: float = 0.25,
+    mesh_candidates: int = 8,
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1) or with the local fabric alone (``method="gf"``).
@@ -472,6 +487,8 @@ def solve(
         settings: :class:`RolloutSettings` (dt, t_max, tolerances, penalty).
         top_m: number of best candidates kept in ``result.top`` (Alg. 1 output).
         sigma0: initial CMA-ES step as a fraction of the joint ranges.
+        mesh_candidates: with a mesh checker, at most this many candidates (in cost order, reached ones)
+            are rolled out and checked against the meshes before giving up (see the module docstring).
         callback: called after every batch with a :class:`BatchInfo`; True stops early.
 
     Returns:
@@ -546,7 +563,7 @@ def solve(
             bar.close()
 
     commands, traj, cost, reached, t_stars, met = _select_candidate(
-        fabric, problem, opt, n_commands, settings, mesh_checker)
+        fabric, problem, opt, n_commands, settings, mesh_checker, mesh_candidates)
     return SolveResult(
         method="gfcs",
         commands=commands,

@@ -81,7 +81,7 @@ impl System for Diverging {
 }
 
 fn opts(dt: f64, t_max: f64, tol: f64) -> RolloutOptions {
-    RolloutOptions { dt, t_max, tol, integrator: Integrator::SemiImplicitEuler, record: true, stall_speed: 0.0, stall_time: 0.5 }
+    RolloutOptions { dt, t_max, tol, integrator: Integrator::SemiImplicitEuler, record: true, stall_window: 0.0, stall_progress: 0.0 }
 }
 
 /// Steps for the constant-speed system to get strictly within `tol` from distance `d`: the smallest k
@@ -483,4 +483,28 @@ fn invalid_inputs_name_the_culprit() {
     let zero = SequenceOptions { n_commands: 0, ..so.clone() };
     assert_eq!(what(batch(&[0.0; 4], &zero, None).unwrap_err()), "SequenceOptions.n_commands");
     assert_eq!(what(evaluate_batch_system(&sys, &z, &z, &[0.0], &[0.0; 4], &so, None).unwrap_err()), "goal");
+}
+
+/// Stall detection: a system creeping toward its command at 0.005 rad/s gains less than
+/// `stall_progress` = 0.01 rad per `stall_window` = 1 s and stops at the first window boundary
+/// (t = 1 s, t* = t_max); at 0.02 rad/s it keeps going until the budget; with the window 0 it never stalls.
+#[test]
+fn stall_detection_stops_rollouts_without_progress() {
+    let dt = 0.01;
+    let stalling = RolloutOptions { stall_window: 1.0, stall_progress: 0.01, ..opts(dt, 5.0, 0.01) };
+    let slow = Kinematic { dof: 2, speed: 0.005, dt };
+    let r = rollout_system(&slow, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &stalling).unwrap();
+    assert_eq!(r.reason, StopReason::Stalled);
+    assert_eq!(r.steps, 100);
+    assert_eq!(r.t_star, 5.0);
+    let progressing = Kinematic { dof: 2, speed: 0.02, dt };
+    let r = rollout_system(&progressing, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &stalling).unwrap();
+    assert_eq!(r.reason, StopReason::Timeout);
+    assert_eq!(r.steps, 500);
+    let off = RolloutOptions { stall_window: 0.0, ..stalling.clone() };
+    let r = rollout_system(&slow, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &off).unwrap();
+    assert_eq!(r.reason, StopReason::Timeout);
+    let bad = RolloutOptions { stall_progress: -1.0, ..stalling };
+    let err = rollout_system(&slow, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &bad).unwrap_err();
+    assert!(matches!(err, FabricError::Value { ref what, .. } if what == "RolloutOptions.stall_progress"), "{err}");
 }

@@ -19,7 +19,7 @@ use crate::config::PyFabricConfig;
 use crate::convert::{self, output, typed_output};
 use crate::errors::{detached, error, guarded};
 use crate::robot::PyRobot;
-use crate::rollout::{rollout_options, PyRollout, PySequenceRollout};
+use crate::rollout::{rollout_options, PyRollout, PySequenceRollout, RolloutKwargs};
 use crate::scene::PyScene;
 
 /// Geometric fabric for one robot in one scene.
@@ -73,14 +73,11 @@ impl PyFabric {
 /// `SequenceOptions` (waypoint_tol 0.1 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m) and
 /// of `RolloutOptions` (dt 0.01 s, t_max 7 s, tol 0.01).
 struct SequenceKwargs<'a> {
-    dt: Option<f64>,
-    t_max: Option<f64>,
-    tol: Option<f64>,
+    rollout: RolloutKwargs<'a>,
     waypoint_tol: Option<f64>,
     penalty: Option<f64>,
     collision_penalty: Option<f64>,
     collision_tol: Option<f64>,
-    integrator: &'a str,
 }
 
 impl SequenceKwargs<'_> {
@@ -88,7 +85,7 @@ impl SequenceKwargs<'_> {
     fn options(&self, n_commands: usize, record: bool) -> PyResult<SequenceOptions> {
         let d = SequenceOptions::default();
         let opts = SequenceOptions {
-            rollout: rollout_options(self.dt, self.t_max, self.tol, self.integrator, record)?,
+            rollout: rollout_options(&self.rollout, record)?,
             n_commands,
             waypoint_tol: self.waypoint_tol.unwrap_or(d.waypoint_tol),
             penalty: self.penalty.unwrap_or(d.penalty),
@@ -278,7 +275,7 @@ impl PyFabric {
     /// rollout_t (GFCS eq. 1–3): integrate from (q0, qd0) toward `command` until ‖q − command‖ < tol or
     /// t_max. `qd0` None = rest. `integrator`: "euler" (semi-implicit, the papers') or "rk4". Defaults:
     /// dt 0.01 s, t_max 7 s, tol 0.01. GIL released.
-    #[pyo3(signature = (q0, qd0, command, dt=None, t_max=None, tol=None, integrator="euler", record=true))]
+    #[pyo3(signature = (q0, qd0, command, dt=None, t_max=None, tol=None, stall_window=None, stall_progress=None, integrator="euler", record=true))]
     #[allow(clippy::too_many_arguments)]
     fn rollout(
         &self,
@@ -289,13 +286,18 @@ impl PyFabric {
         dt: Option<f64>,
         t_max: Option<f64>,
         tol: Option<f64>,
+        stall_window: Option<f64>,
+        stall_progress: Option<f64>,
         integrator: &str,
         record: bool,
     ) -> PyResult<PyRollout> {
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
         let command = convert::vector(command, "command", n)?;
-        let opts = rollout_options(dt, t_max, tol, integrator, record)?;
+        let opts = rollout_options(
+            &RolloutKwargs { dt, t_max, tol, stall_window, stall_progress, integrator },
+            record,
+        )?;
         let (fabric, scene) = self.shared();
         let result = detached(py, move || {
             let mut ws = FabricWorkspace::new(&fabric);
@@ -308,7 +310,7 @@ impl PyFabric {
     /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol (default 0.1); the goal at
     /// tol. Cost = Σ tᵢ* + penalty (default 100 s) if the goal is not reached + collision_penalty (default
     /// 0 s) if the minimum clearance drops below −collision_tol (default 0 m). GIL released.
-    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, integrator="euler", record=true))]
+    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, stall_window=None, stall_progress=None, integrator="euler", record=true))]
     #[allow(clippy::too_many_arguments)]
     fn rollout_sequence(
         &self,
@@ -324,18 +326,17 @@ impl PyFabric {
         penalty: Option<f64>,
         collision_penalty: Option<f64>,
         collision_tol: Option<f64>,
+        stall_window: Option<f64>,
+        stall_progress: Option<f64>,
         integrator: &str,
         record: bool,
     ) -> PyResult<PySequenceRollout> {
         let kwargs = SequenceKwargs {
-            dt,
-            t_max,
-            tol,
+            rollout: RolloutKwargs { dt, t_max, tol, stall_window, stall_progress, integrator },
             waypoint_tol,
             penalty,
             collision_penalty,
             collision_tol,
-            integrator,
         };
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
@@ -357,7 +358,7 @@ impl PyFabric {
     /// `(costs (N,), reached (N,) bool, min_clearance (N,))`, plus a list of N `SequenceRollout` (with
     /// trajectories) when `return_trajectories`. Results are in candidate order and do not depend on
     /// `threads` (None: all cores). GIL released.
-    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, integrator="euler", threads=None, return_trajectories=false))]
+    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, stall_window=None, stall_progress=None, integrator="euler", threads=None, return_trajectories=false))]
     #[allow(clippy::too_many_arguments)]
     fn evaluate<'py>(
         &self,
@@ -373,19 +374,18 @@ impl PyFabric {
         penalty: Option<f64>,
         collision_penalty: Option<f64>,
         collision_tol: Option<f64>,
+        stall_window: Option<f64>,
+        stall_progress: Option<f64>,
         integrator: &str,
         threads: Option<usize>,
         return_trajectories: bool,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let kwargs = SequenceKwargs {
-            dt,
-            t_max,
-            tol,
+            rollout: RolloutKwargs { dt, t_max, tol, stall_window, stall_progress, integrator },
             waypoint_tol,
             penalty,
             collision_penalty,
             collision_tol,
-            integrator,
         };
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 use crate::convert::{self, output};
 use crate::errors::{detached, error};
-use crate::rollout::{rollout_options, PyRollout};
+use crate::rollout::{rollout_options, PyRollout, RolloutKwargs};
 
 /// Variant from its name: "unbent_riemannian", "unbent_finsler", "bent_riemannian", "bent_finsler".
 fn parse_variant(name: &str) -> PyResult<ParticleVariant> {
@@ -203,7 +203,9 @@ pub fn particle_rollout<'py>(
         }
         _ => vec![0.0; q0.len()],
     };
-    let opts = rollout_options(dt, t_max, tol, integrator, true)?;
+    // no stall detection: the figure shows every particle's whole path
+    let kwargs = RolloutKwargs { dt, t_max, tol, stall_window: Some(0.0), stall_progress: None, integrator };
+    let opts = rollout_options(&kwargs, true)?;
     let target = system.params.target;
     let results = detached(py, move || {
         q0.par_chunks_exact(2)

@@ -33,23 +33,29 @@ pub fn parse_integrator(name: &str) -> PyResult<Integrator> {
     }
 }
 
-/// Rollout options from keyword arguments; `None` keeps the core default (dt 0.01 s, t_max 7 s,
-/// tol 0.01). Ranges are checked by the core (`InvalidValueError` naming the field).
-pub fn rollout_options(
-    dt: Option<f64>,
-    t_max: Option<f64>,
-    tol: Option<f64>,
-    integrator: &str,
-    record: bool,
-) -> PyResult<RolloutOptions> {
+/// Keyword options of one rollout; `None` keeps the core default of `RolloutOptions` (dt 0.01 s,
+/// t_max 7 s, tol 0.01, stall_window 1 s, stall_progress 0.01).
+pub struct RolloutKwargs<'a> {
+    pub dt: Option<f64>,
+    pub t_max: Option<f64>,
+    pub tol: Option<f64>,
+    pub stall_window: Option<f64>,
+    pub stall_progress: Option<f64>,
+    pub integrator: &'a str,
+}
+
+/// Rollout options from keyword arguments. Ranges are checked by the core (`InvalidValueError` naming
+/// the field).
+pub fn rollout_options(k: &RolloutKwargs<'_>, record: bool) -> PyResult<RolloutOptions> {
     let d = RolloutOptions::default();
     let opts = RolloutOptions {
-        dt: dt.unwrap_or(d.dt),
-        t_max: t_max.unwrap_or(d.t_max),
-        tol: tol.unwrap_or(d.tol),
-        integrator: parse_integrator(integrator)?,
+        dt: k.dt.unwrap_or(d.dt),
+        t_max: k.t_max.unwrap_or(d.t_max),
+        tol: k.tol.unwrap_or(d.tol),
+        integrator: parse_integrator(k.integrator)?,
         record,
-        ..d
+        stall_window: k.stall_window.unwrap_or(d.stall_window),
+        stall_progress: k.stall_progress.unwrap_or(d.stall_progress),
     };
     opts.validate().map_err(error)?;
     Ok(opts)
