@@ -106,6 +106,8 @@ def test_written_problems_load_back(generated, panda, tmp_path):
         np.testing.assert_allclose(p.scene.signed_distance(pts), orig.scene.signed_distance(pts), atol=1e-12)
     only = problems.load_mbm_dir(tmp_path, classes=["single_shelf"], limit=1, robot=panda)
     assert [p.name for p in only] == ["bookshelf_small/0001"]
+    tail = problems.load_mbm_dir(tmp_path, skip=1, robot=panda)  # the train/test split of GFCS Sec. V
+    assert [p.name for p in tail] == ["bookshelf_small/0002", "cage/0002"]
 
 
 def test_load_errors_name_the_culprit(generated, panda, tmp_path):

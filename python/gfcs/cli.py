@@ -253,7 +253,8 @@ def load_problems(args: argparse.Namespace, robot: Any) -> List[Any]:
     from gfcs import generators, problems
 
     if args.problems:
-        return problems.load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot)
+        return problems.load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot,
+                                     skip=args.skip)
     classes = args.classes or list(problems.CLASSES)
     n = args.limit if args.limit is not None else 10
     suite: List[Any] = []
@@ -361,6 +362,8 @@ def _register_bench(sub: Any) -> None:
     src.add_argument("--problems", metavar="DIR", help="MotionBenchMaker folder (class folders or one class)")
     src.add_argument("--classes", nargs="+", metavar="CLASS", help="only these classes")
     src.add_argument("--limit", type=int, help="problems per class (generated suite: default 10)")
+    src.add_argument("--skip", type=int, default=0, help="leave out the first N problems of each class of "
+                     "--problems (e.g. --skip 40: the test problems 41-50)")
     src.add_argument("--problem-seed", type=int, default=0, help="seed of a generated suite (default 0)")
     _add_robot_options(p)
     _add_solver_options(p, methods_nargs="+")

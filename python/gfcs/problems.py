@@ -229,6 +229,7 @@ def load_mbm_dir(
     limit: Optional[int] = None,
     robot: Any = None,
     mesh_checker: Any = None,
+    skip: int = 0,
 ) -> List[Problem]:
     """Every problem of a MotionBenchMaker folder, sorted by class then number.
 
@@ -237,9 +238,11 @@ def load_mbm_dir(
             folders (e.g. ``shared/mbm``).
         classes: keep only these classes (names or aliases, see :func:`canonical_class`; folders with
             other names are kept only when listed verbatim).
-        limit: at most this many problems per class (the first ones by number).
+        limit: at most this many problems per class (the first ones by number, after ``skip``).
         robot: shared by all problems (default :meth:`gfcs.Robot.panda`).
         mesh_checker: shared by all problems (default: as :func:`load_mbm`).
+        skip: leave out the first ``skip`` problems of each class (by number), e.g. ``skip=40`` keeps the
+            test problems 41-50 of the GFCS split (train on 1-40, test on 41-50).
 
     Raises:
         FileNotFoundError: ``directory`` does not exist, or a scene has no matching request.
@@ -265,6 +268,7 @@ def load_mbm_dir(
         if wanted is not None and class_dir.name not in wanted:
             continue
         scenes = sorted((int(m.group(1)), p) for p in class_dir.iterdir() if (m := _SCENE_RE.match(p.name)))
+        scenes = scenes[max(int(skip), 0):]
         if limit is not None:
             scenes = scenes[: max(int(limit), 0)]
         for number, scene_path in scenes:

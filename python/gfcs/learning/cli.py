@@ -47,6 +47,11 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     src.add_argument("--n-problems", type=int, default=50, help="problems per generated class (default 50)")
     src.add_argument("--classes", nargs="+", metavar="CLASS", help="keep only these classes of --problems")
     src.add_argument("--limit", type=int, help="use at most this many problems per class of --problems")
+    src.add_argument("--skip", type=int, default=0, help="leave out the first N problems of each class of "
+                     "--problems")
+    from gfcs.cli import _add_robot_options
+
+    _add_robot_options(p)
     p.add_argument("--out", required=True, metavar="MODEL.pt", help="model file to write")
     p.add_argument("--resume", metavar="CKPT", help="continue from a checkpoint (default checkpoint path: "
                    "<out stem>.ckpt.pt)")
@@ -84,16 +89,19 @@ def _load_problems(args: argparse.Namespace, seed: int) -> List[Any]:
 
     if (args.problems is None) == (args.generate is None):
         raise ConfigError("gfcs train: give exactly one of --problems DIR or --generate CLASS ...")
+    from gfcs.cli import _robot
+
+    robot = _robot(args)
     if args.generate is not None:
         from gfcs.generators import generate
 
         problems: List[Any] = []
         for cls in args.generate:
-            problems += generate(cls, args.n_problems, seed=seed)
+            problems += generate(cls, args.n_problems, seed=seed, robot=robot)
         return problems
     from gfcs.problems import load_mbm_dir
 
-    return list(load_mbm_dir(args.problems, classes=args.classes, limit=args.limit))
+    return list(load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot, skip=args.skip))
 
 
 def _config(args: argparse.Namespace):
