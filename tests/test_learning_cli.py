@@ -39,6 +39,8 @@ def test_flags_reach_the_config():
     assert (cfg.passes, cfg.n_train, cfg.buffer_size, cfg.top_m, cfg.seed) == (3, 10, 50, 2, 7)
     assert cfg.hidden == (64, 32) and cfg.n_neg == 4 and cfg.n_uniform_neg == 0 and cfg.shuffle
     assert cfg.solve == {"method": "gfcs", "batches": 2, "population": 8}
+    with_config = _config(parse(["train", "--problems", "D", "--out", "m.pt", "--config", "fabric.toml"]))
+    assert with_config.solve["fabric_config"] == "fabric.toml"
     with pytest.raises(ConfigError, match="n_train"):
         _config(parse(["train", "--problems", "D", "--out", "m.pt", "--n-train", "0"]))
 

@@ -77,6 +77,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     opt = p.add_argument_group("GFCS solves (gfcs.optimize.solve, method gfcs)")
     opt.add_argument("--batches", type=int, help="CMA-ES batches per problem (default 5)")
     opt.add_argument("--population", type=int, help="candidates per batch (default 32)")
+    opt.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON) of the solves")
     p.add_argument("--history", metavar="JSON", help="write the training history (solves, losses) as JSON")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run_train)
@@ -112,6 +113,8 @@ def _config(args: argparse.Namespace):
 
     given = {field: getattr(args, flag) for flag, field in _CONFIG_FLAGS.items() if getattr(args, flag) is not None}
     solve = {k: getattr(args, k) for k in ("batches", "population") if getattr(args, k) is not None}
+    if args.config is not None:
+        solve["fabric_config"] = str(args.config)
     if args.resume is not None:
         bad = sorted(set(given) - RESUME_OVERRIDABLE) + (["solve options"] if solve else [])
         if bad:
