@@ -5,7 +5,9 @@
 //!
 //! Benchmarks: the shipped Panda (`Robot::panda()`), and the spherized MotionBenchMaker Panda (59 spheres)
 //! when the shared data directory is present (`../shared` or `$GFCS_SHARED`; skipped with a message
-//! otherwise).
+//! otherwise), in the box scene, in free space and (MBM Panda only) in the dense MotionBenchMaker cage
+//! scene 0001 (8 boxes: a cube inside a cage of base, cap, back, left and right walls and two front
+//! bars, the hand reaching in), at states recorded from its start toward its goal.
 //!
 //! Run: `cargo bench -p fabric-core --bench acceleration`.
 
@@ -19,21 +21,26 @@ use fabric_core::scene::Scene;
 /// The box scene, the MBM Panda loader and the shared-data root are the integration tests' own.
 #[path = "../tests/fabric_support/mod.rs"]
 mod fabric_support;
-use fabric_support::{box_scene, mbm_panda, shared_root};
+use fabric_support::{box_scene, mbm_panda, mbm_problem, shared_root};
 
 const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
 /// A goal with the hand inside the box (sphere-model clearance of a few cm).
 const GOAL: [f64; 7] = [0.45, 0.35, 0.19, -1.9, -0.1, 2.3, 0.8];
 
-/// (q, q̇) every 5th step of a 4 s semi-implicit Euler rollout toward GOAL.
-fn recorded_states(fabric: &Fabric, scene: &Scene) -> Vec<(Vec<f64>, Vec<f64>)> {
+/// (q, q̇) every 5th step of a 4 s semi-implicit Euler rollout from `start` toward `goal`.
+fn recorded_states(
+    fabric: &Fabric,
+    scene: &Scene,
+    start: &[f64],
+    goal: &[f64],
+) -> Vec<(Vec<f64>, Vec<f64>)> {
     let mut ws = FabricWorkspace::new(fabric);
-    let (mut q, mut qd, mut qdd) = (READY.to_vec(), vec![0.0; 7], vec![0.0; 7]);
+    let (mut q, mut qd, mut qdd) = (start.to_vec(), vec![0.0; 7], vec![0.0; 7]);
     let mut out = Vec::new();
     let mut leaves = 0;
     for k in 0..400 {
         if fabric
-            .acceleration(scene, &q, &qd, &GOAL, &mut ws, &mut qdd)
+            .acceleration(scene, &q, &qd, goal, &mut ws, &mut qdd)
             .is_err()
         {
             break;
@@ -56,41 +63,28 @@ fn recorded_states(fabric: &Fabric, scene: &Scene) -> Vec<(Vec<f64>, Vec<f64>)> 
     out
 }
 
-fn bench_robot(c: &mut Criterion, name: &str, robot: Robot) {
-    let fabric = Fabric::new(Arc::new(robot), FabricConfig::default()).expect("default fabric");
-    let scene = box_scene();
-    let states = recorded_states(&fabric, &scene);
-    let mut ws = FabricWorkspace::new(&fabric);
+/// Time `Fabric::acceleration` in `scene` toward `goal`, cycling through the recorded `states`.
+fn bench_states(
+    c: &mut Criterion,
+    name: &str,
+    fabric: &Fabric,
+    scene: &Scene,
+    states: &[(Vec<f64>, Vec<f64>)],
+    goal: &[f64],
+) {
+    let mut ws = FabricWorkspace::new(fabric);
     let mut qdd = vec![0.0; 7];
     let mut i = 0;
-    c.bench_function(&format!("acceleration/{name}_box_scene"), |b| {
+    c.bench_function(&format!("acceleration/{name}"), |b| {
         b.iter(|| {
             let (q, qd) = &states[i % states.len()];
             i += 1;
             fabric
                 .acceleration(
-                    black_box(&scene),
+                    black_box(scene),
                     black_box(q),
                     black_box(qd),
-                    black_box(&GOAL),
-                    &mut ws,
-                    &mut qdd,
-                )
-                .expect("acceleration");
-            black_box(qdd[0])
-        })
-    });
-    let empty = Scene::new();
-    c.bench_function(&format!("acceleration/{name}_free_space"), |b| {
-        b.iter(|| {
-            let (q, qd) = &states[i % states.len()];
-            i += 1;
-            fabric
-                .acceleration(
-                    black_box(&empty),
-                    black_box(q),
-                    black_box(qd),
-                    black_box(&GOAL),
+                    black_box(goal),
                     &mut ws,
                     &mut qdd,
                 )
@@ -100,12 +94,43 @@ fn bench_robot(c: &mut Criterion, name: &str, robot: Robot) {
     });
 }
 
+fn bench_robot(c: &mut Criterion, name: &str, robot: Robot) -> Fabric {
+    let fabric = Fabric::new(Arc::new(robot), FabricConfig::default()).expect("default fabric");
+    let scene = box_scene();
+    let states = recorded_states(&fabric, &scene, &READY, &GOAL);
+    bench_states(
+        c,
+        &format!("{name}_box_scene"),
+        &fabric,
+        &scene,
+        &states,
+        &GOAL,
+    );
+    let empty = Scene::new();
+    bench_states(
+        c,
+        &format!("{name}_free_space"),
+        &fabric,
+        &empty,
+        &states,
+        &GOAL,
+    );
+    fabric
+}
+
 fn acceleration(c: &mut Criterion) {
     bench_robot(c, "panda", Robot::panda());
     // A benchmark never fails for missing data (unlike the tests under CI): it only skips.
     let shared = shared_root();
     if shared.is_dir() {
-        bench_robot(c, "mbm_panda", mbm_panda(&shared));
+        let fabric = bench_robot(c, "mbm_panda", mbm_panda(&shared));
+        let (scene, start, goal) = mbm_problem(&shared, fabric.robot(), "cage", 1);
+        let states = recorded_states(&fabric, &scene, &start, &goal);
+        if states.is_empty() {
+            eprintln!("skipping the cage scene: the fabric fails at its start state");
+        } else {
+            bench_states(c, "mbm_panda_cage_scene", &fabric, &scene, &states, &goal);
+        }
     } else {
         eprintln!("skipping the MotionBenchMaker Panda: shared data directory not found (set GFCS_SHARED)");
     }

@@ -9,14 +9,22 @@
 //!    App. G), or towards explicit [`EeTargets`];
 //! 3. joint-limit barriers, x = q − q_low − margin and q_up − margin − q (VII-A2);
 //! 4. self-collision barriers for the robot's sphere pairs closer than the influence radius;
-//! 5. obstacle barriers for every (robot sphere, obstacle) pair returned by [`Scene::query`] within the
-//!    influence radius (task maps in [`leaves`](super::leaves));
+//! 5. obstacle barriers for every (robot sphere, obstacle) pair within the influence radius, the
+//!    samples of [`Scene::query`] (task maps in [`leaves`](super::leaves));
 //!
 //! then resolves π̃ = −M̃⁻¹f̃ (Cholesky), energizes it (eq. 7), forces and damps it with speed control
 //! (eq. 40-46). [`Mode::Unbent`](super::config::Mode::Unbent) drops the geometries (classical Lagrangian system, GF Sec. VI).
 //!
+//! Culling (exact: it only skips pairs the per-pair tests would reject, and keeps the order of the
+//! leaves, so the result is the same to the bit as without it). Each link's spheres have a bounding
+//! sphere. Self-collision pairs are grouped by link pair and, within one, by first sphere: a link pair
+//! whose bounding spheres are out of reach is skipped whole, then each first sphere against the other
+//! link's bounding sphere, then the pairs themselves. Obstacles: one distance-only broadphase query
+//! per link at its bounding centre, a 1-Lipschitz bound per sphere, then one exact sample (gradient,
+//! Hessian) per (sphere, obstacle) pair left, fetched by storage position (no id lookup).
+//!
 //! Sphere Jacobians are computed only for spheres that own at least one leaf. Nothing allocates per call
-//! once the workspace exists (the scene query appends into a reused buffer).
+//! once the workspace exists (the scene queries append into reused buffers).
 
 use std::sync::Arc;
 
@@ -28,8 +36,9 @@ use super::energy::{ConstantMass, TanhMass};
 use super::leaves::{obstacle_leaf, self_collision_leaf};
 use super::root::RootSystem;
 use crate::error::{check_finite, check_len, FabricError, Result};
-use crate::robot::{KinematicsWorkspace, Robot, TaskPoint};
-use crate::scene::{point_distance, DistanceSample, Scene};
+use crate::robot::{CollisionSphere, KinematicsWorkspace, Robot, TaskPoint};
+use crate::scene::distance::NearObstacle;
+use crate::scene::Scene;
 
 /// End-effector targets in the world (base) frame: the position of the end-effector link origin (m) and
 /// its three unit axes (columns of its rotation), as used by the VII-A3 / App. G attractors.
@@ -101,7 +110,8 @@ impl Default for Diagnostics {
 }
 
 /// The collision spheres of one link and a sphere bounding them all (link frame), used to cull obstacle
-/// queries: an obstacle within distance δ of a sphere is within R + δ of the bounding centre.
+/// queries and self-collision pairs: an obstacle within distance δ of a sphere is within R + δ of the
+/// bounding centre, and two spheres of links A and B are at least ‖C_A − C_B‖ − R_A − R_B apart.
 #[derive(Clone, Debug)]
 struct SphereGroup {
     link: usize,
@@ -140,11 +150,143 @@ fn sphere_groups(robot: &Robot) -> Vec<SphereGroup> {
     groups
 }
 
+/// Slack (m) added to the culling distances (self-collision bounding spheres, obstacle Lipschitz bounds),
+/// far above the round-off of those bounds, so that culling never drops a pair the exact test keeps.
+const CULL_SLACK: f64 = 1e-9;
+
+/// Self-collision sphere pairs consecutive in `Robot::self_collision_pairs` that share their first sphere
+/// and the link group of their second: `pairs` indexes [`SelfPairs::pairs`].
+#[derive(Clone, Debug)]
+struct PairRun {
+    /// The common first sphere.
+    sphere: usize,
+    /// The link group (index into `Fabric::groups`) of every second sphere.
+    other: usize,
+    pairs: std::ops::Range<usize>,
+}
+
+/// The runs whose spheres lie on two given link groups: `runs` indexes [`SelfPairs::runs`].
+#[derive(Clone, Debug)]
+struct LinkPair {
+    a: usize,
+    b: usize,
+    runs: std::ops::Range<usize>,
+}
+
+/// Broadphase of the self-collision sphere pairs: pairs grouped by the link groups of their two spheres,
+/// in two levels of bounding-sphere tests (link group against link group, then first sphere against the
+/// other link group), so that most pairs are never looked at. Exact: see [`SelfPairs::collect`].
+#[derive(Clone, Debug)]
+struct SelfPairs {
+    links: Vec<LinkPair>,
+    runs: Vec<PairRun>,
+    /// (index in `Robot::self_collision_pairs`, first sphere, second sphere), ordered by link pair
+    /// (in order of first appearance), then as in `Robot::self_collision_pairs`.
+    pairs: Vec<(u32, usize, usize)>,
+}
+
+impl SelfPairs {
+    fn new(robot: &Robot, groups: &[SphereGroup]) -> SelfPairs {
+        let mut group_of = vec![usize::MAX; robot.spheres().len()];
+        for (gi, g) in groups.iter().enumerate() {
+            for &k in &g.spheres {
+                group_of[k] = gi;
+            }
+        }
+        // pairs of each link pair, in their original order
+        let mut keys: Vec<(usize, usize)> = Vec::new();
+        let mut members: Vec<Vec<(u32, usize, usize)>> = Vec::new();
+        for (index, &(a, b)) in robot.self_collision_pairs().iter().enumerate() {
+            let (ga, gb) = (group_of[a], group_of[b]);
+            let key = (ga.min(gb), ga.max(gb));
+            let slot = match keys.iter().position(|k| *k == key) {
+                Some(slot) => slot,
+                None => {
+                    keys.push(key);
+                    members.push(Vec::new());
+                    keys.len() - 1
+                }
+            };
+            members[slot].push((index as u32, a, b));
+        }
+        let mut out = SelfPairs {
+            links: Vec::with_capacity(keys.len()),
+            runs: Vec::new(),
+            pairs: Vec::with_capacity(robot.self_collision_pairs().len()),
+        };
+        for ((a, b), m) in keys.into_iter().zip(members) {
+            let first_run = out.runs.len();
+            for p in m {
+                let other = group_of[p.2];
+                let i = out.pairs.len();
+                let extends = out.runs.len() > first_run
+                    && matches!(out.runs.last(), Some(r) if r.sphere == p.1 && r.other == other);
+                match out.runs.last_mut() {
+                    Some(r) if extends => r.pairs.end = i + 1,
+                    _ => out.runs.push(PairRun {
+                        sphere: p.1,
+                        other,
+                        pairs: i..i + 1,
+                    }),
+                }
+                out.pairs.push(p);
+            }
+            out.links.push(LinkPair {
+                a,
+                b,
+                runs: first_run..out.runs.len(),
+            });
+        }
+        out
+    }
+
+    /// Append to `out` (index, ‖c_a − c_b‖²) of every pair with ‖c_a − c_b‖ < r_a + r_b + `reach` (the
+    /// exact test of the unculled loop), sorted by index. `centers` (world sphere centres) and
+    /// `group_centers` (world bounding-sphere centres of `groups`) are those of one configuration.
+    ///
+    /// Exact because a group whose bounding sphere (C, R) contains every sphere (c, r) of its link
+    /// (‖c − C‖ + r ≤ R) gives ‖c_a − c_b‖ − r_a − r_b ≥ ‖c_a − C_B‖ − r_a − R_B ≥ ‖C_A − C_B‖ − R_A − R_B:
+    /// a run or link pair is skipped only when that bound is ≥ `reach` + [`CULL_SLACK`].
+    fn collect(
+        &self,
+        groups: &[SphereGroup],
+        spheres: &[CollisionSphere],
+        centers: &[Vector3<f64>],
+        group_centers: &[Vector3<f64>],
+        reach: f64,
+        out: &mut Vec<(u32, f64)>,
+    ) {
+        let reach_slack = reach + CULL_SLACK;
+        for lp in &self.links {
+            let far = groups[lp.a].radius + groups[lp.b].radius + reach_slack;
+            if (group_centers[lp.a] - group_centers[lp.b]).norm_squared() >= far * far {
+                continue;
+            }
+            for run in &self.runs[lp.runs.clone()] {
+                let (c, r) = (centers[run.sphere], spheres[run.sphere].radius);
+                let far = r + groups[run.other].radius + reach_slack;
+                if (c - group_centers[run.other]).norm_squared() >= far * far {
+                    continue;
+                }
+                for &(index, _, b) in &self.pairs[run.pairs.clone()] {
+                    let far = r + spheres[b].radius + reach;
+                    let d2 = (c - centers[b]).norm_squared();
+                    if d2 < far * far {
+                        out.push((index, d2));
+                    }
+                }
+            }
+        }
+        out.sort_unstable_by_key(|&(index, _)| index);
+    }
+}
+
 /// A geometric fabric for one robot: the model shared by every thread (`Send + Sync`).
 #[derive(Clone, Debug)]
 pub struct Fabric {
     robot: Arc<Robot>,
     groups: Vec<SphereGroup>,
+    self_pairs: SelfPairs,
     config: FabricConfig,
     joint: Attractor<ConstantMass>,
     ee_position: Attractor<TanhMass>,
@@ -163,9 +305,12 @@ pub struct FabricWorkspace {
     targets: Option<EeTargets>,
     root: RootSystem,
     centers: Vec<Vector3<f64>>,
+    group_centers: Vec<Vector3<f64>>,
+    /// Self-collision pairs within reach: (index in `Robot::self_collision_pairs`, squared distance).
+    active_pairs: Vec<(u32, f64)>,
     spheres: Vec<TaskPoint>,
     sphere_ready: Vec<bool>,
-    samples: Vec<DistanceSample>,
+    near: Vec<NearObstacle>,
     task: TaskPoint,
     jrow: Vec<f64>,
     x: Vec<f64>,
@@ -189,9 +334,11 @@ impl FabricWorkspace {
             targets: None,
             root: RootSystem::new(n),
             centers: vec![Vector3::zeros(); s],
+            group_centers: vec![Vector3::zeros(); fabric.groups.len()],
+            active_pairs: Vec::with_capacity(fabric.self_pairs.pairs.len()),
             spheres: (0..s).map(|_| TaskPoint::new(n)).collect(),
             sphere_ready: vec![false; s],
-            samples: Vec::with_capacity(16),
+            near: Vec::with_capacity(16),
             task: TaskPoint::new(n),
             jrow: vec![0.0; n],
             x: vec![0.0; n],
@@ -219,6 +366,8 @@ impl Fabric {
     pub fn new(robot: Arc<Robot>, config: FabricConfig) -> Result<Fabric> {
         config.validate()?;
         let n = robot.dof();
+        let groups = sphere_groups(&robot);
+        let self_pairs = SelfPairs::new(&robot, &groups);
         Ok(Fabric {
             joint: Attractor::joint(&config.joint_attraction, n),
             ee_position: Attractor::end_effector(&config.ee_position, 3),
@@ -226,7 +375,8 @@ impl Fabric {
             joint_limits: Barrier::from_config(&config.joint_limits),
             self_collision: Barrier::from_config(&config.self_collision),
             obstacles: Barrier::from_config(&config.obstacles),
-            groups: sphere_groups(&robot),
+            groups,
+            self_pairs,
             robot,
             config,
         })
@@ -262,11 +412,17 @@ impl Fabric {
     fn check_workspace(&self, ws: &FabricWorkspace) -> Result<()> {
         let n = self.robot.dof();
         let s = self.robot.spheres().len();
-        if ws.root.dim() != n || ws.spheres.len() != s {
+        let g = self.groups.len();
+        if ws.root.dim() != n || ws.spheres.len() != s || ws.group_centers.len() != g {
             return Err(FabricError::Shape {
-                what: "fabric workspace (dof, spheres)".to_string(),
-                expected: format!("({n}, {s})"),
-                got: format!("({}, {})", ws.root.dim(), ws.spheres.len()),
+                what: "fabric workspace (dof, spheres, sphere groups)".to_string(),
+                expected: format!("({n}, {s}, {g})"),
+                got: format!(
+                    "({}, {}, {})",
+                    ws.root.dim(),
+                    ws.spheres.len(),
+                    ws.group_centers.len()
+                ),
             });
         }
         Ok(())
@@ -424,23 +580,34 @@ impl Fabric {
             }
         }
 
-        // sphere centres (cheap) and lazy sphere kinematics
+        // sphere centres and link bounding-sphere centres (cheap), lazy sphere kinematics
         let spheres = robot.spheres();
         for (k, c) in ws.centers.iter_mut().enumerate() {
             *c = robot.sphere_center(&ws.kin, k);
         }
+        for (c, g) in ws.group_centers.iter_mut().zip(&self.groups) {
+            *c = (robot.link_pose(&ws.kin, g.link) * nalgebra::Point3::from(g.center)).coords;
+        }
         ws.sphere_ready.iter_mut().for_each(|r| *r = false);
 
-        // 4. self-collision pairs
+        // 4. self-collision pairs: link pairs whose bounding spheres are within reach, then the sphere
+        //    pairs within reach, processed in the order of `Robot::self_collision_pairs`
         let sc = &self.config.self_collision;
         let reach = sc.margin + sc.influence;
-        for &(a, b) in robot.self_collision_pairs() {
+        ws.active_pairs.clear();
+        self.self_pairs.collect(
+            &self.groups,
+            spheres,
+            &ws.centers,
+            &ws.group_centers,
+            reach,
+            &mut ws.active_pairs,
+        );
+        let pairs = robot.self_collision_pairs();
+        for t in 0..ws.active_pairs.len() {
+            let (index, d2) = ws.active_pairs[t];
+            let (a, b) = pairs[index as usize];
             let (ra, rb) = (spheres[a].radius, spheres[b].radius);
-            let d2 = (ws.centers[a] - ws.centers[b]).norm_squared();
-            let far = ra + rb + reach;
-            if d2 >= far * far {
-                continue;
-            }
             let clearance = d2.sqrt() - ra - rb;
             diag.min_self_clearance = diag.min_self_clearance.min(clearance);
             if !sc.enabled {
@@ -467,39 +634,27 @@ impl Fabric {
         let ob = &self.config.obstacles;
         if ob.enabled && !scene.is_empty() {
             let reach = ob.margin + ob.influence;
-            for g in &self.groups {
-                let gc = robot.link_pose(&ws.kin, g.link) * nalgebra::Point3::from(g.center);
-                ws.samples.clear();
-                scene.query(&gc.coords, g.radius + reach, &mut ws.samples);
-                if ws.samples.is_empty() {
+            for (gi, g) in self.groups.iter().enumerate() {
+                let gc = ws.group_centers[gi];
+                ws.near.clear();
+                scene.query_near(&gc, g.radius + reach + CULL_SLACK, &mut ws.near);
+                if ws.near.is_empty() {
                     continue;
                 }
                 for &k in &g.spheres {
                     let r = spheres[k].radius;
                     let center = ws.centers[k];
-                    let offset = (center - gc.coords).norm();
-                    for s in 0..ws.samples.len() {
+                    let offset = (center - gc).norm();
+                    for s in 0..ws.near.len() {
+                        let near = ws.near[s];
                         // 1-Lipschitz lower bound of the centre's distance from the group query
-                        if ws.samples[s].distance - offset > r + reach {
+                        if near.distance - offset > r + reach + CULL_SLACK {
                             continue;
                         }
-                        let id = ws.samples[s].obstacle;
-                        let Some(obstacle) = scene.get(id) else {
+                        let Some(sample) = scene.sample_near(&near, &center, r + reach) else {
                             continue;
                         };
-                        let Some(sd) =
-                            point_distance(&obstacle.shape, &obstacle.pose, &center, r + reach)
-                        else {
-                            continue;
-                        };
-                        diag.min_clearance = diag.min_clearance.min(sd.distance - r);
-                        let sample = DistanceSample {
-                            obstacle: id,
-                            distance: sd.distance,
-                            gradient: sd.gradient,
-                            hessian: sd.hessian,
-                            velocity: obstacle.velocity,
-                        };
+                        diag.min_clearance = diag.min_clearance.min(sample.distance - r);
                         ensure_sphere(robot, ws, k);
                         let leaf = obstacle_leaf(
                             &ws.spheres[k],
@@ -619,5 +774,140 @@ fn ensure_sphere(robot: &Robot, ws: &mut FabricWorkspace, k: usize) {
     if !ws.sphere_ready[k] {
         robot.sphere(&ws.kin, k, &mut ws.spheres[k]);
         ws.sphere_ready[k] = true;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Obstacle, Shape};
+    use nalgebra::Isometry3;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn random_state(robot: &Robot, rng: &mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>) {
+        let n = robot.dof();
+        let q = (0..n)
+            .map(|j| rng.gen_range(robot.lower()[j]..robot.upper()[j]))
+            .collect();
+        let qd = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        (q, qd)
+    }
+
+    /// The two-level self-collision broadphase returns exactly the pairs of the plain loop over
+    /// `Robot::self_collision_pairs` (same indices, same squared distances, same order), for reaches from
+    /// 0 (touching spheres only) to 1 m (nearly every pair).
+    #[test]
+    fn self_pair_culling_equals_the_plain_loop() {
+        let robot = Robot::panda();
+        let fabric = Fabric::new(Arc::new(robot.clone()), FabricConfig::default()).unwrap();
+        let mut kin = KinematicsWorkspace::new(&robot);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let spheres = robot.spheres();
+        let (mut got, mut centers, mut group_centers) = (Vec::new(), Vec::new(), Vec::new());
+        let mut counts = [0usize; 4];
+        for _ in 0..300 {
+            let (q, qd) = random_state(&robot, &mut rng);
+            robot.update(&q, &qd, &mut kin).unwrap();
+            centers.clear();
+            centers.extend((0..spheres.len()).map(|k| robot.sphere_center(&kin, k)));
+            group_centers.clear();
+            group_centers.extend(fabric.groups.iter().map(|g| {
+                (robot.link_pose(&kin, g.link) * nalgebra::Point3::from(g.center)).coords
+            }));
+            for (i, reach) in [0.0, 0.02, 0.1, 1.0].into_iter().enumerate() {
+                let mut expected = Vec::new();
+                for (index, &(a, b)) in robot.self_collision_pairs().iter().enumerate() {
+                    let far = spheres[a].radius + spheres[b].radius + reach;
+                    let d2 = (centers[a] - centers[b]).norm_squared();
+                    if d2 < far * far {
+                        expected.push((index as u32, d2));
+                    }
+                }
+                got.clear();
+                fabric.self_pairs.collect(
+                    &fabric.groups,
+                    spheres,
+                    &centers,
+                    &group_centers,
+                    reach,
+                    &mut got,
+                );
+                assert_eq!(got, expected, "reach {reach}, q = {q:?}");
+                counts[i] += expected.len();
+            }
+        }
+        assert!(counts[0] > 0 && counts[1] > counts[0] && counts[3] > 100 * 300);
+    }
+
+    /// Culling (self-collision runs, per-link obstacle queries and their Lipschitz bounds) changes nothing:
+    /// with every bounding radius set to +∞ nothing is culled, and q̈ and the diagnostics are bitwise
+    /// the same.
+    #[test]
+    fn culling_changes_no_bit_of_the_result() {
+        let robot = Arc::new(Robot::panda());
+        let mut cfg = FabricConfig::default();
+        // fixed reaches (not the defaults), with margins, so that many leaves exist
+        (cfg.obstacles.margin, cfg.obstacles.influence) = (0.02, 0.3);
+        (cfg.self_collision.margin, cfg.self_collision.influence) = (0.01, 0.1);
+        let fabric = Fabric::new(robot.clone(), cfg).unwrap();
+        let mut unculled = fabric.clone();
+        for g in &mut unculled.groups {
+            g.radius = f64::INFINITY;
+        }
+        let mut scene = Scene::new();
+        let pose = |x: f64, y: f64, z: f64| Isometry3::translation(x, y, z);
+        let shapes = [
+            (
+                Shape::Cuboid {
+                    half_extents: Vector3::new(0.3, 0.3, 0.02),
+                },
+                pose(0.5, 0.0, 0.2),
+            ),
+            (
+                Shape::Cuboid {
+                    half_extents: Vector3::new(0.02, 0.3, 0.3),
+                },
+                pose(0.75, 0.0, 0.5),
+            ),
+            (
+                Shape::Cylinder {
+                    half_height: 0.1,
+                    radius: 0.03,
+                },
+                pose(0.45, 0.15, 0.3),
+            ),
+            (Shape::Sphere { radius: 0.05 }, pose(0.3, -0.3, 0.6)),
+            (
+                Shape::Capsule {
+                    half_height: 0.2,
+                    radius: 0.03,
+                },
+                pose(0.2, 0.4, 0.4),
+            ),
+        ];
+        for (k, (shape, p)) in shapes.into_iter().enumerate() {
+            scene.add(Obstacle::new(format!("o{k}"), shape, p)).unwrap();
+        }
+        let (mut ws, mut ws_ref) = (
+            FabricWorkspace::new(&fabric),
+            FabricWorkspace::new(&unculled),
+        );
+        let (mut qdd, mut qdd_ref) = (vec![0.0; 7], vec![0.0; 7]);
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let command = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+        let mut with_leaves = 0;
+        for _ in 0..400 {
+            let (q, qd) = random_state(&robot, &mut rng);
+            let a = fabric.acceleration(&scene, &q, &qd, &command, &mut ws, &mut qdd);
+            let b = unculled.acceleration(&scene, &q, &qd, &command, &mut ws_ref, &mut qdd_ref);
+            assert_eq!(a.is_ok(), b.is_ok());
+            if a.is_ok() {
+                assert_eq!(qdd, qdd_ref, "q = {q:?}");
+                assert_eq!(fabric.diagnostics(&ws), unculled.diagnostics(&ws_ref));
+                with_leaves += (fabric.diagnostics(&ws).min_clearance.is_finite()) as usize;
+            }
+        }
+        assert!(with_leaves > 50, "{with_leaves} states near obstacles");
     }
 }

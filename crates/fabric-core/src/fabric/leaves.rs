@@ -52,11 +52,12 @@ pub fn obstacle_leaf(
 ) -> LeafState {
     let g = &sample.gradient;
     let rel = c.xd - sample.velocity;
-    for (a, j) in jac.iter_mut().enumerate() {
-        let col = c.jac.column(a);
+    for (j, col) in jac.iter_mut().zip(c.jac.as_slice().chunks_exact(3)) {
         *j = g.x * col[0] + g.y * col[1] + g.z * col[2];
     }
-    let h_norm = sample.hessian.norm();
+    // ‖H‖_F = 0 on flat features (faces): skip the square root
+    let h_norm2 = sample.hessian.norm_squared();
+    let h_norm = if h_norm2 > 0.0 { h_norm2.sqrt() } else { 0.0 };
     let scale = if min_curvature_radius * h_norm > 1.0 {
         1.0 / (min_curvature_radius * h_norm)
     } else {
@@ -94,8 +95,12 @@ pub fn self_collision_leaf(
     } else {
         (Vector3::z(), 0.0)
     };
-    for (k, j) in jac.iter_mut().enumerate() {
-        let (ca, cb) = (a.jac.column(k), b.jac.column(k));
+    let columns = a
+        .jac
+        .as_slice()
+        .chunks_exact(3)
+        .zip(b.jac.as_slice().chunks_exact(3));
+    for (j, (ca, cb)) in jac.iter_mut().zip(columns) {
         *j = n.x * (ca[0] - cb[0]) + n.y * (ca[1] - cb[1]) + n.z * (ca[2] - cb[2]);
     }
     LeafState {

@@ -148,6 +148,9 @@ impl RootSystem {
     /// Add a 1-D component through a row Jacobian `j` (n,) and scalar J̇q̇:
     /// M̃ += m jjᵀ, ξ̃ += j(ξ + m J̇q̇), f̃ += j(f + m J̇q̇), ∂ψ += j grad, ψ += psi.
     /// Only the upper triangle of M̃ is updated here; [`solve`](RootSystem::solve) mirrors it.
+    ///
+    /// # Panics
+    /// When `j` is shorter than n.
     #[allow(clippy::too_many_arguments)]
     pub fn add_scalar(
         &mut self,
@@ -162,20 +165,17 @@ impl RootSystem {
         let n = self.dim();
         let c = m * jdqd;
         let (ex, ef) = (xi + c, f + c);
-        for a in 0..n {
-            let ja = j[a];
-            self.xi[a] += ja * ex;
-            self.f[a] += ja * ef;
-            self.grad[a] += ja * grad;
-        }
-        if m != 0.0 {
-            // upper triangle only; `solve` reads the upper triangle (see `symmetrize`)
-            for b in 0..n {
-                let mjb = m * j[b];
-                for a in 0..=b {
-                    self.m[(a, b)] += j[a] * mjb;
-                }
-            }
+        let (mm, xs, fs, gs) = (
+            self.m.as_mut_slice(),
+            self.xi.as_mut_slice(),
+            self.f.as_mut_slice(),
+            self.grad.as_mut_slice(),
+        );
+        // the same kernel, unrolled for the common arm sizes
+        match n {
+            7 => rank_one::<7>(mm, xs, fs, gs, j, m, ex, ef, grad),
+            6 => rank_one::<6>(mm, xs, fs, gs, j, m, ex, ef, grad),
+            _ => rank_one::<0>(mm, xs, fs, gs, j, m, ex, ef, grad),
         }
         self.psi += psi;
     }
@@ -299,5 +299,42 @@ impl RootSystem {
             alpha_le,
             speed: speed_terms,
         })
+    }
+}
+
+/// The rank-one update of [`RootSystem::add_scalar`] on the raw column-major storage of M̃ (n × n) and
+/// the vectors (n,), with n = `N` (a compile-time length: the loops unroll) or, for `N = 0`, the length
+/// of `xi`: M̃ += m jjᵀ (upper triangle), ξ̃ += j ex, f̃ += j ef, ∂ψ += j grad.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn rank_one<const N: usize>(
+    mm: &mut [f64],
+    xi: &mut [f64],
+    f: &mut [f64],
+    gr: &mut [f64],
+    j: &[f64],
+    m: f64,
+    ex: f64,
+    ef: f64,
+    grad: f64,
+) {
+    let n = if N == 0 { xi.len() } else { N };
+    // plain slices of one length: no bounds checks in the loops
+    let (j, xi, f, gr) = (&j[..n], &mut xi[..n], &mut f[..n], &mut gr[..n]);
+    for a in 0..n {
+        let ja = j[a];
+        xi[a] += ja * ex;
+        f[a] += ja * ef;
+        gr[a] += ja * grad;
+    }
+    if m != 0.0 {
+        // upper triangle only; `solve` reads the upper triangle (see `symmetrize`). Column b of the
+        // column-major M̃ holds rows 0..=b of the triangle contiguously.
+        for (b, col) in mm[..n * n].chunks_exact_mut(n).enumerate() {
+            let mjb = m * j[b];
+            for (mab, &ja) in col[..=b].iter_mut().zip(j) {
+                *mab += ja * mjb;
+            }
+        }
     }
 }

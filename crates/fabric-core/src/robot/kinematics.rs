@@ -50,7 +50,7 @@ impl TaskPoint {
     /// Zero the Jacobian, resizing it to 3 × dof first if needed (allocates only then).
     fn reset_jacobian(&mut self, dof: usize) {
         if self.jac.ncols() == dof {
-            self.jac.fill(0.0);
+            self.jac.as_mut_slice().fill(0.0);
         } else {
             self.jac = Matrix3xX::zeros(dof);
         }

@@ -59,6 +59,17 @@ pub struct DistanceSample {
     pub velocity: Vector3<f64>,
 }
 
+/// A broadphase hit of `Scene::query_near`: the obstacle at storage position `entry` of the scene lies
+/// at signed distance `distance` (m) from the query point. Crate-internal: the position is valid only
+/// until the scene is next modified (use [`DistanceSample::obstacle`] ids for anything kept).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct NearObstacle {
+    /// Position of the obstacle in the scene's dense storage.
+    pub(crate) entry: u32,
+    /// Signed distance (m) from the query point, positive outside.
+    pub(crate) distance: f64,
+}
+
 /// Signed distance, gradient and Hessian of one shape at one point (world frame), without identity.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceDistance {
@@ -247,13 +258,25 @@ fn about_point(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) ->
 }
 
 /// `d = s|v| - offset` about a straight line of unit direction `e` (`v = p - c ⟂ e`).
-fn about_line(v: &Vector3<f64>, e: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) -> Local {
+fn about_line(
+    v: &Vector3<f64>,
+    e: &Vector3<f64>,
+    s: f64,
+    offset: f64,
+    fallback: Vector3<f64>,
+) -> Local {
     radial(v, s, offset, fallback, Some(e))
 }
 
 /// `d = s|v| - offset` with `v` the offset from a point or (with `axis`) from a line: gradient `s·v/|v|`,
 /// Hessian `(s/|v|)(I − uuᵀ)`, minus `eeᵀ` along the line. At `|v| ≤ SINGULAR_EPS`: flat, `fallback` normal.
-fn radial(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>, axis: Option<&Vector3<f64>>) -> Local {
+fn radial(
+    v: &Vector3<f64>,
+    s: f64,
+    offset: f64,
+    fallback: Vector3<f64>,
+    axis: Option<&Vector3<f64>>,
+) -> Local {
     let r = v.norm();
     if r <= SINGULAR_EPS {
         return flat(s * r - offset, fallback);
@@ -265,7 +288,11 @@ fn radial(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>, axis: O
         None => Curvature::new(k, &[(-k, u)]),
         Some(e) => Curvature::new(k, &[(-k, u), (-k, *e)]),
     };
-    Local { d: s * r - offset, g: u * s, h }
+    Local {
+        d: s * r - offset,
+        g: u * s,
+        h,
+    }
 }
 
 /// Widen a search limit so that features at exactly `max` are not lost to strict comparisons.
