@@ -24,7 +24,7 @@ def robot():
 @pytest.fixture()
 def scene():
     s = gfcs.Scene()
-    s.add_sphere([0.5, 0.3, 0.5], 0.08, name="ball")
+    s.add_sphere([0.45, 0.2, 0.5], 0.08, name="ball")  # 8 cm from the arm at Q0: within the influence
     return s
 
 
@@ -194,7 +194,7 @@ def test_ee_target_matches_default_targets(robot):
 
 
 def test_gil_released_during_evaluate(fabric):
-    cands = np.tile(GOAL, (64, 1)) + np.random.default_rng(0).normal(scale=0.3, size=(64, 7))
+    cands = np.tile(GOAL, (256, 1)) + np.random.default_rng(0).normal(scale=0.3, size=(256, 7))
     done = threading.Event()
     elapsed = {}
 

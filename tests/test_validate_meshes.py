@@ -218,7 +218,7 @@ def test_solve_returns_the_best_mesh_free_candidate(shelf):
     assert [c for _, c in r.top] == [c for _, c in plain.top]  # the optimiser's top-m is unchanged
     # every candidate in contact: the lowest-cost one comes back, reported as failed
     hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=99))
-    r = opt.solve(hopeless, batches=1, population=8, seed=0, top_m=3)
+    r = opt.solve(hopeless, batches=1, population=8, seed=0, top_m=3, mesh_candidates=3)
     np.testing.assert_array_equal(r.commands, plain.commands)
     assert not r.success and r.metrics["mesh_candidate_rank"] == 0
     assert r.metrics["mesh_candidates_checked"] == 3 and r.metrics["mesh_clearance"] < 0

@@ -157,9 +157,11 @@ fn component_metrics_are_hd0_and_forces_hd2() {
         energy: SwitchedEnergy1D {
             metric: BarrierMetric {
                 gain: 0.3,
-                x_min: 0.005, influence: f64::INFINITY
+                x_min: 0.005,
+                influence: f64::INFINITY,
             },
             switched: true,
+            hold_inside: false,
         },
         geometry: BarrierPotential {
             barrier_gain: 0.02,
@@ -175,6 +177,8 @@ fn component_metrics_are_hd0_and_forces_hd2() {
             relu_shift: 0.05,
             x_min: 0.005,
         },
+        // the paper's barrier: uncapped HD2 geometry, no damper (τ = 0)
+        braking_time: 0.0,
     };
     for _ in 0..200 {
         let l: f64 = rng.gen_range(0.05..5.0);
@@ -494,9 +498,11 @@ impl Toy {
                 energy: SwitchedEnergy1D {
                     metric: BarrierMetric {
                         gain: 0.5,
-                        x_min: 0.01, influence: f64::INFINITY
+                        x_min: 0.01,
+                        influence: f64::INFINITY,
                     },
                     switched: false,
+                    hold_inside: false,
                 },
                 geometry: BarrierPotential {
                     barrier_gain: 0.05,
@@ -512,6 +518,7 @@ impl Toy {
                     relu_shift: 0.0,
                     x_min: 0.01,
                 },
+                braking_time: 0.0,
             },
             speed: SpeedConfig {
                 enabled: false,

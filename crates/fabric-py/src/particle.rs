@@ -67,6 +67,7 @@ fn parse_params(
                         "barrier_gain" => &mut p.barrier_gain,
                         "barrier_potential_gain" => &mut p.barrier_potential_gain,
                         "x_min" => &mut p.x_min,
+                        "braking_time" => &mut p.braking_time,
                         _ => {
                             return Err(error(FabricError::Value {
                                 what: "particle parameter".into(),
@@ -92,6 +93,12 @@ fn parse_params(
                 message: format!("must be > 0, got {v}"),
             }));
         }
+    }
+    if !(p.braking_time.is_finite() && p.braking_time >= 0.0) {
+        return Err(error(FabricError::Value {
+            what: "braking_time".into(),
+            message: format!("must be >= 0 s (0 = the paper's barrier), got {}", p.braking_time),
+        }));
     }
     Ok(p)
 }
@@ -141,7 +148,7 @@ impl System for ParticleSystem {
 /// Acceleration q̈ (2,) m/s² of one particle at `q` (2,) with velocity `qd` (2,) for `variant`, desired
 /// speed `speed` (default 2 m/s) and parameter overrides (`target`, `obstacle_center`, `obstacle_radius`,
 /// `mass_max`, `mass_min`, `mass_width`, `attraction_gain`, `attraction_sharpness`, `barrier_gain`,
-/// `barrier_potential_gain`, `x_min`).
+/// `barrier_potential_gain`, `x_min`, `braking_time`).
 #[pyfunction]
 #[pyo3(signature = (variant, q, qd, speed=None, **params))]
 pub fn particle_acceleration<'py>(
@@ -253,6 +260,7 @@ pub fn particle_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("barrier_gain", p.barrier_gain)?;
     d.set_item("barrier_potential_gain", p.barrier_potential_gain)?;
     d.set_item("x_min", p.x_min)?;
+    d.set_item("braking_time", p.braking_time)?;
     d.set_item("speed", p.speed.desired_speed)?;
     Ok(d)
 }

@@ -71,9 +71,12 @@ impl Default for JointAttractionConfig {
                 gain: 1.0,
                 sharpness: 10.0,
             },
+            // far-field force 10 as before, but stiffness 1000 at the command (was 200): the sum of
+            // the weak barrier potentials of ~200 leaves near a goal 1-2 cm from obstacles then
+            // shifts the rest point by well under the goal tolerance (MotionBenchMaker, BENCHMARKS.md)
             potential: LogCoshConfig {
-                gain: 0.5,
-                sharpness: 20.0,
+                gain: 0.1,
+                sharpness: 100.0,
             },
         }
     }
@@ -144,6 +147,8 @@ impl Default for EeAttractionConfig {
 /// k_b / x + (k_r / α) ln(1 + e^{−α(x − x_o)}) with their own gains. Leaves are formed only when
 /// x < `influence`. Below `x_min` (penetration) the metric continues by its tangent line and the
 /// potentials by their second-order Taylor polynomial: the push stays finite, nonzero and outward.
+/// Inside (x < 0) the energy stays on when moving away, and `braking_time` bounds the brake and adds a
+/// damper, so that explicit Euler steps stay stable (see `fabric::components::Barrier`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BarrierConfig {
@@ -160,6 +165,12 @@ pub struct BarrierConfig {
     /// ρ (≥ 0, m): minimum curvature radius of the distance field in J̇q̇ (see `fabric::leaves`); 0 = exact.
     /// Unused by joint limits (their task map is linear).
     pub min_curvature_radius: f64,
+    /// τ (≥ 0, s): braking time. The barrier geometry's brake is capped so that it removes at most the
+    /// velocity along x within τ, and a damper of rate up to 2/τ stops an approach near and inside the
+    /// barrier (see `fabric::components::Barrier::braking_time`). Explicit Euler steps up to τ never
+    /// amplify the velocity along x. 0 = the paper's barrier (exact HD2 geometry, no damper).
+    /// Default 0.01 s, the papers' step.
+    pub braking_time: f64,
     /// ψ_g of the geometry π = −ẋ² ∂ψ_g (the main avoidance behaviour).
     pub geometry: BarrierPotentialConfig,
     /// ψ_f of the forcing term (a weak soft penalty; keep it small so goals near obstacles stay reachable).
@@ -172,9 +183,12 @@ impl BarrierConfig {
             enabled: true,
             metric_gain: 0.05,
             margin: 0.0,
-            influence: 0.3,
+            // the barrier geometry's deceleration is set by the near field (speed factor
+            // exp(-k/x + k/influence)); 0.15 m keeps it and halves the leaves of cluttered scenes
+            influence: 0.15,
             x_min: 0.005,
             min_curvature_radius: 0.3,
+            braking_time: 0.01,
             geometry: BarrierPotentialConfig {
                 barrier_gain: 0.02,
                 relu_gain: 5.0,
@@ -499,6 +513,7 @@ impl FabricConfig {
                 b.min_curvature_radius,
                 false,
             )?;
+            check(&format!("{name}.braking_time"), b.braking_time, false)?;
             barrier_pot(&format!("{name}.geometry"), &b.geometry)?;
             barrier_pot(&format!("{name}.potential"), &b.potential)?;
         }

@@ -364,25 +364,38 @@ impl Metric1D for InverseSquareMetric {
     }
 }
 
-/// One-dimensional switched energy L = ½ g(x) s(ẋ) ẋ² (GF App. E-C eq. 51-52). With `switched`,
-/// s(ẋ) = 1 for ẋ < 0 and 0 otherwise (a Finsler energy that forgets the barrier when moving away,
-/// GF VII-A2); without it s ≡ 1 (Riemannian). Closed form (s is piecewise constant):
+/// One-dimensional switched energy L = ½ g(x) s(x, ẋ) ẋ² (GF App. E-C eq. 51-52). With `switched`,
+/// s = 1 for ẋ < 0 and 0 otherwise (a Finsler energy that forgets the barrier when moving away,
+/// GF VII-A2); without it s ≡ 1 (Riemannian). With `hold_inside` as well, s = 1 also for ẋ ≥ 0 while
+/// x < 0 (inside the barrier: penetration, or a joint inside its limit margin). Closed form (s is
+/// piecewise constant in x and ẋ):
 ///
 /// ```text
-/// M = g(x) s(ẋ),    ξ = ½ g'(x) s(ẋ) ẋ².
+/// M = g(x) s,    ξ = ½ g'(x) s ẋ².
 /// ```
+///
+/// **Why `hold_inside` (a departure from GF VII-A2, where s depends on ẋ only).** Inside, moving away
+/// is the motion the barrier must still weight. With the paper's switch, a leaf leaving a penetration
+/// loses its metric, and its forcing term ψ_f'(x) (large in there, and summed over every robot sphere
+/// inside the same obstacle) is resolved against the light joint-attraction mass alone: the push out
+/// reached metres per second within one step of 0.01 s and diverged. Keeping g in M̃ makes the push
+/// an acceleration of order ψ_f'/g, independent of how many spheres are inside. s stays HD0 in ẋ, so
+/// L stays a Finsler energy; at x = 0 (moving out) the energy ½ g ẋ² is dropped, which only removes
+/// energy (GF Thm IV.4).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SwitchedEnergy1D<G> {
     /// The position metric g(x) > 0.
     pub metric: G,
     /// Whether the velocity-direction switch s(ẋ) is applied.
     pub switched: bool,
+    /// With `switched`: keep s = 1 inside (x < 0) whatever the direction of motion.
+    pub hold_inside: bool,
 }
 
 impl<G: Metric1D> SwitchedEnergy1D<G> {
-    /// s(ẋ): 1 when approaching (ẋ < 0) or when not switched, else 0.
-    pub fn switch(&self, xd: f64) -> f64 {
-        if !self.switched || xd < 0.0 {
+    /// s(x, ẋ): 1 when approaching (ẋ < 0), when not switched, or inside with `hold_inside`; else 0.
+    pub fn switch(&self, x: f64, xd: f64) -> f64 {
+        if !self.switched || xd < 0.0 || (self.hold_inside && x < 0.0) {
             1.0
         } else {
             0.0
@@ -391,7 +404,7 @@ impl<G: Metric1D> SwitchedEnergy1D<G> {
 
     /// Closed form on scalars: returns (M, ξ, L).
     pub fn eval(&self, x: f64, xd: f64) -> (f64, f64, f64) {
-        let s = self.switch(xd);
+        let s = self.switch(x, xd);
         if s == 0.0 {
             return (0.0, 0.0, 0.0);
         }
@@ -405,7 +418,7 @@ impl<G: Metric1D> FinslerEnergy for SwitchedEnergy1D<G> {
         1
     }
     fn lagrangian<D: DualNum<f64>>(&self, x: &[D], xd: &[D]) -> D {
-        let s = self.switch(xd[0].re());
+        let s = self.switch(x[0].re(), xd[0].re());
         self.metric.g(x[0].clone()) * xd[0].clone() * xd[0].clone() * (0.5 * s)
     }
     fn equations(&self, x: &[f64], xd: &[f64], m: &mut DMatrix<f64>, xi: &mut DVector<f64>) -> f64 {
@@ -496,14 +509,16 @@ mod tests {
         }
         for &x in &[0.5, 0.02, 0.004, -0.3] {
             for &xd in &[-1.2, -0.01, 0.0, 0.7] {
-                for switched in [true, false] {
+                for (switched, hold_inside) in [(true, false), (false, false), (true, true)] {
                     check(
                         &SwitchedEnergy1D {
                             metric: BarrierMetric {
                                 gain: 0.4,
-                                x_min: 0.005, influence: f64::INFINITY
+                                x_min: 0.005,
+                                influence: f64::INFINITY,
                             },
                             switched,
+                            hold_inside,
                         },
                         &[x],
                         &[xd],
@@ -515,6 +530,7 @@ mod tests {
                                 x_min: 0.01,
                             },
                             switched,
+                            hold_inside,
                         },
                         &[x],
                         &[xd],
@@ -548,9 +564,11 @@ mod tests {
         let b = SwitchedEnergy1D {
             metric: BarrierMetric {
                 gain: 0.4,
-                x_min: 0.005, influence: f64::INFINITY
+                x_min: 0.005,
+                influence: f64::INFINITY,
             },
             switched: true,
+            hold_inside: false,
         };
         let (m, xi, l) = b.eval(0.2, -0.3);
         let (m2, xi2, l2) = b.eval(0.2, -0.9);
@@ -560,10 +578,34 @@ mod tests {
     }
 
     #[test]
+    fn hold_inside_keeps_the_metric_inside_whatever_the_direction() {
+        let e = SwitchedEnergy1D {
+            metric: BarrierMetric {
+                gain: 0.4,
+                x_min: 0.01,
+                influence: f64::INFINITY,
+            },
+            switched: true,
+            hold_inside: true,
+        };
+        let paper = SwitchedEnergy1D {
+            hold_inside: false,
+            ..e
+        };
+        let (g_in, _) = e.metric.g_dg(-0.02);
+        assert_eq!(e.eval(-0.02, 0.5).0, g_in);
+        assert_eq!(paper.eval(-0.02, 0.5), (0.0, 0.0, 0.0));
+        for (x, xd) in [(-0.02, -0.5), (0.03, -0.5), (0.03, 0.5), (0.0, 0.5)] {
+            assert_eq!(e.eval(x, xd), paper.eval(x, xd), "({x}, {xd})");
+        }
+    }
+
+    #[test]
     fn barrier_metric_continuation_is_positive_and_c1() {
         let g = BarrierMetric {
             gain: 0.4,
-            x_min: 0.01, influence: f64::INFINITY
+            x_min: 0.01,
+            influence: f64::INFINITY,
         };
         let (a, da) = g.g_dg(0.01 - 1e-12);
         let (b, db) = g.g_dg(0.01 + 1e-12);
@@ -576,17 +618,30 @@ mod tests {
 
     #[test]
     fn tapered_barrier_metric_is_c1_at_the_influence_radius_and_matches_ad() {
-        let g = BarrierMetric { gain: 0.4, x_min: 0.01, influence: 0.3 };
+        let g = BarrierMetric {
+            gain: 0.4,
+            x_min: 0.01,
+            influence: 0.3,
+        };
         let (a, da) = g.g_dg(0.3 - 1e-9);
-        assert!(a.abs() < 1e-12 && da.abs() < 1e-6, "g and g' vanish at r: {a} {da}");
+        assert!(
+            a.abs() < 1e-12 && da.abs() < 1e-6,
+            "g and g' vanish at r: {a} {da}"
+        );
         assert_eq!(g.g_dg(0.5), (0.0, 0.0));
         let (g_in, dg_in) = g.g_dg(0.1);
-        assert!((g_in - 4.0).abs() < 1e-12 && (dg_in + 40.0).abs() < 1e-10, "exact k/x inside r/2");
+        assert!(
+            (g_in - 4.0).abs() < 1e-12 && (dg_in + 40.0).abs() < 1e-10,
+            "exact k/x inside r/2"
+        );
         for &x in &[0.02, 0.1, 0.16, 0.25, 0.29] {
             let (v, d) = g.g_dg(x);
             let h = 1e-6;
             let fd = (g.g_dg(x + h).0 - g.g_dg(x - h).0) / (2.0 * h);
-            assert!((d - fd).abs() < 1e-6 * (1.0 + d.abs()), "g' vs FD at {x}: {d} {fd}");
+            assert!(
+                (d - fd).abs() < 1e-6 * (1.0 + d.abs()),
+                "g' vs FD at {x}: {d} {fd}"
+            );
             let ad = g.g(num_dual::Dual64::from(x).derivative());
             assert!((ad.re - v).abs() < 1e-12 && (ad.eps - d).abs() < 1e-9);
         }
