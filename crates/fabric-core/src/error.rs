@@ -11,7 +11,11 @@ pub enum FabricError {
     Urdf { file: String, message: String },
     /// A joint type the model does not support (planar, floating).
     #[error("URDF {file}: joint '{joint}' has unsupported type '{kind}' (supported: revolute, continuous, prismatic, fixed, mimic)")]
-    UnsupportedJoint { file: String, joint: String, kind: String },
+    UnsupportedJoint {
+        file: String,
+        joint: String,
+        kind: String,
+    },
     /// A link name that is not in the robot.
     #[error("no link named '{link}' in robot '{robot}'")]
     MissingLink { robot: String, link: String },
@@ -23,13 +27,21 @@ pub enum FabricError {
     Mesh { path: String, message: String },
     /// An array of the wrong shape.
     #[error("{what}: expected shape {expected}, got {got}")]
-    Shape { what: String, expected: String, got: String },
+    Shape {
+        what: String,
+        expected: String,
+        got: String,
+    },
     /// NaN or infinite values in an input.
     #[error("{what} contains NaN or infinite values")]
     NonFinite { what: String },
     /// A malformed field in a data file (YAML scene or request, SRDF, sphere file, config).
     #[error("{file}: field '{field}': {message}")]
-    Format { file: String, field: String, message: String },
+    Format {
+        file: String,
+        field: String,
+        message: String,
+    },
     /// A value outside its valid range (negative radius, zero time step, ...).
     #[error("invalid {what}: {message}")]
     Value { what: String, message: String },
@@ -46,7 +58,9 @@ pub fn check_finite(what: &str, values: &[f64]) -> Result<()> {
     if values.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
-        Err(FabricError::NonFinite { what: what.to_string() })
+        Err(FabricError::NonFinite {
+            what: what.to_string(),
+        })
     }
 }
 

@@ -6,7 +6,8 @@ use std::sync::Arc;
 use fabric_core::fabric::{Fabric, FabricConfig, FabricWorkspace};
 use fabric_core::robot::{batch, Robot};
 use fabric_core::rollout::{
-    evaluate_batch, rollout, rollout_sequence, RolloutOptions, SequenceOptions, SequenceResult, StopReason,
+    evaluate_batch, rollout, rollout_sequence, RolloutOptions, SequenceOptions, SequenceResult,
+    StopReason,
 };
 use fabric_core::scene::{Obstacle, Scene, Shape};
 use nalgebra::{Isometry3, Vector3};
@@ -30,7 +31,9 @@ fn self_clearances(robot: &Robot, qs: &[f64]) -> Vec<f64> {
             robot
                 .self_collision_pairs()
                 .iter()
-                .map(|&(a, b)| (c[a] - c[b]).norm() - robot.spheres()[a].radius - robot.spheres()[b].radius)
+                .map(|&(a, b)| {
+                    (c[a] - c[b]).norm() - robot.spheres()[a].radius - robot.spheres()[b].radius
+                })
                 .fold(f64::INFINITY, f64::min)
         })
         .collect()
@@ -40,7 +43,15 @@ fn self_clearances(robot: &Robot, qs: &[f64]) -> Vec<f64> {
 fn table_scene() -> Scene {
     let mut scene = Scene::new();
     let pose = Isometry3::translation(0.55, 0.0, 0.275);
-    scene.add(Obstacle::new("table", Shape::Cuboid { half_extents: Vector3::new(0.25, 0.5, 0.025) }, pose)).unwrap();
+    scene
+        .add(Obstacle::new(
+            "table",
+            Shape::Cuboid {
+                half_extents: Vector3::new(0.25, 0.5, 0.025),
+            },
+            pose,
+        ))
+        .unwrap();
     scene
 }
 
@@ -52,21 +63,33 @@ fn joint_limits_hold_over_long_rollouts() {
     let scene = Scene::new();
     let mut ws = FabricWorkspace::new(&fabric);
     let mut rng = ChaCha8Rng::seed_from_u64(2024);
-    let opts = RolloutOptions { t_max: 10.0, record: true, ..RolloutOptions::default() };
+    let opts = RolloutOptions {
+        t_max: 10.0,
+        record: true,
+        ..RolloutOptions::default()
+    };
     // Valid starts: outside the joint-limit barrier margins and free of self-collision.
     let margin = fabric.config().joint_limits.margin;
     let mut runs = 0;
     let mut reached = 0;
     while runs < 60 {
-        let q0: Vec<f64> = (0..7).map(|i| rng.gen_range(lo[i] + margin..up[i] - margin)).collect();
+        let q0: Vec<f64> = (0..7)
+            .map(|i| rng.gen_range(lo[i] + margin..up[i] - margin))
+            .collect();
         if self_clearances(&robot, &q0)[0] < fabric.config().self_collision.margin {
             continue;
         }
         let qd0: Vec<f64> = (0..7).map(|_| rng.gen_range(-0.5..0.5)).collect();
         // Commands up to 0.3 rad beyond the limits: the limit barriers must hold against the attractor.
-        let command: Vec<f64> = (0..7).map(|i| rng.gen_range(lo[i] - 0.3..up[i] + 0.3)).collect();
+        let command: Vec<f64> = (0..7)
+            .map(|i| rng.gen_range(lo[i] - 0.3..up[i] + 0.3))
+            .collect();
         let r = rollout(&fabric, &scene, &q0, &qd0, &command, &opts, &mut ws).unwrap();
-        assert_ne!(r.reason, StopReason::NonFinite, "q0 {q0:?} qd0 {qd0:?} command {command:?}");
+        assert_ne!(
+            r.reason,
+            StopReason::NonFinite,
+            "q0 {q0:?} qd0 {qd0:?} command {command:?}"
+        );
         let tr = r.trajectory.unwrap();
         for k in 0..tr.len() {
             let q = tr.q_row(k).unwrap();
@@ -95,7 +118,10 @@ fn joint_limits_hold_over_long_rollouts() {
 #[test]
 fn start_inside_the_joint_limit_margin_stays_finite() {
     let fabric = panda_fabric();
-    let (lo, up) = (fabric.robot().lower().to_vec(), fabric.robot().upper().to_vec());
+    let (lo, up) = (
+        fabric.robot().lower().to_vec(),
+        fabric.robot().upper().to_vec(),
+    );
     let q0 = [
         -2.020942649826434,
         -1.7589195031101879,
@@ -107,12 +133,32 @@ fn start_inside_the_joint_limit_margin_stays_finite() {
     ];
     let qd0 = [-0.0938, -0.4375, -0.0746, 0.4667, -0.3338, 0.2499, 0.3490];
     let command = [0.7966, -0.9874, -2.1507, -0.0186, 0.1404, 1.4506, 0.2168];
-    let opts = RolloutOptions { record: true, ..RolloutOptions::default() };
-    let r = rollout(&fabric, &Scene::new(), &q0, &qd0, &command, &opts, &mut FabricWorkspace::new(&fabric)).unwrap();
+    let opts = RolloutOptions {
+        record: true,
+        ..RolloutOptions::default()
+    };
+    let r = rollout(
+        &fabric,
+        &Scene::new(),
+        &q0,
+        &qd0,
+        &command,
+        &opts,
+        &mut FabricWorkspace::new(&fabric),
+    )
+    .unwrap();
     assert_ne!(r.reason, StopReason::NonFinite);
     let tr = r.trajectory.unwrap();
-    assert!(tr.q.iter().enumerate().all(|(k, q)| *q >= lo[k % 7] && *q <= up[k % 7]));
-    assert!(tr.qdd.iter().all(|a| a.abs() < 500.0), "max |q̈| {}", tr.qdd.iter().fold(0.0f64, |m, a| m.max(a.abs())));
+    assert!(tr
+        .q
+        .iter()
+        .enumerate()
+        .all(|(k, q)| *q >= lo[k % 7] && *q <= up[k % 7]));
+    assert!(
+        tr.qdd.iter().all(|a| a.abs() < 500.0),
+        "max |q̈| {}",
+        tr.qdd.iter().fold(0.0f64, |m, a| m.max(a.abs()))
+    );
 }
 
 /// Random starts near, on and just beyond the joint limits (issue #3): every joint uniform inside its
@@ -132,12 +178,24 @@ fn random_starts_on_and_inside_the_joint_limit_margin_never_diverge_nor_cross_th
     let mut ws = FabricWorkspace::new(&fabric);
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     // the whole 7 s: no early stop when the motion stalls against a limit
-    let opts = RolloutOptions { record: true, stall_window: 0.0, ..RolloutOptions::default() };
+    let opts = RolloutOptions {
+        record: true,
+        stall_window: 0.0,
+        ..RolloutOptions::default()
+    };
     let (mut runs, mut on_limit, mut head_on) = (0, 0, 0);
     while runs < 200 {
-        let mut q0: Vec<f64> = (0..7).map(|i| rng.gen_range(lo[i] + margin..up[i] - margin)).collect();
-        let v_others = if rng.gen_bool(0.25) { 0.0 } else { rng.gen_range(0.0..1.0) };
-        let mut qd0: Vec<f64> = (0..7).map(|_| rng.gen_range(-1.0..1.0) * v_others).collect();
+        let mut q0: Vec<f64> = (0..7)
+            .map(|i| rng.gen_range(lo[i] + margin..up[i] - margin))
+            .collect();
+        let v_others = if rng.gen_bool(0.25) {
+            0.0
+        } else {
+            rng.gen_range(0.0..1.0)
+        };
+        let mut qd0: Vec<f64> = (0..7)
+            .map(|_| rng.gen_range(-1.0..1.0) * v_others)
+            .collect();
         for _ in 0..rng.gen_range(1..=3) {
             let i = rng.gen_range(0..7);
             let d = match rng.gen_range(0..5) {
@@ -157,9 +215,15 @@ fn random_starts_on_and_inside_the_joint_limit_margin_never_diverge_nor_cross_th
         if self_clearances(&robot, &q0)[0] < 0.0 {
             continue;
         }
-        let command: Vec<f64> = (0..7).map(|i| rng.gen_range(lo[i] - 0.3..up[i] + 0.3)).collect();
+        let command: Vec<f64> = (0..7)
+            .map(|i| rng.gen_range(lo[i] - 0.3..up[i] + 0.3))
+            .collect();
         let r = rollout(&fabric, &scene, &q0, &qd0, &command, &opts, &mut ws).unwrap();
-        assert_ne!(r.reason, StopReason::NonFinite, "q0 {q0:?} qd0 {qd0:?} command {command:?}");
+        assert_ne!(
+            r.reason,
+            StopReason::NonFinite,
+            "q0 {q0:?} qd0 {qd0:?} command {command:?}"
+        );
         let tr = r.trajectory.unwrap();
         for k in 0..tr.len() {
             let (q, qd) = (tr.q_row(k).unwrap(), tr.qd_row(k).unwrap());
@@ -172,13 +236,24 @@ fn random_starts_on_and_inside_the_joint_limit_margin_never_diverge_nor_cross_th
                 );
             }
             let speed = qd.iter().map(|v| v * v).sum::<f64>().sqrt();
-            assert!(speed < 5.0, "|q̇| = {speed} at t = {}; q0 {q0:?} qd0 {qd0:?}", tr.t[k]);
+            assert!(
+                speed < 5.0,
+                "|q̇| = {speed} at t = {}; q0 {q0:?} qd0 {qd0:?}",
+                tr.t[k]
+            );
         }
-        on_limit += q0.iter().enumerate().filter(|(i, q)| **q <= lo[*i] || **q >= up[*i]).count();
+        on_limit += q0
+            .iter()
+            .enumerate()
+            .filter(|(i, q)| **q <= lo[*i] || **q >= up[*i])
+            .count();
         head_on += usize::from(v_others == 0.0);
         runs += 1;
     }
-    assert!(on_limit > 20 && head_on > 20, "{on_limit} joints started on or beyond a limit, {head_on} head-on runs");
+    assert!(
+        on_limit > 20 && head_on > 20,
+        "{on_limit} joints started on or beyond a limit, {head_on} head-on runs"
+    );
 }
 
 /// The front-most robot sphere of a start near READY (every joint within ±0.5 rad, moving at up to
@@ -199,28 +274,51 @@ fn a_sphere_starting_inside_an_obstacle_is_pushed_out_with_finite_action() {
         let qd0: Vec<f64> = (0..7).map(|_| rng.gen_range(-0.3..0.3)).collect();
         let centers = batch::sphere_centers(&robot, &q0).unwrap();
         let front = |k: usize| centers[k].x + robot.spheres()[k].radius;
-        let k = (0..s).max_by(|&a, &b| front(a).total_cmp(&front(b))).unwrap();
+        let k = (0..s)
+            .max_by(|&a, &b| front(a).total_cmp(&front(b)))
+            .unwrap();
         let depth = rng.gen_range(0.01..0.03);
         let half = Vector3::new(0.1, 0.15, 0.15);
         let pose = Isometry3::translation(front(k) - depth + half.x, centers[k].y, centers[k].z);
         let mut scene = Scene::new();
-        scene.add(Obstacle::new("box", Shape::Cuboid { half_extents: half }, pose)).unwrap();
+        scene
+            .add(Obstacle::new(
+                "box",
+                Shape::Cuboid { half_extents: half },
+                pose,
+            ))
+            .unwrap();
         let clearance = |q: &[f64]| {
             batch::sphere_centers(&robot, q)
                 .unwrap()
                 .iter()
                 .enumerate()
-                .map(|(j, c)| scene.signed_distance(c).unwrap().distance - robot.spheres()[j % s].radius)
+                .map(|(j, c)| {
+                    scene.signed_distance(c).unwrap().distance - robot.spheres()[j % s].radius
+                })
                 .fold(f64::INFINITY, f64::min)
         };
-        assert!((clearance(&q0) + depth).abs() < 1e-9, "the set-up puts sphere {k} {depth} m deep");
-        let command = if run % 2 == 0 { q0.clone() } else { READY.to_vec() };
+        assert!(
+            (clearance(&q0) + depth).abs() < 1e-9,
+            "the set-up puts sphere {k} {depth} m deep"
+        );
+        let command = if run % 2 == 0 {
+            q0.clone()
+        } else {
+            READY.to_vec()
+        };
         let (mut q, mut qd, mut qdd) = (q0.clone(), qd0.clone(), vec![0.0; 7]);
         let mut out_at = None;
         for step in 0..700 {
-            fabric.acceleration(&scene, &q, &qd, &command, &mut ws, &mut qdd).unwrap();
+            fabric
+                .acceleration(&scene, &q, &qd, &command, &mut ws, &mut qdd)
+                .unwrap();
             let a = qdd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            assert!(a < 1000.0, "run {run}: |q̈| = {a} at t = {}", step as f64 * dt);
+            assert!(
+                a < 1000.0,
+                "run {run}: |q̈| = {a} at t = {}",
+                step as f64 * dt
+            );
             if step == 0 {
                 assert!(a > 0.0, "run {run}: no push at the start");
             }
@@ -232,9 +330,14 @@ fn a_sphere_starting_inside_an_obstacle_is_pushed_out_with_finite_action() {
                 out_at = Some((step + 1) as f64 * dt);
             }
         }
-        let t_out = out_at.unwrap_or_else(|| panic!("run {run}: sphere {k} never left the box ({depth} m deep)"));
+        let t_out = out_at
+            .unwrap_or_else(|| panic!("run {run}: sphere {k} never left the box ({depth} m deep)"));
         assert!(t_out <= 0.5, "run {run}: out only after {t_out} s");
-        assert!(clearance(&q) >= 0.0, "run {run}: back inside at the end ({})", clearance(&q));
+        assert!(
+            clearance(&q) >= 0.0,
+            "run {run}: back inside at the end ({})",
+            clearance(&q)
+        );
     }
 }
 
@@ -243,7 +346,10 @@ fn reaches_goals_in_free_space() {
     let fabric = panda_fabric();
     let scene = Scene::new();
     let mut ws = FabricWorkspace::new(&fabric);
-    let opts = RolloutOptions { record: true, ..RolloutOptions::default() };
+    let opts = RolloutOptions {
+        record: true,
+        ..RolloutOptions::default()
+    };
     for goal in [
         [0.5, -0.3, 0.3, -1.8, 0.2, 1.9, 0.5],
         [-1.0, 0.3, 0.0, -2.0, 0.0, 2.3, 0.0],
@@ -252,12 +358,20 @@ fn reaches_goals_in_free_space() {
         let r = rollout(&fabric, &scene, &READY, &[0.0; 7], &goal, &opts, &mut ws).unwrap();
         assert_eq!(r.reason, StopReason::Reached, "goal {goal:?}");
         assert!(r.t_star > 0.1 && r.t_star < 7.0);
-        let d = r.q.iter().zip(&goal).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+        let d =
+            r.q.iter()
+                .zip(&goal)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
         assert!(d < opts.tol);
         let tr = r.trajectory.unwrap();
         assert_eq!(tr.len(), r.steps + 1);
         assert!((tr.t[tr.len() - 1] - r.t_star).abs() < 1e-12);
-        assert!(r.min_clearance > 0.0, "self-collision on the way to {goal:?}");
+        assert!(
+            r.min_clearance > 0.0,
+            "self-collision on the way to {goal:?}"
+        );
     }
 }
 
@@ -269,7 +383,10 @@ fn clearance_monitor_matches_brute_force() {
     let mut ws = FabricWorkspace::new(&fabric);
     // Reach down toward the table: the hand gets close to its surface.
     let goal = [0.0, 0.6, 0.0, -1.6, 0.0, 2.2, 0.785];
-    let opts = RolloutOptions { record: true, ..RolloutOptions::default() };
+    let opts = RolloutOptions {
+        record: true,
+        ..RolloutOptions::default()
+    };
     let r = rollout(&fabric, &scene, &READY, &[0.0; 7], &goal, &opts, &mut ws).unwrap();
     let tr = r.trajectory.unwrap();
 
@@ -280,9 +397,14 @@ fn clearance_monitor_matches_brute_force() {
         .enumerate()
         .map(|(k, c)| scene.signed_distance(c).unwrap().distance - robot.spheres()[k % s].radius)
         .fold(f64::INFINITY, f64::min);
-    let own = self_clearances(&robot, &tr.q).into_iter().fold(f64::INFINITY, f64::min);
+    let own = self_clearances(&robot, &tr.q)
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
     let ob = &fabric.config().obstacles;
-    assert!(obstacle < ob.margin + ob.influence, "the scenario must come within the influence radius");
+    assert!(
+        obstacle < ob.margin + ob.influence,
+        "the scenario must come within the influence radius"
+    );
     assert!(obstacle < 0.1);
     assert!(
         (r.min_clearance - obstacle.min(own)).abs() < 1e-9,
@@ -294,7 +416,13 @@ fn clearance_monitor_matches_brute_force() {
 
 fn bits(r: &SequenceResult) -> Vec<u64> {
     let mut v = vec![r.cost.to_bits(), r.min_clearance.to_bits()];
-    v.extend(r.t_stars.iter().chain(&r.q).chain(&r.qd).map(|x| x.to_bits()));
+    v.extend(
+        r.t_stars
+            .iter()
+            .chain(&r.q)
+            .chain(&r.qd)
+            .map(|x| x.to_bits()),
+    );
     v
 }
 
@@ -306,13 +434,38 @@ fn batch_is_identical_on_one_and_two_threads() {
     let goal = [0.4, 0.5, 0.2, -1.7, 0.0, 2.2, 0.9];
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     let n = 12;
-    let candidates: Vec<f64> = (0..n * 7).map(|k| rng.gen_range(robot.lower()[k % 7]..robot.upper()[k % 7])).collect();
+    let candidates: Vec<f64> = (0..n * 7)
+        .map(|k| rng.gen_range(robot.lower()[k % 7]..robot.upper()[k % 7]))
+        .collect();
     let opts = SequenceOptions {
-        rollout: RolloutOptions { t_max: 3.0, ..RolloutOptions::default() },
+        rollout: RolloutOptions {
+            t_max: 3.0,
+            ..RolloutOptions::default()
+        },
         ..SequenceOptions::default()
     };
-    let one = evaluate_batch(&fabric, &scene, &READY, &[0.0; 7], &goal, &candidates, &opts, Some(1)).unwrap();
-    let two = evaluate_batch(&fabric, &scene, &READY, &[0.0; 7], &goal, &candidates, &opts, Some(2)).unwrap();
+    let one = evaluate_batch(
+        &fabric,
+        &scene,
+        &READY,
+        &[0.0; 7],
+        &goal,
+        &candidates,
+        &opts,
+        Some(1),
+    )
+    .unwrap();
+    let two = evaluate_batch(
+        &fabric,
+        &scene,
+        &READY,
+        &[0.0; 7],
+        &goal,
+        &candidates,
+        &opts,
+        Some(2),
+    )
+    .unwrap();
     assert_eq!(one.len(), n);
     let mut ws = FabricWorkspace::new(&fabric);
     for j in 0..n {

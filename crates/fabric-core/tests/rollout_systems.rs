@@ -3,8 +3,8 @@
 //! system that diverges.
 
 use fabric_core::rollout::{
-    evaluate_batch_system, rollout_sequence_system, rollout_system, Integrator, RolloutOptions, SequenceOptions,
-    SequenceResult, StopReason, System,
+    evaluate_batch_system, rollout_sequence_system, rollout_system, Integrator, RolloutOptions,
+    SequenceOptions, SequenceResult, StopReason, System,
 };
 use fabric_core::{FabricError, Result};
 use rand::{Rng, SeedableRng};
@@ -25,11 +25,27 @@ impl System for Kinematic {
         self.dof
     }
     fn workspace(&self) {}
-    fn acceleration(&self, _: &mut (), q: &[f64], qd: &[f64], command: &[f64], qdd: &mut [f64]) -> Result<()> {
-        let d: f64 = q.iter().zip(command).map(|(a, b)| (b - a) * (b - a)).sum::<f64>().sqrt();
+    fn acceleration(
+        &self,
+        _: &mut (),
+        q: &[f64],
+        qd: &[f64],
+        command: &[f64],
+        qdd: &mut [f64],
+    ) -> Result<()> {
+        let d: f64 = q
+            .iter()
+            .zip(command)
+            .map(|(a, b)| (b - a) * (b - a))
+            .sum::<f64>()
+            .sqrt();
         let step = self.speed * self.dt;
         for i in 0..self.dof {
-            let v = if d <= step { (command[i] - q[i]) / self.dt } else { self.speed * (command[i] - q[i]) / d };
+            let v = if d <= step {
+                (command[i] - q[i]) / self.dt
+            } else {
+                self.speed * (command[i] - q[i]) / d
+            };
             qdd[i] = (v - qd[i]) / self.dt;
         }
         Ok(())
@@ -53,7 +69,14 @@ impl System for Oscillator {
     fn workspace(&self) -> f64 {
         f64::NAN
     }
-    fn acceleration(&self, ws: &mut f64, q: &[f64], qd: &[f64], command: &[f64], qdd: &mut [f64]) -> Result<()> {
+    fn acceleration(
+        &self,
+        ws: &mut f64,
+        q: &[f64],
+        qd: &[f64],
+        command: &[f64],
+        qdd: &mut [f64],
+    ) -> Result<()> {
         for i in 0..self.dof {
             qdd[i] = -self.w * self.w * (q[i] - command[i]) - 2.0 * self.z * self.w * qd[i];
         }
@@ -74,14 +97,29 @@ impl System for Diverging {
         1
     }
     fn workspace(&self) {}
-    fn acceleration(&self, _: &mut (), q: &[f64], _: &[f64], _: &[f64], qdd: &mut [f64]) -> Result<()> {
+    fn acceleration(
+        &self,
+        _: &mut (),
+        q: &[f64],
+        _: &[f64],
+        _: &[f64],
+        qdd: &mut [f64],
+    ) -> Result<()> {
         qdd[0] = if q[0].abs() > 1.0 { f64::NAN } else { 10.0 };
         Ok(())
     }
 }
 
 fn opts(dt: f64, t_max: f64, tol: f64) -> RolloutOptions {
-    RolloutOptions { dt, t_max, tol, integrator: Integrator::SemiImplicitEuler, record: true, stall_window: 0.0, stall_progress: 0.0 }
+    RolloutOptions {
+        dt,
+        t_max,
+        tol,
+        integrator: Integrator::SemiImplicitEuler,
+        record: true,
+        stall_window: 0.0,
+        stall_progress: 0.0,
+    }
 }
 
 /// Steps for the constant-speed system to get strictly within `tol` from distance `d`: the smallest k
@@ -99,15 +137,33 @@ fn steps_to_reach(d: f64, s: f64, dt: f64, tol: f64) -> Option<usize> {
 
 #[test]
 fn max_steps_rounds_budget_up() {
-    for (t_max, dt, k) in [(7.0, 0.01, 700), (1.0, 0.1, 10), (0.3, 0.1, 3), (0.055, 0.01, 6), (0.001, 0.01, 1)] {
+    for (t_max, dt, k) in [
+        (7.0, 0.01, 700),
+        (1.0, 0.1, 10),
+        (0.3, 0.1, 3),
+        (0.055, 0.01, 6),
+        (0.001, 0.01, 1),
+    ] {
         assert_eq!(opts(dt, t_max, 0.1).max_steps(), k, "t_max {t_max} dt {dt}");
     }
 }
 
 #[test]
 fn reach_time_matches_closed_form() {
-    let sys = Kinematic { dof: 1, speed: 1.0, dt: 0.01 };
-    let r = rollout_system(&sys, &mut (), &[0.0], &[0.0], &[1.0], &opts(0.01, 7.0, 0.005)).unwrap();
+    let sys = Kinematic {
+        dof: 1,
+        speed: 1.0,
+        dt: 0.01,
+    };
+    let r = rollout_system(
+        &sys,
+        &mut (),
+        &[0.0],
+        &[0.0],
+        &[1.0],
+        &opts(0.01, 7.0, 0.005),
+    )
+    .unwrap();
     assert_eq!(r.reason, StopReason::Reached);
     assert_eq!(r.steps, 100);
     assert!((r.t_star - 1.0).abs() < 1e-12);
@@ -123,9 +179,19 @@ fn reach_time_matches_closed_form() {
         let sys = Kinematic { dof, speed, dt };
         let q0: Vec<f64> = (0..dof).map(|_| rng.gen_range(-2.0..2.0)).collect();
         let qg: Vec<f64> = (0..dof).map(|_| rng.gen_range(-2.0..2.0)).collect();
-        let d = q0.iter().zip(&qg).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
-        let Some(k) = steps_to_reach(d, speed, dt, tol) else { continue };
-        let o = RolloutOptions { record: false, ..opts(dt, 7.0, tol) };
+        let d = q0
+            .iter()
+            .zip(&qg)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt();
+        let Some(k) = steps_to_reach(d, speed, dt, tol) else {
+            continue;
+        };
+        let o = RolloutOptions {
+            record: false,
+            ..opts(dt, 7.0, tol)
+        };
         let r = rollout_system(&sys, &mut (), &q0, &vec![0.0; dof], &qg, &o).unwrap();
         let t_reach = k as f64 * dt;
         if t_reach <= 7.0 - dt {
@@ -144,8 +210,20 @@ fn reach_time_matches_closed_form() {
 
 #[test]
 fn timeout_spends_the_budget_and_records_every_step() {
-    let sys = Kinematic { dof: 2, speed: 0.0, dt: 0.01 };
-    let r = rollout_system(&sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 1.0], &opts(0.01, 7.0, 0.01)).unwrap();
+    let sys = Kinematic {
+        dof: 2,
+        speed: 0.0,
+        dt: 0.01,
+    };
+    let r = rollout_system(
+        &sys,
+        &mut (),
+        &[0.0, 0.0],
+        &[0.0, 0.0],
+        &[1.0, 1.0],
+        &opts(0.01, 7.0, 0.01),
+    )
+    .unwrap();
     assert_eq!(r.reason, StopReason::Timeout);
     assert_eq!(r.t_star, 7.0);
     assert_eq!(r.steps, 700);
@@ -157,16 +235,40 @@ fn timeout_spends_the_budget_and_records_every_step() {
     }
 
     // A budget that is not a multiple of dt: the last step overshoots, t* is still t_max (eq. 2).
-    let r = rollout_system(&sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 1.0], &opts(0.01, 0.055, 0.01)).unwrap();
-    assert_eq!((r.reason, r.steps, r.t_star), (StopReason::Timeout, 6, 0.055));
+    let r = rollout_system(
+        &sys,
+        &mut (),
+        &[0.0, 0.0],
+        &[0.0, 0.0],
+        &[1.0, 1.0],
+        &opts(0.01, 0.055, 0.01),
+    )
+    .unwrap();
+    assert_eq!(
+        (r.reason, r.steps, r.t_star),
+        (StopReason::Timeout, 6, 0.055)
+    );
     assert!((r.t_end - 0.06).abs() < 1e-15);
 }
 
 #[test]
 fn starting_on_the_command_takes_no_time() {
-    let sys = Oscillator { dof: 3, w: 2.0, z: 0.5, wall: -10.0 };
+    let sys = Oscillator {
+        dof: 3,
+        w: 2.0,
+        z: 0.5,
+        wall: -10.0,
+    };
     let q = [0.1, 0.2, 0.3];
-    let r = rollout_system(&sys, &mut sys.workspace(), &q, &[5.0, 0.0, 0.0], &q, &opts(0.01, 7.0, 0.01)).unwrap();
+    let r = rollout_system(
+        &sys,
+        &mut sys.workspace(),
+        &q,
+        &[5.0, 0.0, 0.0],
+        &q,
+        &opts(0.01, 7.0, 0.01),
+    )
+    .unwrap();
     assert_eq!((r.reason, r.steps, r.t_star), (StopReason::Reached, 0, 0.0));
     assert_eq!(r.qd, vec![5.0, 0.0, 0.0]);
     assert_eq!(r.trajectory.unwrap().len(), 1);
@@ -174,19 +276,38 @@ fn starting_on_the_command_takes_no_time() {
 
 #[test]
 fn euler_trajectory_rows_follow_the_update_rule() {
-    let sys = Oscillator { dof: 2, w: 3.0, z: 0.3, wall: -10.0 };
-    let r = rollout_system(&sys, &mut sys.workspace(), &[1.0, -0.5], &[0.0, 1.0], &[0.2, 0.4], &opts(0.01, 7.0, 1e-3))
-        .unwrap();
+    let sys = Oscillator {
+        dof: 2,
+        w: 3.0,
+        z: 0.3,
+        wall: -10.0,
+    };
+    let r = rollout_system(
+        &sys,
+        &mut sys.workspace(),
+        &[1.0, -0.5],
+        &[0.0, 1.0],
+        &[0.2, 0.4],
+        &opts(0.01, 7.0, 1e-3),
+    )
+    .unwrap();
     assert_eq!(r.reason, StopReason::Reached);
     let tr = r.trajectory.unwrap();
     let dt = 0.01;
     for k in 0..tr.len() - 1 {
-        let (q, qd, qdd) = (tr.q_row(k).unwrap(), tr.qd_row(k).unwrap(), tr.qdd_row(k).unwrap());
+        let (q, qd, qdd) = (
+            tr.q_row(k).unwrap(),
+            tr.qd_row(k).unwrap(),
+            tr.qdd_row(k).unwrap(),
+        );
         let (q1, qd1) = (tr.q_row(k + 1).unwrap(), tr.qd_row(k + 1).unwrap());
         for i in 0..2 {
             assert_eq!(qd1[i], qd[i] + dt * qdd[i]);
             assert_eq!(q1[i], q[i] + dt * qd1[i]);
-            assert_eq!(qdd[i], -9.0 * (q[i] - [0.2, 0.4][i]) - 2.0 * 0.3 * 3.0 * qd[i]);
+            assert_eq!(
+                qdd[i],
+                -9.0 * (q[i] - [0.2, 0.4][i]) - 2.0 * 0.3 * 3.0 * qd[i]
+            );
         }
     }
     let last = tr.len() - 1;
@@ -202,9 +323,25 @@ fn euler_trajectory_rows_follow_the_update_rule() {
 
 #[test]
 fn rk4_reaches_the_same_rest_point() {
-    let sys = Oscillator { dof: 2, w: 3.0, z: 0.7, wall: -10.0 };
-    let o = RolloutOptions { integrator: Integrator::Rk4, ..opts(0.01, 7.0, 1e-4) };
-    let r = rollout_system(&sys, &mut sys.workspace(), &[1.0, -0.5], &[0.0, 1.0], &[0.2, 0.4], &o).unwrap();
+    let sys = Oscillator {
+        dof: 2,
+        w: 3.0,
+        z: 0.7,
+        wall: -10.0,
+    };
+    let o = RolloutOptions {
+        integrator: Integrator::Rk4,
+        ..opts(0.01, 7.0, 1e-4)
+    };
+    let r = rollout_system(
+        &sys,
+        &mut sys.workspace(),
+        &[1.0, -0.5],
+        &[0.0, 1.0],
+        &[0.2, 0.4],
+        &o,
+    )
+    .unwrap();
     assert_eq!(r.reason, StopReason::Reached);
     assert!(r.t_star > 0.5 && r.t_star < 7.0);
 }
@@ -212,8 +349,21 @@ fn rk4_reaches_the_same_rest_point() {
 #[test]
 fn min_clearance_is_the_minimum_over_steps() {
     // Under-damped: q₀ overshoots below the command 0, the wall at −0.2.
-    let sys = Oscillator { dof: 1, w: 4.0, z: 0.1, wall: -0.2 };
-    let r = rollout_system(&sys, &mut sys.workspace(), &[1.0], &[0.0], &[0.0], &opts(0.01, 7.0, 0.01)).unwrap();
+    let sys = Oscillator {
+        dof: 1,
+        w: 4.0,
+        z: 0.1,
+        wall: -0.2,
+    };
+    let r = rollout_system(
+        &sys,
+        &mut sys.workspace(),
+        &[1.0],
+        &[0.0],
+        &[0.0],
+        &opts(0.01, 7.0, 0.01),
+    )
+    .unwrap();
     let tr = r.trajectory.unwrap();
     let brute = tr.q.iter().map(|q| q + 0.2).fold(f64::INFINITY, f64::min);
     assert_eq!(r.min_clearance, brute);
@@ -223,7 +373,10 @@ fn min_clearance_is_the_minimum_over_steps() {
 #[test]
 fn divergence_stops_with_non_finite() {
     for integrator in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
-        let o = RolloutOptions { integrator, ..opts(0.01, 7.0, 0.01) };
+        let o = RolloutOptions {
+            integrator,
+            ..opts(0.01, 7.0, 0.01)
+        };
         let r = rollout_system(&Diverging, &mut (), &[0.0], &[0.0], &[5.0], &o).unwrap();
         assert_eq!(r.reason, StopReason::NonFinite, "{integrator:?}");
         assert_eq!(r.t_star, 7.0);
@@ -251,7 +404,11 @@ fn divergence_stops_with_non_finite() {
 fn sequence_cost_matches_closed_form() {
     // From 0 toward (1, 0) at speed 1: within waypoint_tol 0.105 after 90 steps, at (0.9, 0). Then toward
     // the goal (1, 1) from distance √(0.1² + 1) = 1.00499: within tol 0.005 after 100 steps.
-    let sys = Kinematic { dof: 2, speed: 1.0, dt: 0.01 };
+    let sys = Kinematic {
+        dof: 2,
+        speed: 1.0,
+        dt: 0.01,
+    };
     let so = SequenceOptions {
         rollout: opts(0.01, 7.0, 0.005),
         n_commands: 1,
@@ -260,9 +417,22 @@ fn sequence_cost_matches_closed_form() {
         collision_penalty: 3.0,
         collision_tol: 0.0,
     };
-    let r = rollout_sequence_system(&sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &[1.0, 1.0], &so).unwrap();
+    let r = rollout_sequence_system(
+        &sys,
+        &mut (),
+        &[0.0, 0.0],
+        &[0.0, 0.0],
+        &[1.0, 0.0],
+        &[1.0, 1.0],
+        &so,
+    )
+    .unwrap();
     assert_eq!(r.reasons, vec![StopReason::Reached, StopReason::Reached]);
-    assert!((r.t_stars[0] - 0.9).abs() < 1e-12 && (r.t_stars[1] - 1.0).abs() < 1e-12, "{:?}", r.t_stars);
+    assert!(
+        (r.t_stars[0] - 0.9).abs() < 1e-12 && (r.t_stars[1] - 1.0).abs() < 1e-12,
+        "{:?}",
+        r.t_stars
+    );
     assert!((r.cost - 1.9).abs() < 1e-12);
     assert!(r.reached && r.success());
     assert_eq!(r.min_clearance, f64::INFINITY);
@@ -272,15 +442,30 @@ fn sequence_cost_matches_closed_form() {
     let mut checked = 0;
     for _ in 0..100 {
         let speed = rng.gen_range(1.0..2.0); // every leg takes < 7 s
-        let sys = Kinematic { dof: 1, speed, dt: 0.01 };
+        let sys = Kinematic {
+            dof: 1,
+            speed,
+            dt: 0.01,
+        };
         let (c, g) = (rng.gen_range(0.5..3.0), rng.gen_range(-3.0..0.0));
-        let so = SequenceOptions { waypoint_tol: rng.gen_range(0.01..0.3), ..so.clone() };
-        let Some(k1) = steps_to_reach(c, speed, 0.01, so.waypoint_tol) else { continue };
+        let so = SequenceOptions {
+            waypoint_tol: rng.gen_range(0.01..0.3),
+            ..so.clone()
+        };
+        let Some(k1) = steps_to_reach(c, speed, 0.01, so.waypoint_tol) else {
+            continue;
+        };
         let handover = (k1 as f64 * speed * 0.01).min(c);
-        let Some(k2) = steps_to_reach(handover - g, speed, 0.01, 0.005) else { continue };
+        let Some(k2) = steps_to_reach(handover - g, speed, 0.01, 0.005) else {
+            continue;
+        };
         let r = rollout_sequence_system(&sys, &mut (), &[0.0], &[0.0], &[c], &[g], &so).unwrap();
         let expected = (k1 + k2) as f64 * 0.01;
-        assert!((r.cost - expected).abs() < 1e-9, "cost {} expected {expected}", r.cost);
+        assert!(
+            (r.cost - expected).abs() < 1e-9,
+            "cost {} expected {expected}",
+            r.cost
+        );
         checked += 1;
     }
     assert!(checked > 80);
@@ -289,7 +474,11 @@ fn sequence_cost_matches_closed_form() {
 #[test]
 fn sequence_penalties() {
     // Budget too short for either leg: both time out (the first hands over anyway, eq. 7), penalty p.
-    let sys = Kinematic { dof: 2, speed: 1.0, dt: 0.01 };
+    let sys = Kinematic {
+        dof: 2,
+        speed: 1.0,
+        dt: 0.01,
+    };
     let so = SequenceOptions {
         rollout: opts(0.01, 0.5, 0.005),
         n_commands: 1,
@@ -298,7 +487,16 @@ fn sequence_penalties() {
         collision_penalty: 3.0,
         collision_tol: 0.0,
     };
-    let r = rollout_sequence_system(&sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &[1.0, 1.0], &so).unwrap();
+    let r = rollout_sequence_system(
+        &sys,
+        &mut (),
+        &[0.0, 0.0],
+        &[0.0, 0.0],
+        &[1.0, 0.0],
+        &[1.0, 1.0],
+        &so,
+    )
+    .unwrap();
     assert_eq!(r.reasons, vec![StopReason::Timeout, StopReason::Timeout]);
     assert_eq!(r.t_stars, vec![0.5, 0.5]);
     assert!((r.cost - 51.0).abs() < 1e-12);
@@ -308,20 +506,54 @@ fn sequence_penalties() {
     assert!((r.q[0] - (0.5 + 0.5 * dir[0])).abs() < 1e-9 && (r.q[1] - 0.5 * dir[1]).abs() < 1e-9);
 
     // Collision: the oscillator dips below its wall; the goal is reached, cost = Σt* + collision penalty.
-    let osc = Oscillator { dof: 1, w: 4.0, z: 0.1, wall: -0.2 };
-    let so = SequenceOptions { rollout: opts(0.01, 7.0, 0.01), n_commands: 0, ..so };
-    let r = rollout_sequence_system(&osc, &mut osc.workspace(), &[1.0], &[0.0], &[], &[0.0], &so).unwrap();
+    let osc = Oscillator {
+        dof: 1,
+        w: 4.0,
+        z: 0.1,
+        wall: -0.2,
+    };
+    let so = SequenceOptions {
+        rollout: opts(0.01, 7.0, 0.01),
+        n_commands: 0,
+        ..so
+    };
+    let r = rollout_sequence_system(&osc, &mut osc.workspace(), &[1.0], &[0.0], &[], &[0.0], &so)
+        .unwrap();
     assert!(r.reached && r.collided && !r.success() && r.min_clearance < 0.0);
     assert!((r.cost - (r.t_stars[0] + 3.0)).abs() < 1e-12);
     // The same dip tolerated as a shallow penetration: no collision, no penalty.
-    let tolerant = SequenceOptions { collision_tol: -r.min_clearance + 1e-9, ..so.clone() };
-    let t = rollout_sequence_system(&osc, &mut osc.workspace(), &[1.0], &[0.0], &[], &[0.0], &tolerant).unwrap();
+    let tolerant = SequenceOptions {
+        collision_tol: -r.min_clearance + 1e-9,
+        ..so.clone()
+    };
+    let t = rollout_sequence_system(
+        &osc,
+        &mut osc.workspace(),
+        &[1.0],
+        &[0.0],
+        &[],
+        &[0.0],
+        &tolerant,
+    )
+    .unwrap();
     assert!(t.success() && !t.collided);
     assert_eq!(t.cost, t.t_stars[0]);
 
     // Divergence in the first leg: every leg counts t_max, plus the penalty.
-    let so = SequenceOptions { n_commands: 2, ..so };
-    let r = rollout_sequence_system(&Diverging, &mut (), &[0.0], &[0.0], &[3.0, 4.0], &[5.0], &so).unwrap();
+    let so = SequenceOptions {
+        n_commands: 2,
+        ..so
+    };
+    let r = rollout_sequence_system(
+        &Diverging,
+        &mut (),
+        &[0.0],
+        &[0.0],
+        &[3.0, 4.0],
+        &[5.0],
+        &so,
+    )
+    .unwrap();
     assert_eq!(r.reasons, vec![StopReason::NonFinite; 3]);
     assert_eq!(r.t_stars, vec![7.0; 3]);
     assert!((r.cost - (21.0 + 50.0)).abs() < 1e-12);
@@ -329,7 +561,12 @@ fn sequence_penalties() {
 
 #[test]
 fn sequence_is_a_chain_of_rollouts() {
-    let sys = Oscillator { dof: 3, w: 2.5, z: 0.4, wall: -10.0 };
+    let sys = Oscillator {
+        dof: 3,
+        w: 2.5,
+        z: 0.4,
+        wall: -10.0,
+    };
     let (q0, qd0) = ([0.3, -0.2, 0.1], [0.5, 0.0, -0.4]);
     let commands = [1.0, 0.5, -0.5, -0.6, 0.8, 0.2];
     let goal = [0.0, 0.0, 1.0];
@@ -341,16 +578,30 @@ fn sequence_is_a_chain_of_rollouts() {
         collision_penalty: 1.0,
         collision_tol: 0.0,
     };
-    let seq = rollout_sequence_system(&sys, &mut sys.workspace(), &q0, &qd0, &commands, &goal, &so).unwrap();
+    let seq = rollout_sequence_system(&sys, &mut sys.workspace(), &q0, &qd0, &commands, &goal, &so)
+        .unwrap();
 
     // Chain rollout_system by hand (eq. 7: state and velocity carried over).
     let (mut q, mut qd) = (q0.to_vec(), qd0.to_vec());
     let mut rows = 0;
     let mut sum = 0.0;
-    for (i, cmd) in [&commands[0..3], &commands[3..6], &goal[..]].into_iter().enumerate() {
+    for (i, cmd) in [&commands[0..3], &commands[3..6], &goal[..]]
+        .into_iter()
+        .enumerate()
+    {
         let tol = if i < 2 { 0.15 } else { 0.01 };
-        let r = rollout_system(&sys, &mut sys.workspace(), &q, &qd, cmd, &RolloutOptions { tol, ..so.rollout.clone() })
-            .unwrap();
+        let r = rollout_system(
+            &sys,
+            &mut sys.workspace(),
+            &q,
+            &qd,
+            cmd,
+            &RolloutOptions {
+                tol,
+                ..so.rollout.clone()
+            },
+        )
+        .unwrap();
         assert_eq!(r.t_star, seq.t_stars[i]);
         assert_eq!(r.reason, seq.reasons[i]);
         rows += r.trajectory.unwrap().len() - usize::from(i > 0);
@@ -380,29 +631,50 @@ fn sequence_is_a_chain_of_rollouts() {
 
 fn bits(r: &SequenceResult) -> Vec<u64> {
     let mut v: Vec<u64> = vec![r.cost.to_bits(), r.min_clearance.to_bits()];
-    v.extend(r.t_stars.iter().chain(&r.q).chain(&r.qd).map(|x| x.to_bits()));
+    v.extend(
+        r.t_stars
+            .iter()
+            .chain(&r.q)
+            .chain(&r.qd)
+            .map(|x| x.to_bits()),
+    );
     if let Some(tr) = &r.trajectory {
-        v.extend(tr.t.iter().chain(&tr.q).chain(&tr.qd).chain(&tr.qdd).map(|x| x.to_bits()));
+        v.extend(
+            tr.t.iter()
+                .chain(&tr.q)
+                .chain(&tr.qd)
+                .chain(&tr.qdd)
+                .map(|x| x.to_bits()),
+        );
     }
     v
 }
 
 #[test]
 fn batch_is_identical_whatever_the_thread_count() {
-    let sys = Oscillator { dof: 4, w: 3.0, z: 0.3, wall: -1.0 };
+    let sys = Oscillator {
+        dof: 4,
+        w: 3.0,
+        z: 0.3,
+        wall: -1.0,
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let n = 2;
     let candidates: Vec<f64> = (0..37 * n * 4).map(|_| rng.gen_range(-2.0..2.0)).collect();
     let (q0, qd0, goal) = ([0.1, 0.2, -0.3, 0.0], [0.0; 4], [0.5, -0.5, 0.5, -0.5]);
     for integrator in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
         let so = SequenceOptions {
-            rollout: RolloutOptions { integrator, ..opts(0.01, 3.0, 0.01) },
+            rollout: RolloutOptions {
+                integrator,
+                ..opts(0.01, 3.0, 0.01)
+            },
             n_commands: n,
             ..SequenceOptions::default()
         };
         let one = evaluate_batch_system(&sys, &q0, &qd0, &goal, &candidates, &so, Some(1)).unwrap();
         let two = evaluate_batch_system(&sys, &q0, &qd0, &goal, &candidates, &so, Some(2)).unwrap();
-        let default = evaluate_batch_system(&sys, &q0, &qd0, &goal, &candidates, &so, None).unwrap();
+        let default =
+            evaluate_batch_system(&sys, &q0, &qd0, &goal, &candidates, &so, None).unwrap();
         assert_eq!(one.len(), 37);
         for j in 0..37 {
             let single = rollout_sequence_system(
@@ -424,37 +696,111 @@ fn batch_is_identical_whatever_the_thread_count() {
         assert!(one.iter().any(|r| r.cost != one[0].cost));
         assert!(one.iter().any(|r| r.collided) && one.iter().any(|r| !r.collided));
     }
-    let empty = evaluate_batch_system(&sys, &q0, &qd0, &goal, &[], &SequenceOptions::default(), Some(2)).unwrap();
+    let empty = evaluate_batch_system(
+        &sys,
+        &q0,
+        &qd0,
+        &goal,
+        &[],
+        &SequenceOptions::default(),
+        Some(2),
+    )
+    .unwrap();
     assert!(empty.is_empty());
 }
 
 fn what(e: FabricError) -> String {
     match e {
-        FabricError::Shape { what, .. } | FabricError::NonFinite { what } | FabricError::Value { what, .. } => what,
+        FabricError::Shape { what, .. }
+        | FabricError::NonFinite { what }
+        | FabricError::Value { what, .. } => what,
         other => panic!("unexpected error {other:?}"),
     }
 }
 
 #[test]
 fn invalid_inputs_name_the_culprit() {
-    let sys = Oscillator { dof: 2, w: 1.0, z: 1.0, wall: 0.0 };
+    let sys = Oscillator {
+        dof: 2,
+        w: 1.0,
+        z: 1.0,
+        wall: 0.0,
+    };
     let mut ws = sys.workspace();
     let o = RolloutOptions::default();
     let z = [0.0, 0.0];
     let err = |r: Result<fabric_core::rollout::RolloutResult>| what(r.unwrap_err());
     assert_eq!(err(rollout_system(&sys, &mut ws, &[0.0], &z, &z, &o)), "q0");
-    assert_eq!(err(rollout_system(&sys, &mut ws, &z, &[0.0; 3], &z, &o)), "qd0");
-    assert_eq!(err(rollout_system(&sys, &mut ws, &z, &z, &[1.0], &o)), "command");
-    assert_eq!(err(rollout_system(&sys, &mut ws, &[f64::NAN, 0.0], &z, &z, &o)), "q0");
-    assert_eq!(err(rollout_system(&sys, &mut ws, &z, &[0.0, f64::INFINITY], &z, &o)), "qd0");
-    assert_eq!(err(rollout_system(&sys, &mut ws, &z, &z, &[f64::NAN, 0.0], &o)), "command");
+    assert_eq!(
+        err(rollout_system(&sys, &mut ws, &z, &[0.0; 3], &z, &o)),
+        "qd0"
+    );
+    assert_eq!(
+        err(rollout_system(&sys, &mut ws, &z, &z, &[1.0], &o)),
+        "command"
+    );
+    assert_eq!(
+        err(rollout_system(&sys, &mut ws, &[f64::NAN, 0.0], &z, &z, &o)),
+        "q0"
+    );
+    assert_eq!(
+        err(rollout_system(
+            &sys,
+            &mut ws,
+            &z,
+            &[0.0, f64::INFINITY],
+            &z,
+            &o
+        )),
+        "qd0"
+    );
+    assert_eq!(
+        err(rollout_system(&sys, &mut ws, &z, &z, &[f64::NAN, 0.0], &o)),
+        "command"
+    );
     for (field, bad) in [
-        ("RolloutOptions.dt", RolloutOptions { dt: 0.0, ..o.clone() }),
-        ("RolloutOptions.dt", RolloutOptions { dt: f64::NAN, ..o.clone() }),
-        ("RolloutOptions.t_max", RolloutOptions { t_max: -1.0, ..o.clone() }),
-        ("RolloutOptions.t_max", RolloutOptions { t_max: f64::INFINITY, ..o.clone() }),
-        ("RolloutOptions.t_max", RolloutOptions { t_max: 1e9, ..o.clone() }),
-        ("RolloutOptions.tol", RolloutOptions { tol: 0.0, ..o.clone() }),
+        (
+            "RolloutOptions.dt",
+            RolloutOptions {
+                dt: 0.0,
+                ..o.clone()
+            },
+        ),
+        (
+            "RolloutOptions.dt",
+            RolloutOptions {
+                dt: f64::NAN,
+                ..o.clone()
+            },
+        ),
+        (
+            "RolloutOptions.t_max",
+            RolloutOptions {
+                t_max: -1.0,
+                ..o.clone()
+            },
+        ),
+        (
+            "RolloutOptions.t_max",
+            RolloutOptions {
+                t_max: f64::INFINITY,
+                ..o.clone()
+            },
+        ),
+        (
+            "RolloutOptions.t_max",
+            RolloutOptions {
+                t_max: 1e9,
+                ..o.clone()
+            },
+        ),
+        (
+            "RolloutOptions.tol",
+            RolloutOptions {
+                tol: 0.0,
+                ..o.clone()
+            },
+        ),
     ] {
         assert_eq!(err(rollout_system(&sys, &mut ws, &z, &z, &z, &bad)), field);
     }
@@ -465,24 +811,73 @@ fn invalid_inputs_name_the_culprit() {
     };
     assert_eq!(what(seq(&[0.0; 3], &z, &so).unwrap_err()), "commands");
     assert_eq!(what(seq(&z, &[0.0], &so).unwrap_err()), "goal");
-    assert_eq!(what(seq(&[0.0, f64::NAN], &z, &so).unwrap_err()), "commands");
+    assert_eq!(
+        what(seq(&[0.0, f64::NAN], &z, &so).unwrap_err()),
+        "commands"
+    );
     for (field, bad) in [
-        ("SequenceOptions.waypoint_tol", SequenceOptions { waypoint_tol: -0.1, ..so.clone() }),
-        ("SequenceOptions.penalty", SequenceOptions { penalty: f64::NAN, ..so.clone() }),
-        ("SequenceOptions.collision_penalty", SequenceOptions { collision_penalty: -1.0, ..so.clone() }),
-        ("SequenceOptions.collision_tol", SequenceOptions { collision_tol: f64::INFINITY, ..so.clone() }),
-        ("RolloutOptions.tol", SequenceOptions { rollout: RolloutOptions { tol: -1.0, ..o.clone() }, ..so.clone() }),
+        (
+            "SequenceOptions.waypoint_tol",
+            SequenceOptions {
+                waypoint_tol: -0.1,
+                ..so.clone()
+            },
+        ),
+        (
+            "SequenceOptions.penalty",
+            SequenceOptions {
+                penalty: f64::NAN,
+                ..so.clone()
+            },
+        ),
+        (
+            "SequenceOptions.collision_penalty",
+            SequenceOptions {
+                collision_penalty: -1.0,
+                ..so.clone()
+            },
+        ),
+        (
+            "SequenceOptions.collision_tol",
+            SequenceOptions {
+                collision_tol: f64::INFINITY,
+                ..so.clone()
+            },
+        ),
+        (
+            "RolloutOptions.tol",
+            SequenceOptions {
+                rollout: RolloutOptions {
+                    tol: -1.0,
+                    ..o.clone()
+                },
+                ..so.clone()
+            },
+        ),
     ] {
         assert_eq!(what(seq(&z, &z, &bad).unwrap_err()), field);
     }
 
-    let batch = |c: &[f64], so: &SequenceOptions, th| evaluate_batch_system(&sys, &z, &z, &z, c, so, th);
+    let batch =
+        |c: &[f64], so: &SequenceOptions, th| evaluate_batch_system(&sys, &z, &z, &z, c, so, th);
     assert_eq!(what(batch(&[0.0; 3], &so, None).unwrap_err()), "candidates");
-    assert_eq!(what(batch(&[0.0, f64::NAN], &so, None).unwrap_err()), "candidates");
+    assert_eq!(
+        what(batch(&[0.0, f64::NAN], &so, None).unwrap_err()),
+        "candidates"
+    );
     assert_eq!(what(batch(&[0.0; 4], &so, Some(0)).unwrap_err()), "threads");
-    let zero = SequenceOptions { n_commands: 0, ..so.clone() };
-    assert_eq!(what(batch(&[0.0; 4], &zero, None).unwrap_err()), "SequenceOptions.n_commands");
-    assert_eq!(what(evaluate_batch_system(&sys, &z, &z, &[0.0], &[0.0; 4], &so, None).unwrap_err()), "goal");
+    let zero = SequenceOptions {
+        n_commands: 0,
+        ..so.clone()
+    };
+    assert_eq!(
+        what(batch(&[0.0; 4], &zero, None).unwrap_err()),
+        "SequenceOptions.n_commands"
+    );
+    assert_eq!(
+        what(evaluate_batch_system(&sys, &z, &z, &[0.0], &[0.0; 4], &so, None).unwrap_err()),
+        "goal"
+    );
 }
 
 /// Stall detection: a system creeping toward its command at 0.005 rad/s gains less than
@@ -491,20 +886,58 @@ fn invalid_inputs_name_the_culprit() {
 #[test]
 fn stall_detection_stops_rollouts_without_progress() {
     let dt = 0.01;
-    let stalling = RolloutOptions { stall_window: 1.0, stall_progress: 0.01, ..opts(dt, 5.0, 0.01) };
-    let slow = Kinematic { dof: 2, speed: 0.005, dt };
-    let r = rollout_system(&slow, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &stalling).unwrap();
+    let stalling = RolloutOptions {
+        stall_window: 1.0,
+        stall_progress: 0.01,
+        ..opts(dt, 5.0, 0.01)
+    };
+    let slow = Kinematic {
+        dof: 2,
+        speed: 0.005,
+        dt,
+    };
+    let r = rollout_system(
+        &slow,
+        &mut (),
+        &[0.0, 0.0],
+        &[0.0, 0.0],
+        &[1.0, 0.0],
+        &stalling,
+    )
+    .unwrap();
     assert_eq!(r.reason, StopReason::Stalled);
     assert_eq!(r.steps, 100);
     assert_eq!(r.t_star, 5.0);
-    let progressing = Kinematic { dof: 2, speed: 0.02, dt };
-    let r = rollout_system(&progressing, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &stalling).unwrap();
+    let progressing = Kinematic {
+        dof: 2,
+        speed: 0.02,
+        dt,
+    };
+    let r = rollout_system(
+        &progressing,
+        &mut (),
+        &[0.0, 0.0],
+        &[0.0, 0.0],
+        &[1.0, 0.0],
+        &stalling,
+    )
+    .unwrap();
     assert_eq!(r.reason, StopReason::Timeout);
     assert_eq!(r.steps, 500);
-    let off = RolloutOptions { stall_window: 0.0, ..stalling.clone() };
+    let off = RolloutOptions {
+        stall_window: 0.0,
+        ..stalling.clone()
+    };
     let r = rollout_system(&slow, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &off).unwrap();
     assert_eq!(r.reason, StopReason::Timeout);
-    let bad = RolloutOptions { stall_progress: -1.0, ..stalling };
-    let err = rollout_system(&slow, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &bad).unwrap_err();
-    assert!(matches!(err, FabricError::Value { ref what, .. } if what == "RolloutOptions.stall_progress"), "{err}");
+    let bad = RolloutOptions {
+        stall_progress: -1.0,
+        ..stalling
+    };
+    let err =
+        rollout_system(&slow, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &bad).unwrap_err();
+    assert!(
+        matches!(err, FabricError::Value { ref what, .. } if what == "RolloutOptions.stall_progress"),
+        "{err}"
+    );
 }

@@ -295,7 +295,14 @@ impl PyFabric {
         let (q0, qd0) = self.initial_state(q0, qd0)?;
         let command = convert::vector(command, "command", n)?;
         let opts = rollout_options(
-            &RolloutKwargs { dt, t_max, tol, stall_window, stall_progress, integrator },
+            &RolloutKwargs {
+                dt,
+                t_max,
+                tol,
+                stall_window,
+                stall_progress,
+                integrator,
+            },
             record,
         )?;
         let (fabric, scene) = self.shared();
@@ -332,7 +339,14 @@ impl PyFabric {
         record: bool,
     ) -> PyResult<PySequenceRollout> {
         let kwargs = SequenceKwargs {
-            rollout: RolloutKwargs { dt, t_max, tol, stall_window, stall_progress, integrator },
+            rollout: RolloutKwargs {
+                dt,
+                t_max,
+                tol,
+                stall_window,
+                stall_progress,
+                integrator,
+            },
             waypoint_tol,
             penalty,
             collision_penalty,
@@ -381,7 +395,14 @@ impl PyFabric {
         return_trajectories: bool,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let kwargs = SequenceKwargs {
-            rollout: RolloutKwargs { dt, t_max, tol, stall_window, stall_progress, integrator },
+            rollout: RolloutKwargs {
+                dt,
+                t_max,
+                tol,
+                stall_window,
+                stall_progress,
+                integrator,
+            },
             waypoint_tol,
             penalty,
             collision_penalty,

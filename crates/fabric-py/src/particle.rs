@@ -97,7 +97,10 @@ fn parse_params(
     if !(p.braking_time.is_finite() && p.braking_time >= 0.0) {
         return Err(error(FabricError::Value {
             what: "braking_time".into(),
-            message: format!("must be >= 0 s (0 = the paper's barrier), got {}", p.braking_time),
+            message: format!(
+                "must be >= 0 s (0 = the paper's barrier), got {}",
+                p.braking_time
+            ),
         }));
     }
     Ok(p)
@@ -211,7 +214,14 @@ pub fn particle_rollout<'py>(
         _ => vec![0.0; q0.len()],
     };
     // no stall detection: the figure shows every particle's whole path
-    let kwargs = RolloutKwargs { dt, t_max, tol, stall_window: Some(0.0), stall_progress: None, integrator };
+    let kwargs = RolloutKwargs {
+        dt,
+        t_max,
+        tol,
+        stall_window: Some(0.0),
+        stall_progress: None,
+        integrator,
+    };
     let opts = rollout_options(&kwargs, true)?;
     let target = system.params.target;
     let results = detached(py, move || {

@@ -15,12 +15,18 @@ use crate::error::{check_finite, check_len, FabricError, Result};
 fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
     match threads {
         None => Ok(f()),
-        Some(0) => Err(FabricError::Value { what: "threads".to_string(), message: "must be >= 1".to_string() }),
+        Some(0) => Err(FabricError::Value {
+            what: "threads".to_string(),
+            message: "must be >= 1".to_string(),
+        }),
         Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().map_err(|e| FabricError::Value {
-                what: "threads".to_string(),
-                message: format!("cannot build a pool of {n} threads: {e}"),
-            })?;
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| FabricError::Value {
+                    what: "threads".to_string(),
+                    message: format!("cannot build a pool of {n} threads: {e}"),
+                })?;
             Ok(pool.install(f))
         }
     }
@@ -57,10 +63,17 @@ pub fn evaluate_batch_system<S: System>(
             message: "must be >= 1 to split candidates into rows".to_string(),
         });
     }
-    let row = opts.n_commands.checked_mul(dof).filter(|&r| r > 0).ok_or_else(|| FabricError::Value {
-        what: "SequenceOptions.n_commands".to_string(),
-        message: format!("{} commands of {dof} values give no valid row length", opts.n_commands),
-    })?;
+    let row = opts
+        .n_commands
+        .checked_mul(dof)
+        .filter(|&r| r > 0)
+        .ok_or_else(|| FabricError::Value {
+            what: "SequenceOptions.n_commands".to_string(),
+            message: format!(
+                "{} commands of {dof} values give no valid row length",
+                opts.n_commands
+            ),
+        })?;
     if !candidates.chunks_exact(row).remainder().is_empty() {
         return Err(FabricError::Shape {
             what: "candidates".to_string(),
@@ -74,7 +87,9 @@ pub fn evaluate_batch_system<S: System>(
             .par_chunks(row)
             .map_init(
                 || (system.workspace(), Buffers::new(dof)),
-                |(ws, buffers), commands| run_sequence(system, ws, buffers, q0, qd0, commands, goal, opts),
+                |(ws, buffers), commands| {
+                    run_sequence(system, ws, buffers, q0, qd0, commands, goal, opts)
+                },
             )
             .collect::<Result<Vec<_>>>()
     })?

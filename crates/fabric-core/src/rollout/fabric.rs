@@ -45,7 +45,10 @@ impl System for FabricSystem<'_> {
         command: &[f64],
         qdd: &mut [f64],
     ) -> Result<()> {
-        match self.fabric.acceleration(self.scene, q, qd, command, ws, qdd) {
+        match self
+            .fabric
+            .acceleration(self.scene, q, qd, command, ws, qdd)
+        {
             Err(FabricError::NonFinite { .. } | FabricError::Value { .. }) => {
                 qdd.fill(f64::NAN);
                 Ok(())
@@ -88,7 +91,15 @@ pub fn rollout_sequence(
     opts: &SequenceOptions,
     ws: &mut FabricWorkspace,
 ) -> Result<SequenceResult> {
-    rollout_sequence_system(&FabricSystem { fabric, scene }, ws, q0, qd0, commands, goal, opts)
+    rollout_sequence_system(
+        &FabricSystem { fabric, scene },
+        ws,
+        q0,
+        qd0,
+        commands,
+        goal,
+        opts,
+    )
 }
 
 /// N candidate sequences (`candidates` (N, n·dof) row-major, n = `opts.n_commands`) for a fabric in
@@ -105,5 +116,13 @@ pub fn evaluate_batch(
     opts: &SequenceOptions,
     threads: Option<usize>,
 ) -> Result<Vec<SequenceResult>> {
-    evaluate_batch_system(&FabricSystem { fabric, scene }, q0, qd0, goal, candidates, opts, threads)
+    evaluate_batch_system(
+        &FabricSystem { fabric, scene },
+        q0,
+        qd0,
+        goal,
+        candidates,
+        opts,
+        threads,
+    )
 }

@@ -193,7 +193,9 @@ mod tests {
         let (mut qn, mut qdn, mut a) = (vec![0.0], vec![0.0], vec![0.0]);
         for _ in 0..steps {
             f(&q, &qd, &mut a).unwrap();
-            assert!(integ.step(&mut f, dt, &q, &qd, &a, &mut qn, &mut qdn, &mut s).unwrap());
+            assert!(integ
+                .step(&mut f, dt, &q, &qd, &a, &mut qn, &mut qdn, &mut s)
+                .unwrap());
             q.copy_from_slice(&qn);
             qd.copy_from_slice(&qdn);
         }
@@ -207,7 +209,8 @@ mod tests {
         let (w, z, h) = (3.0, 0.2, 1e-4);
         assert!((exact(0.0, w, z).0 - 1.0).abs() < 1e-15 && exact(0.0, w, z).1.abs() < 1e-15);
         for &t in &[0.3, 1.1, 2.5] {
-            let xdd = (exact(t + h, w, z).0 - 2.0 * exact(t, w, z).0 + exact(t - h, w, z).0) / (h * h);
+            let xdd =
+                (exact(t + h, w, z).0 - 2.0 * exact(t, w, z).0 + exact(t - h, w, z).0) / (h * h);
             let xd_fd = (exact(t + h, w, z).0 - exact(t - h, w, z).0) / (2.0 * h);
             let (x, xd) = exact(t, w, z);
             assert!((xd - xd_fd).abs() < 1e-6);
@@ -240,7 +243,16 @@ mod tests {
         };
         let mut s = StepScratch::new(1);
         let (mut qn, mut qdn) = (vec![0.0], vec![0.0]);
-        let ok = Integrator::Rk4.step(&mut f, 0.01, &[0.0], &[0.0], &[1e3], &mut qn, &mut qdn, &mut s);
+        let ok = Integrator::Rk4.step(
+            &mut f,
+            0.01,
+            &[0.0],
+            &[0.0],
+            &[1e3],
+            &mut qn,
+            &mut qdn,
+            &mut s,
+        );
         assert_eq!(ok, Ok(false));
     }
 }

@@ -20,6 +20,8 @@ mod system;
 pub use batch::evaluate_batch_system;
 pub use fabric::{evaluate_batch, rollout, rollout_sequence, FabricSystem};
 pub use integrate::{Integrator, StepScratch};
-pub use rollout::{rollout_system, RolloutOptions, RolloutResult, StopReason, Trajectory, MAX_STEPS};
+pub use rollout::{
+    rollout_system, RolloutOptions, RolloutResult, StopReason, Trajectory, MAX_STEPS,
+};
 pub use sequence::{rollout_sequence_system, SequenceOptions, SequenceResult};
 pub use system::System;

@@ -60,7 +60,10 @@ pub(crate) fn check_positive(what: &str, v: f64) -> Result<()> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(FabricError::Value { what: what.to_string(), message: format!("must be finite and > 0, got {v}") })
+        Err(FabricError::Value {
+            what: what.to_string(),
+            message: format!("must be finite and > 0, got {v}"),
+        })
     }
 }
 
@@ -70,7 +73,10 @@ impl RolloutOptions {
         check_positive("RolloutOptions.dt", self.dt)?;
         check_positive("RolloutOptions.t_max", self.t_max)?;
         check_positive("RolloutOptions.tol", self.tol)?;
-        for (what, v) in [("stall_window", self.stall_window), ("stall_progress", self.stall_progress)] {
+        for (what, v) in [
+            ("stall_window", self.stall_window),
+            ("stall_progress", self.stall_progress),
+        ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(FabricError::Value {
                     what: format!("RolloutOptions.{what}"),
@@ -252,7 +258,12 @@ fn distance_squared(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Check q0, qd0 and `command` against the system's dof and for finiteness, plus the options.
-pub(crate) fn validate_start<S: System>(system: &S, q0: &[f64], qd0: &[f64], opts: &RolloutOptions) -> Result<()> {
+pub(crate) fn validate_start<S: System>(
+    system: &S,
+    q0: &[f64],
+    qd0: &[f64],
+    opts: &RolloutOptions,
+) -> Result<()> {
     let dof = system.dof();
     check_len("q0", q0.len(), dof)?;
     check_len("qd0", qd0.len(), dof)?;
@@ -280,7 +291,9 @@ pub(crate) fn run<S: System>(
     b.qd.copy_from_slice(qd0);
     let n_max = opts.max_steps();
     let tol2 = tol * tol;
-    let mut trajectory = opts.record.then(|| Trajectory::with_capacity(dof, (n_max + 1).min(RECORD_RESERVE)));
+    let mut trajectory = opts
+        .record
+        .then(|| Trajectory::with_capacity(dof, (n_max + 1).min(RECORD_RESERVE)));
     let mut min_clearance = f64::INFINITY;
     // stall detection: best distance so far, and its value at the start of the current window
     let window = (opts.stall_window / opts.dt).round() as usize;
@@ -305,13 +318,14 @@ pub(crate) fn run<S: System>(
             break StopReason::Timeout;
         }
         best = best.min(d2.sqrt());
-        if window > 0 && k % window == 0 {
+        if window > 0 && k.is_multiple_of(window) {
             if best > window_start_best - opts.stall_progress {
                 break StopReason::Stalled;
             }
             window_start_best = best;
         }
-        let mut accel = |q: &[f64], qd: &[f64], out: &mut [f64]| system.acceleration(ws, q, qd, command, out);
+        let mut accel =
+            |q: &[f64], qd: &[f64], out: &mut [f64]| system.acceleration(ws, q, qd, command, out);
         let ok = opts.integrator.step(
             &mut accel,
             opts.dt,
@@ -334,7 +348,16 @@ pub(crate) fn run<S: System>(
         StopReason::Reached => t_end.min(opts.t_max),
         StopReason::Timeout | StopReason::NonFinite | StopReason::Stalled => opts.t_max,
     };
-    Ok(RolloutResult { t_star, t_end, steps: k, q: b.q.clone(), qd: b.qd.clone(), reason, min_clearance, trajectory })
+    Ok(RolloutResult {
+        t_star,
+        t_end,
+        steps: k,
+        q: b.q.clone(),
+        qd: b.qd.clone(),
+        reason,
+        min_clearance,
+        trajectory,
+    })
 }
 
 /// rollout_t of GFCS eq. 1–3 for any [`System`]: integrate from (`q0`, `qd0`) toward `command` (all

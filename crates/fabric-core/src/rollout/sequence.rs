@@ -4,7 +4,9 @@
 //! state (configuration and velocity) of rollout i − 1 (eq. 7). Cost = Σᵢ tᵢ* + p·1 (eq. 4) with
 //! 1 = 1 unless the final rollout reaches the goal (eq. 8).
 
-use super::rollout::{check_positive, run, validate_start, Buffers, RolloutOptions, StopReason, Trajectory};
+use super::rollout::{
+    check_positive, run, validate_start, Buffers, RolloutOptions, StopReason, Trajectory,
+};
 use super::system::System;
 use crate::error::{check_finite, FabricError, Result};
 
@@ -50,7 +52,10 @@ fn check_non_negative(what: &str, v: f64) -> Result<()> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
-        Err(FabricError::Value { what: what.to_string(), message: format!("must be finite and >= 0, got {v}") })
+        Err(FabricError::Value {
+            what: what.to_string(),
+            message: format!("must be finite and >= 0, got {v}"),
+        })
     }
 }
 
@@ -101,10 +106,12 @@ impl SequenceResult {
 
 /// Check commands (n_commands·dof,) and goal (dof,) for shape and finiteness.
 fn validate_commands(dof: usize, n_commands: usize, commands: &[f64], goal: &[f64]) -> Result<()> {
-    let expected = n_commands.checked_mul(dof).ok_or_else(|| FabricError::Value {
-        what: "SequenceOptions.n_commands".to_string(),
-        message: format!("{n_commands} commands of {dof} values overflow"),
-    })?;
+    let expected = n_commands
+        .checked_mul(dof)
+        .ok_or_else(|| FabricError::Value {
+            what: "SequenceOptions.n_commands".to_string(),
+            message: format!("{n_commands} commands of {dof} values overflow"),
+        })?;
     if commands.len() != expected {
         return Err(FabricError::Shape {
             what: "commands".to_string(),
@@ -140,8 +147,11 @@ pub(crate) fn run_sequence<S: System>(
     let mut q = q0.to_vec();
     let mut qd = qd0.to_vec();
     for i in 0..=n {
-        let (command, tol) =
-            if i < n { (&commands[i * dof..(i + 1) * dof], opts.waypoint_tol) } else { (goal, ro.tol) };
+        let (command, tol) = if i < n {
+            (&commands[i * dof..(i + 1) * dof], opts.waypoint_tol)
+        } else {
+            (goal, ro.tol)
+        };
         let r = run(system, ws, b, &q, &qd, command, ro, tol)?;
         t_stars.push(r.t_star);
         reasons.push(r.reason);
@@ -177,7 +187,17 @@ pub(crate) fn run_sequence<S: System>(
     if collided {
         cost += opts.collision_penalty;
     }
-    Ok(SequenceResult { cost, t_stars, reasons, reached, min_clearance, collided, q, qd, trajectory })
+    Ok(SequenceResult {
+        cost,
+        t_stars,
+        reasons,
+        reached,
+        min_clearance,
+        collided,
+        q,
+        qd,
+        trajectory,
+    })
 }
 
 /// Roll out the command sequence (q_g¹ … q_gⁿ, goal) from (`q0`, `qd0`) for any [`System`]

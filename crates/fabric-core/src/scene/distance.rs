@@ -60,14 +60,14 @@ pub struct DistanceSample {
 }
 
 /// A broadphase hit of `Scene::query_near`: the obstacle at storage position `entry` of the scene lies
-/// at signed distance `distance` (m) from the query point. Crate-internal: the position is valid only
-/// until the scene is next modified (use [`DistanceSample::obstacle`] ids for anything kept).
+/// at signed distance `distance` (m) from the query point. The position is valid only until the scene
+/// is next modified (use [`DistanceSample::obstacle`] ids for anything kept).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct NearObstacle {
+pub struct NearObstacle {
     /// Position of the obstacle in the scene's dense storage.
-    pub(crate) entry: u32,
+    pub entry: u32,
     /// Signed distance (m) from the query point, positive outside.
-    pub(crate) distance: f64,
+    pub distance: f64,
 }
 
 /// Signed distance, gradient and Hessian of one shape at one point (world frame), without identity.

@@ -23,7 +23,7 @@ pub mod sampling;
 mod scene;
 pub mod shape;
 
-pub use distance::{point_distance, DistanceSample, SurfaceDistance};
+pub use distance::{point_distance, DistanceSample, NearObstacle, SurfaceDistance};
 pub use moveit::MotionPlanRequest;
 pub use scene::{ObstacleId, Scene, LINEAR_SCAN_MAX};
 pub use shape::{Obstacle, PointCloud, Shape};

@@ -305,12 +305,7 @@ impl Scene {
     /// order as `query`. Positions are valid until the scene is next modified; pass them to
     /// [`Scene::sample_near`]. (Used by the fabric: one query per robot link, then exact samples per
     /// collision sphere, without hashing obstacle ids.)
-    pub(crate) fn query_near(
-        &self,
-        p: &Vector3<f64>,
-        max_distance: f64,
-        out: &mut Vec<NearObstacle>,
-    ) {
+    pub fn query_near(&self, p: &Vector3<f64>, max_distance: f64, out: &mut Vec<NearObstacle>) {
         self.visit_near(p, max_distance, |entry, _, distance| {
             out.push(NearObstacle { entry, distance });
         });
@@ -319,7 +314,7 @@ impl Scene {
     /// The sample of [`Scene::query`] for the obstacle at storage position `near.entry` (from
     /// [`Scene::query_near`] on this unmodified scene) at `p` (world), when its signed distance is
     /// `<= max_distance` (m); `None` otherwise or for a position out of range.
-    pub(crate) fn sample_near(
+    pub fn sample_near(
         &self,
         near: &NearObstacle,
         p: &Vector3<f64>,
@@ -618,98 +613,4 @@ fn pair_distance(
             return best;
         }
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    fn random_obstacle(r: &mut ChaCha8Rng, i: usize) -> Obstacle {
-        let shape = match r.gen_range(0..5) {
-            0 => Shape::Sphere {
-                radius: r.gen_range(0.01..0.1),
-            },
-            1 => Shape::Cuboid {
-                half_extents: Vector3::new(
-                    r.gen_range(0.01..0.2),
-                    r.gen_range(0.01..0.2),
-                    r.gen_range(0.01..0.2),
-                ),
-            },
-            2 => Shape::Cylinder {
-                half_height: r.gen_range(0.01..0.1),
-                radius: r.gen_range(0.01..0.1),
-            },
-            3 => Shape::Capsule {
-                half_height: r.gen_range(0.0..0.1),
-                radius: r.gen_range(0.01..0.1),
-            },
-            _ => Shape::HalfSpace,
-        };
-        let pose = Isometry3::from_parts(
-            Translation3::new(
-                r.gen_range(-1.0..1.0),
-                r.gen_range(-1.0..1.0),
-                r.gen_range(-1.0..1.0),
-            ),
-            UnitQuaternion::from_euler_angles(
-                r.gen_range(-3.0..3.0),
-                r.gen_range(-1.5..1.5),
-                r.gen_range(-3.0..3.0),
-            ),
-        );
-        Obstacle::new(format!("o{i}"), shape, pose)
-    }
-
-    /// `query_near` then `sample_near` at the same point and limit give exactly `query` (same obstacles,
-    /// same order, same samples) in small (linear scan) and large (BVH) scenes, after adds, moves and
-    /// removals (which reorder the dense storage).
-    #[test]
-    fn near_queries_and_samples_equal_query() {
-        let mut r = ChaCha8Rng::seed_from_u64(11);
-        for size in [6, LINEAR_SCAN_MAX + 24] {
-            let mut scene = Scene::new();
-            let mut ids = Vec::new();
-            for i in 0..size {
-                ids.push(scene.add(random_obstacle(&mut r, i)).unwrap());
-            }
-            let (mut near, mut expected, mut got) = (Vec::new(), Vec::new(), Vec::new());
-            let mut hits = 0;
-            for round in 0..40 {
-                // edit: remove one, add one, move one
-                let victim = ids.swap_remove(r.gen_range(0..ids.len()));
-                scene.remove(victim).unwrap();
-                ids.push(scene.add(random_obstacle(&mut r, size + round)).unwrap());
-                let moved = ids[r.gen_range(0..ids.len())];
-                let pose = random_obstacle(&mut r, 0).pose;
-                scene.set_pose(moved, pose).unwrap();
-                for _ in 0..25 {
-                    let p = Vector3::new(
-                        r.gen_range(-1.2..1.2),
-                        r.gen_range(-1.2..1.2),
-                        r.gen_range(-1.2..1.2),
-                    );
-                    let max = r.gen_range(-0.05..0.5);
-                    expected.clear();
-                    scene.query(&p, max, &mut expected);
-                    near.clear();
-                    scene.query_near(&p, max, &mut near);
-                    got.clear();
-                    for n in &near {
-                        if let Some(s) = scene.sample_near(n, &p, max) {
-                            // the distance-only path may differ in the last bits (spheres: world
-                            // frame)
-                            assert!((n.distance - s.distance).abs() < 1e-12);
-                            got.push(s);
-                        }
-                    }
-                    assert_eq!(got, expected, "at {p:?}, max {max}");
-                    hits += expected.len();
-                }
-            }
-            assert!(hits > 200, "{hits} hits in scenes of {size}");
-        }
-    }
 }
