@@ -32,6 +32,7 @@ use rayon::prelude::*;
 
 use crate::error::{check_finite, FabricError, Result};
 use crate::robot::{GeometryKind, KinematicsWorkspace, Robot};
+use crate::rollout::batch::with_threads;
 use crate::scene::meshio::{build_mesh, load_mesh};
 use crate::scene::{Obstacle, Scene, Shape};
 
@@ -196,27 +197,6 @@ fn self_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usi
         }
     }
     pairs
-}
-
-/// Run `f` on a dedicated rayon pool of `threads` threads, or on the current pool when `None`.
-fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
-    match threads {
-        None => Ok(f()),
-        Some(0) => Err(FabricError::Value {
-            what: "threads".to_string(),
-            message: "must be >= 1".to_string(),
-        }),
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|e| FabricError::Value {
-                    what: "threads".to_string(),
-                    message: format!("cannot build a pool of {n} threads: {e}"),
-                })?;
-            Ok(pool.install(f))
-        }
-    }
 }
 
 /// Whether `inner` lies inside `outer` (closed boxes).

@@ -12,7 +12,10 @@ use crate::error::{check_finite, check_len, FabricError, Result};
 
 /// Run `f` on a rayon pool of `threads` threads, or on the current pool (rayon's default, one thread per
 /// core unless configured) when `None`. `Some(0)` is an error.
-fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
+pub(crate) fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> T + Send,
+) -> Result<T> {
     match threads {
         None => Ok(f()),
         Some(0) => Err(FabricError::Value {

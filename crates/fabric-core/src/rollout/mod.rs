@@ -9,7 +9,7 @@
 //!
 //! Times in s, joint values in rad (revolute) or m (prismatic), arrays row-major.
 
-mod batch;
+pub(crate) mod batch;
 mod fabric;
 pub mod integrate;
 #[allow(clippy::module_inception)]
