@@ -1,13 +1,15 @@
 //! Rollouts of the Panda fabric (GFCS eq. 1–8): joint limits over long rollouts, reaching in free space,
 //! the clearance monitor against a brute-force distance computation, and batch determinism.
 
+mod rollout_support;
+use rollout_support::bits;
+
 use std::sync::Arc;
 
 use fabric_core::fabric::{Fabric, FabricConfig, FabricWorkspace};
 use fabric_core::robot::{batch, Robot};
 use fabric_core::rollout::{
-    evaluate_batch, rollout, rollout_sequence, RolloutOptions, SequenceOptions, SequenceResult,
-    StopReason,
+    evaluate_batch, rollout, rollout_sequence, RolloutOptions, SequenceOptions, StopReason,
 };
 use fabric_core::scene::{Obstacle, Scene, Shape};
 use nalgebra::{Isometry3, Vector3};
@@ -412,18 +414,6 @@ fn clearance_monitor_matches_brute_force() {
         r.min_clearance,
         obstacle.min(own)
     );
-}
-
-fn bits(r: &SequenceResult) -> Vec<u64> {
-    let mut v = vec![r.cost.to_bits(), r.min_clearance.to_bits()];
-    v.extend(
-        r.t_stars
-            .iter()
-            .chain(&r.q)
-            .chain(&r.qd)
-            .map(|x| x.to_bits()),
-    );
-    v
 }
 
 #[test]

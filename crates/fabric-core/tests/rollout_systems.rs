@@ -2,9 +2,12 @@
 //! a constant-speed system whose time to reach a tolerance is a closed form, a damped oscillator, and a
 //! system that diverges.
 
+mod rollout_support;
+use rollout_support::bits;
+
 use fabric_core::rollout::{
     evaluate_batch_system, rollout_sequence_system, rollout_system, Integrator, RolloutOptions,
-    SequenceOptions, SequenceResult, StopReason, System,
+    SequenceOptions, StopReason, System,
 };
 use fabric_core::{FabricError, Result};
 use rand::{Rng, SeedableRng};
@@ -627,27 +630,6 @@ fn sequence_is_a_chain_of_rollouts() {
             assert_eq!(tr.q[(k + 1) * 3 + i], tr.q[k * 3 + i] + 0.01 * qd1);
         }
     }
-}
-
-fn bits(r: &SequenceResult) -> Vec<u64> {
-    let mut v: Vec<u64> = vec![r.cost.to_bits(), r.min_clearance.to_bits()];
-    v.extend(
-        r.t_stars
-            .iter()
-            .chain(&r.q)
-            .chain(&r.qd)
-            .map(|x| x.to_bits()),
-    );
-    if let Some(tr) = &r.trajectory {
-        v.extend(
-            tr.t.iter()
-                .chain(&tr.q)
-                .chain(&tr.qd)
-                .chain(&tr.qdd)
-                .map(|x| x.to_bits()),
-        );
-    }
-    v
 }
 
 #[test]
