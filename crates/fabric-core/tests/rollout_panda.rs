@@ -9,7 +9,8 @@ use std::sync::Arc;
 use fabric_core::fabric::{Fabric, FabricConfig, FabricWorkspace};
 use fabric_core::robot::{batch, Robot};
 use fabric_core::rollout::{
-    evaluate_batch, rollout, rollout_sequence, RolloutOptions, SequenceOptions, StopReason,
+    evaluate_batch, rollout, rollout_sequence, RolloutOptions, RolloutResult, SequenceOptions,
+    StopReason,
 };
 use fabric_core::scene::{Obstacle, Scene, Shape};
 use nalgebra::{Isometry3, Vector3};
@@ -57,12 +58,35 @@ fn table_scene() -> Scene {
     scene
 }
 
+/// Roll out in free space from (q0, q̇0) toward a random command up to 0.3 rad beyond the joint limits
+/// (the limit barriers must hold against the attractor); asserts the rollout stays finite. Returns the
+/// rollout and its command.
+fn rollout_beyond_limits(
+    fabric: &Fabric,
+    ws: &mut FabricWorkspace,
+    rng: &mut ChaCha8Rng,
+    q0: &[f64],
+    qd0: &[f64],
+    opts: &RolloutOptions,
+) -> (RolloutResult, Vec<f64>) {
+    let (lo, up) = (fabric.robot().lower(), fabric.robot().upper());
+    let command: Vec<f64> = (0..lo.len())
+        .map(|i| rng.gen_range(lo[i] - 0.3..up[i] + 0.3))
+        .collect();
+    let r = rollout(fabric, &Scene::new(), q0, qd0, &command, opts, ws).unwrap();
+    assert_ne!(
+        r.reason,
+        StopReason::NonFinite,
+        "q0 {q0:?} qd0 {qd0:?} command {command:?}"
+    );
+    (r, command)
+}
+
 #[test]
 fn joint_limits_hold_over_long_rollouts() {
     let fabric = panda_fabric();
     let robot = fabric.robot().clone();
     let (lo, up) = (robot.lower().to_vec(), robot.upper().to_vec());
-    let scene = Scene::new();
     let mut ws = FabricWorkspace::new(&fabric);
     let mut rng = ChaCha8Rng::seed_from_u64(2024);
     let opts = RolloutOptions {
@@ -82,16 +106,7 @@ fn joint_limits_hold_over_long_rollouts() {
             continue;
         }
         let qd0: Vec<f64> = (0..7).map(|_| rng.gen_range(-0.5..0.5)).collect();
-        // Commands up to 0.3 rad beyond the limits: the limit barriers must hold against the attractor.
-        let command: Vec<f64> = (0..7)
-            .map(|i| rng.gen_range(lo[i] - 0.3..up[i] + 0.3))
-            .collect();
-        let r = rollout(&fabric, &scene, &q0, &qd0, &command, &opts, &mut ws).unwrap();
-        assert_ne!(
-            r.reason,
-            StopReason::NonFinite,
-            "q0 {q0:?} qd0 {qd0:?} command {command:?}"
-        );
+        let (r, _) = rollout_beyond_limits(&fabric, &mut ws, &mut rng, &q0, &qd0, &opts);
         let tr = r.trajectory.unwrap();
         for k in 0..tr.len() {
             let q = tr.q_row(k).unwrap();
@@ -176,7 +191,6 @@ fn random_starts_on_and_inside_the_joint_limit_margin_never_diverge_nor_cross_th
     let robot = fabric.robot().clone();
     let (lo, up) = (robot.lower().to_vec(), robot.upper().to_vec());
     let margin = fabric.config().joint_limits.margin;
-    let scene = Scene::new();
     let mut ws = FabricWorkspace::new(&fabric);
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     // the whole 7 s: no early stop when the motion stalls against a limit
@@ -217,15 +231,7 @@ fn random_starts_on_and_inside_the_joint_limit_margin_never_diverge_nor_cross_th
         if self_clearances(&robot, &q0)[0] < 0.0 {
             continue;
         }
-        let command: Vec<f64> = (0..7)
-            .map(|i| rng.gen_range(lo[i] - 0.3..up[i] + 0.3))
-            .collect();
-        let r = rollout(&fabric, &scene, &q0, &qd0, &command, &opts, &mut ws).unwrap();
-        assert_ne!(
-            r.reason,
-            StopReason::NonFinite,
-            "q0 {q0:?} qd0 {qd0:?} command {command:?}"
-        );
+        let (r, command) = rollout_beyond_limits(&fabric, &mut ws, &mut rng, &q0, &qd0, &opts);
         let tr = r.trajectory.unwrap();
         for k in 0..tr.len() {
             let (q, qd) = (tr.q_row(k).unwrap(), tr.qd_row(k).unwrap());
