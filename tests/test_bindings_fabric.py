@@ -141,6 +141,22 @@ def test_penalty_when_goal_not_reached(fabric):
     assert not reached[0] and costs[0] == pytest.approx(0.1 + 50.0)
 
 
+def test_distance_penalty_adds_the_closest_approach_when_not_reached(fabric):
+    seq = fabric.rollout_sequence(Q0, None, GOAL[None], GOAL, t_max=0.05, penalty=50.0, distance_penalty=3.0)
+    # short budget: the arm barely moves, so the closest approach is (nearly) the last state's distance
+    last = np.linalg.norm(seq.q[-1] - GOAL)
+    assert not seq.reached and 0 < seq.goal_distance <= last + 1e-12
+    assert seq.goal_distance == pytest.approx(np.linalg.norm(seq.q - GOAL, axis=1).min())
+    assert seq.cost == pytest.approx(0.1 + 50.0 + 3.0 * seq.goal_distance)
+    costs, _, _ = fabric.evaluate(Q0, None, GOAL, GOAL[None], t_max=0.05, penalty=50.0, distance_penalty=3.0)
+    assert costs[0] == seq.cost
+    reached = fabric.rollout_sequence(Q0, None, GOAL[None], GOAL, distance_penalty=3.0)
+    assert reached.reached and reached.goal_distance < 0.01 and reached.cost == pytest.approx(reached.t_stars.sum())
+    assert fabric.rollout(Q0, None, GOAL).min_distance < 0.01
+    with pytest.raises(gfcs.InvalidValueError, match="distance_penalty"):
+        fabric.evaluate(Q0, None, GOAL, GOAL[None], distance_penalty=-1.0)
+
+
 def test_collision_penalty_and_tolerance(robot):
     s = gfcs.Scene()
     # a box around the start configuration's hand: every sequence starts in collision

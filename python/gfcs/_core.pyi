@@ -287,6 +287,9 @@ class Rollout:
     @property
     def reached(self) -> bool: ...
     @property
+    def min_distance(self) -> float:
+        """Closest approach ‖q − command‖ over the states, rad (below tol when reached)."""
+    @property
     def min_clearance(self) -> float:
         """Minimum over the states of min(sphere-obstacle, self-collision) clearance, m (< 0: collision)."""
     @property
@@ -308,7 +311,11 @@ class SequenceRollout:
     def qdd(self) -> FloatArray: ...
     @property
     def cost(self) -> float:
-        """Σ tᵢ* + penalty·[goal not reached] + collision_penalty·[collided], s (eq. 4, 8)."""
+        """Σ tᵢ* + (penalty + distance_penalty·goal_distance)·[goal not reached]
+        + collision_penalty·[collided], s (eq. 4, 8)."""
+    @property
+    def goal_distance(self) -> float:
+        """Closest approach ‖q − goal‖ of the final rollout, rad (below tol when reached)."""
     @property
     def t_stars(self) -> FloatArray:
         """(n + 1,) tᵢ*, s."""
@@ -371,16 +378,20 @@ class Fabric:
         dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
         waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
         collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
+        distance_penalty: Optional[float] = None,
         stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
         integrator: str = "euler", record: bool = True,
     ) -> SequenceRollout:
         """Commands (n, dof) then the goal (dof,) (GFCS eq. 4-8). Defaults: waypoint_tol 0.1,
-        penalty 100 s, collision_penalty 0 s (added when min_clearance < -collision_tol, default 0 m)."""
+        penalty 100 s and distance_penalty 0 s/rad (× the closest approach to the goal), both added when
+        the goal is not reached; collision_penalty 0 s (added when min_clearance < -collision_tol,
+        default 0 m)."""
     def evaluate(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], goal: ArrayLike, candidates: ArrayLike,
         dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
         waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
         collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
+        distance_penalty: Optional[float] = None,
         stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
         integrator: str = "euler", threads: Optional[int] = None, return_trajectories: bool = False,
     ) -> Union[

@@ -419,6 +419,7 @@ fn sequence_cost_matches_closed_form() {
         penalty: 50.0,
         collision_penalty: 3.0,
         collision_tol: 0.0,
+        distance_penalty: 2.0,
     };
     let r = rollout_sequence_system(
         &sys,
@@ -436,8 +437,9 @@ fn sequence_cost_matches_closed_form() {
         "{:?}",
         r.t_stars
     );
+    // Reached: no distance term (eq. 4 unchanged), and the closest approach is within tol.
     assert!((r.cost - 1.9).abs() < 1e-12);
-    assert!(r.reached && r.success());
+    assert!(r.reached && r.success() && r.goal_distance < 0.005);
     assert_eq!(r.min_clearance, f64::INFINITY);
 
     // Random sequences: Σ of the closed-form times, the hand-over point being where the first leg stops.
@@ -489,6 +491,7 @@ fn sequence_penalties() {
         penalty: 50.0,
         collision_penalty: 3.0,
         collision_tol: 0.0,
+        distance_penalty: 2.0,
     };
     let r = rollout_sequence_system(
         &sys,
@@ -502,7 +505,14 @@ fn sequence_penalties() {
     .unwrap();
     assert_eq!(r.reasons, vec![StopReason::Timeout, StopReason::Timeout]);
     assert_eq!(r.t_stars, vec![0.5, 0.5]);
-    assert!((r.cost - 51.0).abs() < 1e-12);
+    // Not reached: p plus 2 s/rad times the closest approach, the final distance √1.25 − 0.5.
+    let closest = 1.25f64.sqrt() - 0.5;
+    assert!(
+        (r.goal_distance - closest).abs() < 1e-9,
+        "{}",
+        r.goal_distance
+    );
+    assert!((r.cost - (51.0 + 2.0 * closest)).abs() < 1e-9);
     assert!(!r.reached);
     // The second leg started at (0.5, 0) and moved 0.5 toward (1, 1).
     let dir = [0.5 / 1.25f64.sqrt(), 1.0 / 1.25f64.sqrt()];
@@ -559,7 +569,9 @@ fn sequence_penalties() {
     .unwrap();
     assert_eq!(r.reasons, vec![StopReason::NonFinite; 3]);
     assert_eq!(r.t_stars, vec![7.0; 3]);
-    assert!((r.cost - (21.0 + 50.0)).abs() < 1e-12);
+    // The goal was never commanded: its distance is that of the last finite state.
+    assert_eq!(r.goal_distance, (r.q[0] - 5.0).abs());
+    assert!((r.cost - (21.0 + 50.0 + 2.0 * r.goal_distance)).abs() < 1e-12);
 }
 
 #[test]
@@ -580,6 +592,7 @@ fn sequence_is_a_chain_of_rollouts() {
         penalty: 10.0,
         collision_penalty: 1.0,
         collision_tol: 0.0,
+        distance_penalty: 0.0,
     };
     let seq = rollout_sequence_system(&sys, &mut sys.workspace(), &q0, &qd0, &commands, &goal, &so)
         .unwrap();
@@ -823,6 +836,13 @@ fn invalid_inputs_name_the_culprit() {
             "SequenceOptions.collision_tol",
             SequenceOptions {
                 collision_tol: f64::INFINITY,
+                ..so.clone()
+            },
+        ),
+        (
+            "SequenceOptions.distance_penalty",
+            SequenceOptions {
+                distance_penalty: -0.5,
                 ..so.clone()
             },
         ),

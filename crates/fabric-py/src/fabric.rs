@@ -70,7 +70,8 @@ impl PyFabric {
 }
 
 /// Keyword options of `rollout_sequence` and `evaluate`; `None` keeps the core default of
-/// `SequenceOptions` (waypoint_tol 0.1 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m) and
+/// `SequenceOptions` (waypoint_tol 0.1 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m,
+/// distance_penalty 0 s/rad) and
 /// of `RolloutOptions` (dt 0.01 s, t_max 7 s, tol 0.01).
 struct SequenceKwargs<'a> {
     rollout: RolloutKwargs<'a>,
@@ -78,6 +79,7 @@ struct SequenceKwargs<'a> {
     penalty: Option<f64>,
     collision_penalty: Option<f64>,
     collision_tol: Option<f64>,
+    distance_penalty: Option<f64>,
 }
 
 impl SequenceKwargs<'_> {
@@ -91,6 +93,7 @@ impl SequenceKwargs<'_> {
             penalty: self.penalty.unwrap_or(d.penalty),
             collision_penalty: self.collision_penalty.unwrap_or(d.collision_penalty),
             collision_tol: self.collision_tol.unwrap_or(d.collision_tol),
+            distance_penalty: self.distance_penalty.unwrap_or(d.distance_penalty),
         };
         opts.validate().map_err(error)?;
         Ok(opts)
@@ -315,9 +318,10 @@ impl PyFabric {
 
     /// One command sequence (GFCS eq. 4–8): `commands` (n, dof) free commands (n may be 0), then `goal`
     /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol (default 0.1); the goal at
-    /// tol. Cost = Σ tᵢ* + penalty (default 100 s) if the goal is not reached + collision_penalty (default
-    /// 0 s) if the minimum clearance drops below −collision_tol (default 0 m). GIL released.
-    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, stall_window=None, stall_progress=None, integrator="euler", record=true))]
+    /// tol. Cost = Σ tᵢ* + penalty (default 100 s) + distance_penalty (default 0 s/rad) × the closest
+    /// approach to the goal, both if the goal is not reached, + collision_penalty (default 0 s) if the
+    /// minimum clearance drops below −collision_tol (default 0 m). GIL released.
+    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, distance_penalty=None, stall_window=None, stall_progress=None, integrator="euler", record=true))]
     #[allow(clippy::too_many_arguments)]
     fn rollout_sequence(
         &self,
@@ -333,6 +337,7 @@ impl PyFabric {
         penalty: Option<f64>,
         collision_penalty: Option<f64>,
         collision_tol: Option<f64>,
+        distance_penalty: Option<f64>,
         stall_window: Option<f64>,
         stall_progress: Option<f64>,
         integrator: &str,
@@ -351,6 +356,7 @@ impl PyFabric {
             penalty,
             collision_penalty,
             collision_tol,
+            distance_penalty,
         };
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
@@ -372,7 +378,7 @@ impl PyFabric {
     /// `(costs (N,), reached (N,) bool, min_clearance (N,))`, plus a list of N `SequenceRollout` (with
     /// trajectories) when `return_trajectories`. Results are in candidate order and do not depend on
     /// `threads` (None: all cores). GIL released.
-    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, stall_window=None, stall_progress=None, integrator="euler", threads=None, return_trajectories=false))]
+    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, distance_penalty=None, stall_window=None, stall_progress=None, integrator="euler", threads=None, return_trajectories=false))]
     #[allow(clippy::too_many_arguments)]
     fn evaluate<'py>(
         &self,
@@ -388,6 +394,7 @@ impl PyFabric {
         penalty: Option<f64>,
         collision_penalty: Option<f64>,
         collision_tol: Option<f64>,
+        distance_penalty: Option<f64>,
         stall_window: Option<f64>,
         stall_progress: Option<f64>,
         integrator: &str,
@@ -407,6 +414,7 @@ impl PyFabric {
             penalty,
             collision_penalty,
             collision_tol,
+            distance_penalty,
         };
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;

@@ -178,10 +178,15 @@ recorded_pymethods! {
     fn steps(&self) -> usize {
         self.result.steps
     }
-    /// "reached", "timeout" or "non_finite".
+    /// "reached", "timeout", "stalled" or "non_finite".
     #[getter]
     fn reason(&self) -> &'static str {
         reason_name(self.result.reason)
+    }
+    /// Closest approach ‖q − command‖ over the rollout's states (rad; below tol when reached).
+    #[getter]
+    fn min_distance(&self) -> f64 {
+        self.result.min_distance
     }
     /// The command was reached within tol (eq. 3).
     #[getter]
@@ -233,10 +238,16 @@ recorded_pymethods! {
     PySequenceRollout,
     t_doc = "Times (T,), s, strictly increasing across the commands.",
     qdd_doc = "Accelerations (T, dof).",
-    /// Cost Σ tᵢ* + p·1[goal not reached] + collision_penalty·1[collided], s (eq. 4, 8).
+    /// Cost Σ tᵢ* + (p + distance_penalty·goal_distance)·1[goal not reached]
+    /// + collision_penalty·1[collided], s (eq. 4, 8).
     #[getter]
     fn cost(&self) -> f64 {
         self.result.cost
+    }
+    /// Closest approach ‖q − goal‖ (rad) of the final rollout to the goal (below tol when reached).
+    #[getter]
+    fn goal_distance(&self) -> f64 {
+        self.result.goal_distance
     }
     /// tᵢ* of every command, (n + 1,), s (eq. 5).
     #[getter]
@@ -247,7 +258,7 @@ recorded_pymethods! {
             &[self.result.t_stars.len()],
         )
     }
-    /// Stop reason of every command ("reached", "timeout", "non_finite"), length n + 1.
+    /// Stop reason of every command ("reached", "timeout", "stalled", "non_finite"), length n + 1.
     #[getter]
     fn reasons(&self) -> Vec<&'static str> {
         self.result

@@ -210,6 +210,9 @@ pub struct RolloutResult {
     pub t_end: f64,
     /// Integration steps taken.
     pub steps: usize,
+    /// Closest approach ‖q − q_g‖ (rad or m) to the command over the step-start states, the final state
+    /// included (below `tol` when reached).
+    pub min_distance: f64,
     /// Final configuration (dof,), the state at `t_end` (the last finite state on NonFinite).
     pub q: Vec<f64>,
     /// Final velocity (dof,).
@@ -255,6 +258,11 @@ fn all_finite(v: &[f64]) -> bool {
 
 fn distance_squared(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
+}
+
+/// Euclidean distance ‖a − b‖.
+pub(crate) fn distance(a: &[f64], b: &[f64]) -> f64 {
+    distance_squared(a, b).sqrt()
 }
 
 /// Check q0, qd0 and `command` against the system's dof and for finiteness, plus the options.
@@ -311,13 +319,13 @@ pub(crate) fn run<S: System>(
             tr.push(t, &b.q, &b.qd, &b.qdd);
         }
         let d2 = distance_squared(&b.q, command);
+        best = best.min(d2.sqrt());
         if d2 < tol2 {
             break StopReason::Reached;
         }
         if k >= n_max {
             break StopReason::Timeout;
         }
-        best = best.min(d2.sqrt());
         if window > 0 && k.is_multiple_of(window) {
             if best > window_start_best - opts.stall_progress {
                 break StopReason::Stalled;
@@ -352,6 +360,7 @@ pub(crate) fn run<S: System>(
         t_star,
         t_end,
         steps: k,
+        min_distance: best,
         q: b.q.clone(),
         qd: b.qd.clone(),
         reason,
