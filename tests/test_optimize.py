@@ -150,6 +150,40 @@ def test_uniform_sampler_within_limits():
     np.testing.assert_allclose(y.mean(axis=0), (lo + up) / 2, atol=0.15)
 
 
+def test_approach_sampler_mixes_approach_and_uniform_commands():
+    import gfcs
+    from gfcs.approach import approach_configurations
+
+    robot = gfcs.Robot.panda()
+    goal = np.array([0.3, 0.4, -0.2, -1.9, 0.1, 2.2, 0.6])
+    problem = types.SimpleNamespace(robot=robot, goal=goal)
+    sampler = opt.ApproachSampler(n_commands=2, fraction=0.25, distances=(0.05, 0.1), sigma=0.01)
+    y = sampler.sample(problem, 400, np.random.default_rng(0))
+    lo, up = np.asarray(robot.lower), np.asarray(robot.upper)
+    assert y.shape == (400, 14)
+    assert np.all(y >= np.tile(lo, 2)) and np.all(y <= np.tile(up, 2))
+    # the last command of the first quarter: the two approach configurations in turn, with 1 % noise
+    approach = approach_configurations(robot, goal, (0.05, 0.1))
+    near = y[:100, 7:]
+    for i in range(2):
+        np.testing.assert_allclose(np.median(near[i::2], axis=0), approach[i], atol=0.01 * (up - lo).max())
+    assert np.all(np.abs(near - approach[np.arange(100) % 2]) <= 5 * 0.01 * (up - lo))
+    # earlier commands and the other candidates are uniform
+    assert np.all(np.abs(y[:, :7].mean(axis=0) - (lo + up) / 2) < 0.1 * (up - lo))
+    assert np.mean(np.linalg.norm(y[100:, 7:] - goal, axis=1) < 0.5) < 0.05
+    # fraction 0 is the uniform sampler, draw for draw
+    u = opt.ApproachSampler(2, fraction=0.0).sample(problem, 50, np.random.default_rng(3))
+    np.testing.assert_array_equal(u, opt.UniformSampler(2).sample(problem, 50, np.random.default_rng(3)))
+
+
+@pytest.mark.parametrize("kwargs, match", [({"fraction": 1.5}, "fraction"), ({"fraction": -0.1}, "fraction"),
+                                           ({"sigma": -0.1}, "sigma"), ({"sigma": math.nan}, "sigma"),
+                                           ({"distances": ()}, "distances"), ({"distances": (0.1, -0.1)}, "distances")])
+def test_approach_sampler_rejects_bad_settings(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        opt.ApproachSampler(**kwargs)
+
+
 # ---------------------------------------------------------------------- robot level (needs _core)
 @pytest.fixture(scope="module")
 def shelf_problem():

@@ -84,8 +84,10 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     g.add_argument("--seed", type=int, default=0, help="optimiser seed (default 0)")
     g.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores)")
     g.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON)")
-    g.add_argument("--sampler", metavar="MODEL.pt",
-                   help="warm-start sampler: a model trained by `gfcs train` (needs torch)")
+    g.add_argument("--sampler", metavar="approach|uniform|MODEL.pt", default="approach",
+                   help="warm-start sampler: approach (default: half the first batch at the goal's approach "
+                        "corridor, the rest uniform), uniform (the paper's), or a model trained by "
+                        "`gfcs train` (needs torch)")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
     r.add_argument("--dt", type=float, default=0.01, help="integration step, s (default 0.01)")
     r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
@@ -121,8 +123,12 @@ def _robot(args: argparse.Namespace) -> Any:
 
 
 def _sampler(args: argparse.Namespace) -> Any:
-    if not args.sampler:
-        return None
+    from gfcs.optimize import ApproachSampler, UniformSampler
+
+    if args.sampler == "approach":
+        return ApproachSampler(args.commands)
+    if args.sampler == "uniform":
+        return UniformSampler(args.commands)
     try:
         from gfcs.learning.sampler import EBMSampler
     except ImportError as e:

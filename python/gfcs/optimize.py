@@ -56,6 +56,7 @@ from gfcs.results import SolveResult, Trajectory
 __all__ = [
     "Sampler",
     "UniformSampler",
+    "ApproachSampler",
     "BatchInfo",
     "OptimResult",
     "RolloutSettings",
@@ -96,6 +97,61 @@ class UniformSampler:
         lo = np.tile(np.asarray(problem.robot.lower, dtype=np.float64), self.n_commands)
         up = np.tile(np.asarray(problem.robot.upper, dtype=np.float64), self.n_commands)
         return rng.uniform(lo, up, size=(int(n), lo.shape[0]))
+
+
+@dataclass
+class ApproachSampler:
+    """The default warm start: part of the candidates end at the goal's approach corridor, the rest are
+    uniform.
+
+    A grasp goal (MotionBenchMaker's shelves, boxes, cages) sits in narrow free space that the fabric
+    enters only along the gripper's approach direction; a uniform waypoint almost never lies at the mouth
+    of that corridor. The first round(``fraction``·n) candidates have their last free command at an
+    approach configuration (the goal's end-effector pose backed off by one of ``distances`` along
+    ``axis``, see :func:`gfcs.approach.approach_configurations`; the distances in turn) plus
+    N(0, (sigma·(q_up − q_low))²) per joint, clipped into the limits, and earlier commands uniform; the
+    other candidates are those of :class:`UniformSampler`. ``fraction = 0`` is the uniform sampler (the
+    paper's "No learning").
+
+    Attributes:
+        n_commands: number n of free commands per candidate (output width n·dof).
+        fraction: share of approach candidates, in [0, 1].
+        distances: back-off distances (m), ≥ 0.
+        sigma: joint noise around the approach configurations as a fraction of each joint range, ≥ 0.
+        axis: approach direction in the end-effector frame (default z, the Panda gripper's).
+    """
+
+    n_commands: int = 1
+    fraction: float = 0.5
+    distances: Tuple[float, ...] = (0.05, 0.10, 0.15, 0.20)
+    sigma: float = 0.02
+    axis: Tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= float(self.fraction) <= 1.0:
+            raise ValueError(f"ApproachSampler.fraction must be in [0, 1], got {self.fraction}")
+        if not (math.isfinite(self.sigma) and self.sigma >= 0):
+            raise ValueError(f"ApproachSampler.sigma must be a finite number >= 0, got {self.sigma}")
+        if len(self.distances) == 0 or not all(math.isfinite(d) and d >= 0 for d in self.distances):
+            raise ValueError(f"ApproachSampler.distances must be finite numbers >= 0, got {self.distances}")
+
+    def sample(self, problem: Any, n: int, rng: np.random.Generator) -> np.ndarray:
+        """(n, n_commands·dof) candidates: the first round(fraction·n) at the approach configurations of
+        ``problem.goal`` (with noise), then uniform ones."""
+        from gfcs.approach import approach_configurations
+
+        y = UniformSampler(self.n_commands).sample(problem, n, rng)
+        k = int(round(float(self.fraction) * int(n)))
+        if k == 0:
+            return y
+        robot = problem.robot
+        lo = np.asarray(robot.lower, dtype=np.float64)
+        up = np.asarray(robot.upper, dtype=np.float64)
+        approach = approach_configurations(robot, problem.goal, self.distances, self.axis)
+        rows = approach[np.arange(k) % approach.shape[0]]
+        noise = rng.standard_normal((k, lo.shape[0])) * (float(self.sigma) * (up - lo))
+        y[:k, -lo.shape[0]:] = np.clip(rows + noise, lo, up)
+        return y
 
 
 # ------------------------------------------------------------------------------- generic Algorithm 1
@@ -327,12 +383,18 @@ class RolloutSettings:
         collision_penalty: added when the sphere model collides (min clearance < 0) [s]. An extension of
             eq. 4 (the paper's cost has no collision term): success requires a collision-free motion, so
             colliding candidates must rank behind collision-free ones.
+        distance_penalty: added per rad of the closest approach to the goal when the goal is not reached
+            [s/rad]. An extension of eq. 4 (default 0, the paper's cost): eq. 4 ranks failed candidates
+            only by their waypoint times, so a batch without a success tells CMA-ES nothing; this term
+            ranks them by how near they came. Not the default: on the 20 MotionBenchMaker problems that
+            5 batches failed, 20 s/rad solved 6-7 against 8 without it, in more time.
         integrator: ``"euler"`` (semi-implicit Euler, the paper's) or ``"rk4"``.
         stall_window, stall_progress: a rollout stops as "stalled" (t* = t_max, not reached) when its
             distance to the command has not shrunk by ``stall_progress`` [rad] over ``stall_window`` [s]
             (0 = off): it saves the steps of candidates stuck at a local minimum.
 
-    The defaults equal the core's (``RolloutOptions`` / ``SequenceOptions`` in ``fabric-core``).
+    The defaults equal the core's (``RolloutOptions`` / ``SequenceOptions`` in ``fabric-core``) except
+    ``collision_penalty`` (0 in the core).
     """
 
     dt: float = 0.01
@@ -341,6 +403,7 @@ class RolloutSettings:
     waypoint_tol: float = 0.1
     penalty: float = 100.0
     collision_penalty: float = 100.0
+    distance_penalty: float = 0.0
     integrator: str = "euler"
     stall_window: float = 1.0
     stall_progress: float = 0.01
@@ -354,6 +417,7 @@ class RolloutSettings:
             "waypoint_tol": self.waypoint_tol,
             "penalty": self.penalty,
             "collision_penalty": self.collision_penalty,
+            "distance_penalty": self.distance_penalty,
             "integrator": self.integrator,
             "stall_window": self.stall_window,
             "stall_progress": self.stall_progress,
@@ -480,7 +544,8 @@ def solve(
         population: candidates per batch.
         n_commands: number n of free commands (the paper: 1, i.e. sequences of length two).
         seed: seed of the sampler and CMA-ES (see the module docstring).
-        sampler: warm-start sampler (protocol :class:`Sampler`), default :class:`UniformSampler`.
+        sampler: warm-start sampler (protocol :class:`Sampler`), default :class:`ApproachSampler`
+            (pass ``UniformSampler(n_commands)`` for the paper's uniform warm start).
         fabric_config: fabric gains (None, ``gfcs.FabricConfig``, dict, or file path).
         threads: worker threads for the batch evaluation (None: all cores).
         progress: show a tqdm progress bar over the batches.
@@ -521,7 +586,7 @@ def solve(
     n_commands = int(n_commands)
     if n_commands < 1:
         raise ValueError(f"n_commands must be ≥ 1 for method 'gfcs', got {n_commands}")
-    sampler = sampler if sampler is not None else UniformSampler(n_commands)
+    sampler = sampler if sampler is not None else ApproachSampler(n_commands)
     dim = n_commands * dof
     lower = np.tile(np.asarray(robot.lower, dtype=np.float64), n_commands)
     upper = np.tile(np.asarray(robot.upper, dtype=np.float64), n_commands)

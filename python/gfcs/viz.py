@@ -129,7 +129,7 @@ def _part(name: Any) -> str:
 def _label_of(result: Any) -> str:
     method = str(getattr(result, "method", "") or "result")
     sampler = str((getattr(result, "settings", None) or {}).get("sampler", "") or "")
-    if method == "gfcs" and sampler and sampler != "UniformSampler":
+    if method == "gfcs" and sampler == "EBMSampler":
         return "gfcs_learned"
     return re.sub(r"[^A-Za-z0-9_]+", "_", method)
 

@@ -45,8 +45,9 @@ def evaluate_first_batch(
 
     Args:
         problems: :class:`gfcs.problems.Problem` list.
-        sampler_a, sampler_b: sampler-protocol objects (``None`` = uniform, ``gfcs.optimize``'s default),
-            e.g. ``None`` and ``EBMSampler("model.pt")``.
+        sampler_a, sampler_b: sampler-protocol objects (``None``: :func:`gfcs.optimize.solve`'s default,
+            :class:`~gfcs.optimize.ApproachSampler`), e.g. ``UniformSampler()`` (the paper's "No
+            learning") and ``EBMSampler("model.pt")``.
         labels: row labels for ``sampler_a`` and ``sampler_b``.
         population: candidates in the batch; n_commands: free commands.
         seed: problem ``i`` is solved with seed ``seed + i`` by both samplers.

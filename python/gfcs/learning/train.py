@@ -265,12 +265,14 @@ def train_energy_model(
 
 def default_solve_fn(config: TrainConfig) -> SolveFn:
     """``solve_fn`` calling :func:`gfcs.optimize.solve` with ``config.solve`` and ``config.n_commands``."""
-    from gfcs.optimize import solve
+    from gfcs.optimize import UniformSampler, solve
 
     kwargs = dict(config.solve)
     kwargs.setdefault("n_commands", config.n_commands)
 
     def solve_fn(problem: Any, sampler: Any, seed: int) -> Any:
+        if sampler is None:  # before the first training: uniform, as Alg. 2 (not solve's default)
+            sampler = UniformSampler(int(kwargs["n_commands"]))
         return solve(problem, sampler=sampler, seed=seed, **kwargs)
 
     return solve_fn

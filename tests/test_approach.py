@@ -1,0 +1,52 @@
+"""gfcs.approach: approach configurations by inverse kinematics, checked with the forward kinematics."""
+
+import numpy as np
+import pytest
+
+import gfcs
+from gfcs.approach import approach_configurations
+
+GOAL = np.array([0.3, 0.4, -0.2, -1.9, 0.1, 2.2, 0.6])
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return gfcs.Robot.panda()
+
+
+def ee_pose(robot, q):
+    return np.asarray(robot.link_poses(q))[robot.link_index(robot.ee_link)]
+
+
+@pytest.mark.parametrize("axis", [(0.0, 0.0, 1.0), (1.0, 1.0, 0.0)])
+def test_end_effector_backs_off_along_the_axis_with_the_goal_orientation(robot, axis):
+    distances = (0.0, 0.05, 0.1, 0.15)
+    qs = approach_configurations(robot, GOAL, distances, axis=axis)
+    assert qs.shape == (4, 7)
+    assert np.all(qs >= np.asarray(robot.lower)) and np.all(qs <= np.asarray(robot.upper))
+    goal = ee_pose(robot, GOAL)
+    a = np.asarray(axis) / np.linalg.norm(axis)
+    for d, q in zip(distances, qs):
+        pose = ee_pose(robot, q)
+        np.testing.assert_allclose(pose[:3, 3], goal[:3, 3] - d * goal[:3, :3] @ a, atol=1e-4)
+        np.testing.assert_allclose(pose[:3, :3], goal[:3, :3], atol=1e-3)
+    np.testing.assert_allclose(qs[0], GOAL, atol=1e-12)  # d = 0: the goal itself
+    # continuation: each configuration is near the previous one, not a jump to another IK branch
+    assert np.all(np.linalg.norm(np.diff(qs, axis=0), axis=1) < 0.5)
+
+
+def test_unreachable_target_returns_a_configuration_within_limits(robot):
+    q = approach_configurations(robot, GOAL, (3.0,))[0]  # 3 m back: out of reach
+    assert np.all(np.isfinite(q))
+    assert np.all(q >= np.asarray(robot.lower)) and np.all(q <= np.asarray(robot.upper))
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"q_goal": np.zeros(6)}, "q_goal"), ({"q_goal": np.full(7, np.nan)}, "q_goal"),
+    ({"distances": (-0.1,)}, "distances"), ({"distances": (np.inf,)}, "distances"),
+    ({"axis": (0.0, 0.0, 0.0)}, "axis"), ({"axis": (1.0, 0.0)}, "axis"),
+])
+def test_bad_input(robot, kwargs, match):
+    args = {"q_goal": GOAL, "distances": (0.1,), **kwargs}
+    with pytest.raises(ValueError, match=match):
+        approach_configurations(robot, **args)
