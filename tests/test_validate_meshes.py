@@ -87,6 +87,11 @@ def test_cube_mesh_against_sphere_closed_form(cube_checker):
     want = [box_sdf(np.array([0.6 - q[0], 0.1, 0.0]), half) - 0.05 for q in traj]
     np.testing.assert_allclose(along, want, atol=1e-7)
     assert along.min() < 0.0 < along.max()  # the cube pushes into the ball at the end
+    # the trajectory minimum (culled) is the minimum of the states, and the single-state value
+    assert cube_checker.min_clearance(scene, traj) == along.min()
+    assert cube_checker.min_clearance(scene, traj[:17], threads=1) == along[:17].min()
+    assert cube_checker.min_clearance(scene, traj[3]) == along[3]
+    assert cube_checker.min_clearance(scene, np.zeros((0, 1))) == math.inf
     # Deeper, with the centre inside the cube, a mesh penetration depth is measured from the triangles,
     # not the solid: only its sign is reliable.
     assert np.all(cube_checker.clearance(scene, np.linspace(0.4, 0.6, 9)[:, None]) <= 0.0)
@@ -122,6 +127,8 @@ def test_self_clearance_closed_form():
             for a in t2]
     np.testing.assert_allclose(got, want, atol=1e-7)
     assert checker.self_clearance([0.0, math.pi]) == pytest.approx(-0.03, abs=1e-7)
+    assert checker.min_self_clearance(qs) == got.min()
+    assert checker.min_self_clearance(qs[:10], threads=1) == got[:10].min()
 
 
 def test_errors(tmp_path, cube_checker):
@@ -201,6 +208,12 @@ class FlaggingChecker:
 
     def self_clearance(self, q):
         return np.full(np.atleast_2d(q).shape[0], 0.1)
+
+    def min_clearance(self, scene, q):
+        return float(np.min(self.clearance(scene, q)))
+
+    def min_self_clearance(self, q):
+        return float(np.min(self.self_clearance(q)))
 
 
 @pytest.fixture(scope="module")

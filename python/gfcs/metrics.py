@@ -313,8 +313,8 @@ def trajectory_metrics(
     mesh_ok = True
     extra: Dict[str, Any] = {}
     if mesh_checker is not None:
-        mesh_clear = float(np.min(mesh_clearance(mesh_checker, scene, qa)))
-        mesh_self = float(np.min(np.asarray(mesh_checker.self_clearance(qa), dtype=np.float64)))
+        mesh_clear = float(mesh_checker.min_clearance(scene, qa))
+        mesh_self = float(mesh_checker.min_self_clearance(qa))
         mesh_ok = mesh_clear > 0.0 and mesh_self > 0.0
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self

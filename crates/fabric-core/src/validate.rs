@@ -40,6 +40,9 @@ use crate::scene::{Obstacle, Scene, Shape};
 /// are not measured, and a state with nothing within it has clearance `f64::INFINITY`.
 pub const DEFAULT_MAX_DISTANCE: f64 = 0.5;
 
+/// Stride of the first pass of [`MeshChecker::min_trajectory_clearance`].
+const MIN_STRIDE: usize = 8;
+
 /// One URDF `<collision>` element ready for distance queries.
 #[derive(Clone)]
 pub struct CollisionShape {
@@ -480,16 +483,18 @@ impl MeshChecker {
     ///
     /// Branch and bound: pass 1 measures primitives exactly and meshes by their hulls (a lower bound);
     /// pass 2 measures the meshes exactly in increasing order of their bounds until the bound reaches
-    /// the minimum found so far.
+    /// the minimum found so far. Distances at or above `cutoff` (m) are not measured: the result is
+    /// exact when below min(cutoff, max_distance), and otherwise some value at or above it, or +∞.
     fn clearance_in(
         &self,
         scene: &Scene,
         obstacles: &[&Obstacle],
         q: &[f64],
+        cutoff: f64,
         ws: &mut MeshWorkspace,
     ) -> Result<f64> {
         self.place(q, ws)?;
-        let max = self.max_distance;
+        let max = self.max_distance.min(cutoff);
         let mut best = f64::INFINITY;
         ws.order.clear();
         for (i, (s, pose)) in self.shapes.iter().zip(&ws.poses).enumerate() {
@@ -504,7 +509,7 @@ impl MeshChecker {
         }
         ws.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         for &(bound, i) in &ws.order {
-            if bound - BOUND_SLACK >= best {
+            if bound - BOUND_SLACK >= best.min(max) {
                 break;
             }
             let (s, pose) = (&self.shapes[i], &ws.poses[i]);
@@ -536,7 +541,7 @@ impl MeshChecker {
     /// Errors: `Shape` (q of the wrong length), `NonFinite`.
     pub fn clearance(&self, scene: &Scene, q: &[f64]) -> Result<f64> {
         let obstacles: Vec<&Obstacle> = scene.iter().map(|(_, o)| o).collect();
-        self.clearance_in(scene, &obstacles, q, &mut self.workspace())
+        self.clearance_in(scene, &obstacles, q, f64::INFINITY, &mut self.workspace())
     }
 
     /// Number of states in `qs` (T × dof row-major), checked.
@@ -586,7 +591,7 @@ impl MeshChecker {
     ) -> Result<Vec<f64>> {
         let obstacles: Vec<&Obstacle> = scene.iter().map(|(_, o)| o).collect();
         self.per_state(qs, threads, |ws, q| {
-            self.clearance_in(scene, &obstacles, q, ws)
+            self.clearance_in(scene, &obstacles, q, f64::INFINITY, ws)
         })
     }
 
@@ -611,10 +616,11 @@ impl MeshChecker {
     }
 
     /// Self-clearance at q with a workspace: branch and bound over the pairs as
-    /// [`MeshChecker::clearance_in`], with box gaps and hull distances as lower bounds.
-    fn self_clearance_in(&self, q: &[f64], ws: &mut MeshWorkspace) -> Result<f64> {
+    /// [`MeshChecker::clearance_in`], with box gaps and hull distances as lower bounds, and the same
+    /// `cutoff`.
+    fn self_clearance_in(&self, q: &[f64], cutoff: f64, ws: &mut MeshWorkspace) -> Result<f64> {
         self.place(q, ws)?;
-        let max = self.max_distance;
+        let max = self.max_distance.min(cutoff);
         let mut best = f64::INFINITY;
         ws.order.clear();
         for (k, &(i, j)) in self.self_pairs.iter().enumerate() {
@@ -638,7 +644,7 @@ impl MeshChecker {
         }
         ws.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         for &(bound, k) in &ws.order {
-            if bound - BOUND_SLACK >= best {
+            if bound - BOUND_SLACK >= best.min(max) {
                 break;
             }
             let (i, j) = self.self_pairs[k];
@@ -656,7 +662,7 @@ impl MeshChecker {
     ///
     /// Errors: `Shape`, `NonFinite`, `Value` when parry cannot measure a pair of shapes.
     pub fn self_clearance(&self, q: &[f64]) -> Result<f64> {
-        self.self_clearance_in(q, &mut self.workspace())
+        self.self_clearance_in(q, f64::INFINITY, &mut self.workspace())
     }
 
     /// [`MeshChecker::self_clearance`] of every state of `qs` (T × dof row-major) -> (T,), in parallel
@@ -666,7 +672,63 @@ impl MeshChecker {
         qs: &[f64],
         threads: Option<usize>,
     ) -> Result<Vec<f64>> {
-        self.per_state(qs, threads, |ws, q| self.self_clearance_in(q, ws))
+        self.per_state(qs, threads, |ws, q| {
+            self.self_clearance_in(q, f64::INFINITY, ws)
+        })
+    }
+
+    /// min over the states of a trajectory of `at(workspace, q, cutoff)`, exact, in two parallel passes:
+    /// every `MIN_STRIDE`-th state and the last one with no cutoff, then the others with the minimum of
+    /// the first pass as their cutoff, so that states farther from contact than the closest sampled one
+    /// are culled by the broadphase. Deterministic whatever the thread count.
+    fn trajectory_min(
+        &self,
+        qs: &[f64],
+        threads: Option<usize>,
+        at: impl Fn(&mut MeshWorkspace, &[f64], f64) -> Result<f64> + Sync + Send,
+    ) -> Result<f64> {
+        let n = self.states(qs)?;
+        let dof = self.robot.dof();
+        let sampled = |k: usize| k % MIN_STRIDE == 0 || k + 1 == n;
+        let pass = |first: bool, cutoff: f64| {
+            with_threads(threads, || {
+                (0..n)
+                    .into_par_iter()
+                    .filter(|&k| sampled(k) == first)
+                    .map_init(
+                        || self.workspace(),
+                        |ws, k| at(ws, &qs[k * dof..(k + 1) * dof], cutoff),
+                    )
+                    .try_reduce(|| f64::INFINITY, |a, b| Ok(a.min(b)))
+            })?
+        };
+        let coarse = pass(true, f64::INFINITY)?;
+        Ok(coarse.min(pass(false, coarse)?))
+    }
+
+    /// min over the states of `qs` (T × dof row-major) of [`MeshChecker::clearance`]: the same value as
+    /// the minimum of [`MeshChecker::trajectory_clearance`], at a fraction of its cost (states farther
+    /// from the scene than the closest of every eighth state are culled). +∞ for T = 0.
+    ///
+    /// Errors: as [`MeshChecker::trajectory_clearance`].
+    pub fn min_trajectory_clearance(
+        &self,
+        scene: &Scene,
+        qs: &[f64],
+        threads: Option<usize>,
+    ) -> Result<f64> {
+        let obstacles: Vec<&Obstacle> = scene.iter().map(|(_, o)| o).collect();
+        self.trajectory_min(qs, threads, |ws, q, cutoff| {
+            self.clearance_in(scene, &obstacles, q, cutoff, ws)
+        })
+    }
+
+    /// min over the states of `qs` of [`MeshChecker::self_clearance`], as
+    /// [`MeshChecker::min_trajectory_clearance`].
+    pub fn min_trajectory_self_clearance(&self, qs: &[f64], threads: Option<usize>) -> Result<f64> {
+        self.trajectory_min(qs, threads, |ws, q, cutoff| {
+            self.self_clearance_in(q, cutoff, ws)
+        })
     }
 }
 

@@ -245,6 +245,19 @@ fn trajectory_matches_states_whatever_the_threads() {
         assert_eq!(*d, checker.clearance(&scene, &[*q]).unwrap());
     }
     assert!(one.iter().any(|d| d.is_infinite()) && one.iter().any(|d| *d < 0.0));
+    // The trajectory minimum (two passes with a cutoff) equals the minimum of the states, for every
+    // length (strides, a last state off the stride) and thread count.
+    for n in [0, 1, 2, 9, 17, 101] {
+        let part = &qs[..n];
+        let all = checker.trajectory_clearance(&scene, part, None).unwrap();
+        let expected = all.iter().copied().fold(f64::INFINITY, f64::min);
+        for threads in [Some(1), Some(2)] {
+            let got = checker
+                .min_trajectory_clearance(&scene, part, threads)
+                .unwrap();
+            assert_eq!(got, expected, "{n} states");
+        }
+    }
 }
 
 /// The MBM Panda with its collision meshes (panda.urdf) and SRDF.
@@ -315,6 +328,17 @@ fn mbm_panda_meshes_free_start_and_table_contact() {
         .position(|d| *d <= 0.0)
         .expect("contact along the path");
     assert!(path[..first].iter().all(|d| *d > 0.0));
+    // Trajectory minima equal the minima of the per-state values, on the free prefix and the whole.
+    for states in [first, path.len()] {
+        let part = &qs[..states * 7];
+        let min = |v: Vec<f64>| v.into_iter().fold(f64::INFINITY, f64::min);
+        let expected = min(checker.trajectory_clearance(&table, part, None).unwrap());
+        let got = checker.min_trajectory_clearance(&table, part, None);
+        assert_eq!(got.unwrap(), expected);
+        let expected = min(checker.trajectory_self_clearance(part, None).unwrap());
+        let got = checker.min_trajectory_self_clearance(part, Some(1));
+        assert_eq!(got.unwrap(), expected);
+    }
 }
 
 #[test]
