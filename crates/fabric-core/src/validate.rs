@@ -689,7 +689,7 @@ impl MeshChecker {
     ) -> Result<f64> {
         let n = self.states(qs)?;
         let dof = self.robot.dof();
-        let sampled = |k: usize| k % MIN_STRIDE == 0 || k + 1 == n;
+        let sampled = |k: usize| k.is_multiple_of(MIN_STRIDE) || k + 1 == n;
         let pass = |first: bool, cutoff: f64| {
             with_threads(threads, || {
                 (0..n)
