@@ -29,9 +29,16 @@ fn tanh_over_r(alpha: f64, r: f64) -> f64 {
     }
 }
 
-/// ln(1 + e^z), stable for large |z|.
-pub(crate) fn softplus(z: f64) -> f64 {
-    z.max(0.0) + (-z.abs()).exp().ln_1p()
+/// (ln(1 + e^z), σ(z)): the softplus and its derivative, the logistic, from one exponential e^{−|z|};
+/// stable for large |z|, and σ equal to [`sigmoid`] bit for bit.
+fn softplus_and_sigmoid(z: f64) -> (f64, f64) {
+    let e = (-z.abs()).exp();
+    let sig = if z >= 0.0 {
+        1.0 / (1.0 + e)
+    } else {
+        e / (1.0 + e)
+    };
+    (z.max(0.0) + e.ln_1p(), sig)
 }
 
 /// Logistic σ(z) = 1 / (1 + e^{−z}), stable for large |z|.
@@ -159,11 +166,10 @@ impl Potential1D for BarrierPotential {
     }
     fn exact(&self, x: f64) -> (f64, f64, f64) {
         let a = self.relu_sharpness;
-        let z = -a * (x - self.relu_shift);
-        let sig = sigmoid(z);
         let (relu, relu1, relu2) = if a > 0.0 {
+            let (softplus, sig) = softplus_and_sigmoid(-a * (x - self.relu_shift));
             (
-                self.relu_gain / a * softplus(z),
+                self.relu_gain / a * softplus,
                 -self.relu_gain * sig,
                 self.relu_gain * a * sig * (1.0 - sig),
             )
@@ -239,6 +245,24 @@ mod tests {
         let a = p.eval(0.01 - 1e-12);
         let b = p.eval(0.01 + 1e-12);
         assert!((a.0 - b.0).abs() < 1e-6 && (a.1 - b.1).abs() < 1e-3);
+    }
+
+    #[test]
+    fn softplus_and_sigmoid_match_their_definitions() {
+        for z in [-800.0, -30.0, -2.5, -1e-9, 0.0, 1e-9, 0.7, 30.0, 800.0] {
+            let (sp, sig) = softplus_and_sigmoid(z);
+            assert_eq!(sig, sigmoid(z));
+            let exact = if z > 30.0 {
+                z + (-z).exp().ln_1p()
+            } else {
+                z.exp().ln_1p()
+            };
+            assert!(
+                (sp - exact).abs() <= 1e-12 * exact.abs().max(1e-300) + 1e-15,
+                "{z}: {sp} vs {exact}"
+            );
+            assert!(sp.is_finite() && sig.is_finite() && (0.0..=1.0).contains(&sig));
+        }
     }
 
     #[test]
