@@ -4,7 +4,7 @@
 //! Obstacles are stored densely; each has a stable slot which is its BVH leaf index, so adding, moving
 //! and removing one obstacle touches only its own leaf (O(log n)); nothing is rebuilt, meshes and point
 //! clouds keep their own BVHs in their obstacle frame. Unbounded obstacles (half-spaces) are kept out of
-//! the BVH and always tested. Small scenes are scanned linearly by `query` ([`LINEAR_SCAN_MAX`]).
+//! the BVH and always tested. Small scenes are scanned linearly ([`LINEAR_SCAN_MAX`]).
 
 use std::collections::HashMap;
 use std::fmt;
@@ -16,7 +16,7 @@ use parry3d_f64::query;
 use parry3d_f64::shape::{Ball, Capsule, Cuboid, Cylinder, HalfSpace};
 
 use super::distance::{distance_world, eval_world, DistanceSample, NearObstacle};
-use super::shape::{aabb_signed_distance, box_within, check_pose, fmax, Obstacle, Shape};
+use super::shape::{aabb_signed_distance, box_within, check_pose, fmax, fmin, Obstacle, Shape};
 use crate::error::{FabricError, Result};
 
 /// Identifier of an obstacle in a [`Scene`]; never reused within one scene.
@@ -26,8 +26,9 @@ pub struct ObstacleId(pub u64);
 /// [`Scene::query`] scans scenes of at most this many obstacles linearly over a dense array of their
 /// boxes instead of walking the BVH: for MotionBenchMaker-sized scenes (7-13 obstacles) the scan is
 /// 25-35 % faster than the tree walk (`benches/distance.rs`). Larger scenes use the BVH, so the cost
-/// grows with the number of obstacles near the query point. ([`Scene::signed_distance`] always uses
-/// the best-first BVH search, which measured faster than a scan even for small scenes.)
+/// grows with the number of obstacles near the query point. [`Scene::signed_distance`] visits the
+/// boxes of such small scenes in increasing order of their bound (fewer instructions than parry's
+/// best-first BVH search on these scenes, `benches/distance.rs`).
 pub const LINEAR_SCAN_MAX: usize = 16;
 
 /// `slot_to_entry` value of an unused slot.
@@ -293,7 +294,7 @@ impl Scene {
     /// small scenes; unbounded obstacles then BVH order for large ones). Derivatives are computed only
     /// for obstacles in range. A non-finite `p` or a NaN `max_distance` appends nothing.
     pub fn query(&self, p: &Vector3<f64>, max_distance: f64, out: &mut Vec<DistanceSample>) {
-        self.visit_near(p, max_distance, |_, e, _| {
+        self.visit_candidates(p, max_distance, |_, e| {
             if let Some(s) = e.sample(p, max_distance) {
                 out.push(s);
             }
@@ -306,8 +307,10 @@ impl Scene {
     /// [`Scene::sample_near`]. (Used by the fabric: one query per robot link, then exact samples per
     /// collision sphere, without hashing obstacle ids.)
     pub fn query_near(&self, p: &Vector3<f64>, max_distance: f64, out: &mut Vec<NearObstacle>) {
-        self.visit_near(p, max_distance, |entry, _, distance| {
-            out.push(NearObstacle { entry, distance });
+        self.visit_candidates(p, max_distance, |entry, e| {
+            if let Some(distance) = e.distance(p, max_distance) {
+                out.push(NearObstacle { entry, distance });
+            }
         });
     }
 
@@ -325,36 +328,32 @@ impl Scene {
             .sample(p, max_distance)
     }
 
-    /// Call `visit(position, entry, signed distance)` for every obstacle whose signed distance to `p`
-    /// is `<= max_distance` (see [`Scene::query`] for the order and the pruning).
-    fn visit_near(
+    /// Call `visit(position, entry)` for every obstacle whose box bound (a lower bound of its signed
+    /// distance) allows a signed distance to `p` of at most `max_distance`; the caller does the exact
+    /// test, once. See [`Scene::query`] for the order and the pruning.
+    fn visit_candidates(
         &self,
         p: &Vector3<f64>,
         max_distance: f64,
-        mut visit: impl FnMut(u32, &Entry, f64),
+        mut visit: impl FnMut(u32, &Entry),
     ) {
         if !p.iter().all(|c| c.is_finite()) || max_distance.is_nan() {
             return;
         }
         let pt = Point3::from(*p);
-        let mut test = |position: usize, e: &Entry| {
-            if let Some(d) = e.distance(p, max_distance) {
-                visit(position as u32, e, d);
-            }
-        };
         if self.entries.len() <= LINEAR_SCAN_MAX {
             let keys = self.linear.bound_keys(&pt, self.entries.len());
             let max_key = key(max_distance);
-            for (i, (e, k)) in self.entries.iter().zip(keys).enumerate() {
+            for (i, (e, &k)) in self.entries.iter().zip(keys.as_flattened()).enumerate() {
                 if k <= max_key {
-                    test(i, e);
+                    visit(i as u32, e);
                 }
             }
             return;
         }
         for &slot in &self.unbounded {
             if let Some(i) = self.position(slot) {
-                test(i, &self.entries[i]);
+                visit(i as u32, &self.entries[i]);
             }
         }
         self.bvh.traverse(|node: &BvhNode| {
@@ -362,20 +361,61 @@ impl Scene {
                 return TraversalAction::Prune;
             }
             if let Some(i) = node.leaf_data().and_then(|slot| self.position(slot)) {
-                test(i, &self.entries[i]);
+                visit(i as u32, &self.entries[i]);
             }
             TraversalAction::Continue
         });
     }
 
     /// The obstacle of minimum signed distance to `p` (world) with its sample; `None` for an empty scene
-    /// or a non-finite `p`. Best-first BVH search pruned by signed box distances (a lower bound of the
-    /// signed distance of anything inside a box), on distances only; the gradient and Hessian are
-    /// computed for the winner alone. Ties keep the first obstacle found (deterministic).
+    /// or a non-finite `p`. A best-first search on distances only, pruned by signed box distances (a
+    /// lower bound of the signed distance of anything inside a box): scenes of at most
+    /// [`LINEAR_SCAN_MAX`] obstacles visit their boxes in increasing order of that bound, larger ones
+    /// walk the BVH. The gradient and Hessian are computed for the winner alone. Ties (equal
+    /// distances) keep the first obstacle visited (deterministic).
     pub fn signed_distance(&self, p: &Vector3<f64>) -> Option<DistanceSample> {
         if !p.iter().all(|c| c.is_finite()) {
             return None;
         }
+        let winner = if self.entries.len() <= LINEAR_SCAN_MAX {
+            self.nearest_linear(p)
+        } else {
+            self.nearest_bvh(p)
+        };
+        winner.and_then(|e| e.sample(p, f64::INFINITY))
+    }
+
+    /// [`Scene::signed_distance`] for small scenes: the entries in increasing order of their box
+    /// bound, until the bound reaches the best distance found.
+    fn nearest_linear(&self, p: &Vector3<f64>) -> Option<&Entry> {
+        let n = self.entries.len();
+        let mut keys = self.linear.bound_keys(&Point3::from(*p), n);
+        let keys = &mut keys.as_flattened_mut()[..n];
+        let (mut best_d, mut winner) = (f64::INFINITY, None);
+        loop {
+            // The unvisited entry of smallest bound (the first on ties); visited lanes are +∞.
+            let (mut i, mut k) = (0, f64::INFINITY);
+            for (j, &kj) in keys.iter().enumerate() {
+                if kj < k {
+                    (i, k) = (j, kj);
+                }
+            }
+            if k >= key(best_d) {
+                return winner;
+            }
+            keys[i] = f64::INFINITY;
+            let e = &self.entries[i];
+            if let Some(d) = e.distance(p, best_d) {
+                if d < best_d {
+                    (best_d, winner) = (d, Some(e));
+                }
+            }
+        }
+    }
+
+    /// [`Scene::signed_distance`] for large scenes: unbounded obstacles, then parry's best-first BVH
+    /// search.
+    fn nearest_bvh(&self, p: &Vector3<f64>) -> Option<&Entry> {
         let mut best_d = f64::INFINITY;
         let mut winner: Option<&Entry> = None;
         for &slot in &self.unbounded {
@@ -392,10 +432,7 @@ impl Scene {
             |node: &BvhNode, _| aabb_signed_distance(&node.mins(), &node.maxs(), &pt),
             |slot, best_so_far| self.entry(slot)?.distance(p, best_so_far),
         );
-        if let Some(e) = found.and_then(|(slot, _)| self.entry(slot)) {
-            winner = Some(e);
-        }
-        winner.and_then(|e| e.sample(p, f64::INFINITY))
+        found.and_then(|(slot, _)| self.entry(slot)).or(winner)
     }
 
     /// Minimum distance (m) between a parry shape placed at `pose` (world) and all obstacles, when it is
@@ -461,20 +498,26 @@ impl Scene {
     }
 }
 
-/// The boxes of up to [`LINEAR_SCAN_MAX`] entries as a structure of arrays, so that their lower bounds
-/// are computed in one vectorisable loop. Unused lanes hold empty boxes (bound +∞), unbounded obstacles
-/// all of space (bound -∞).
+/// Boxes per chunk of [`LinearBoxes`]: the bound loop works on whole chunks (vectorised), so a scene
+/// of n obstacles computes `n` rounded up to a multiple of this many bounds.
+const LANES: usize = 4;
+
+/// The boxes of up to [`LINEAR_SCAN_MAX`] entries as a structure of arrays in chunks of [`LANES`], so
+/// that their lower bounds are computed in one vectorisable loop. Unused lanes hold empty boxes
+/// (bound +∞), unbounded obstacles all of space (bound -∞).
 #[derive(Clone, Debug)]
 struct LinearBoxes {
-    lo: [[f64; LINEAR_SCAN_MAX]; 3],
-    hi: [[f64; LINEAR_SCAN_MAX]; 3],
+    /// `lo[chunk][axis][lane]`: lower corners.
+    lo: [[[f64; LANES]; 3]; LINEAR_SCAN_MAX / LANES],
+    /// Upper corners, laid out as `lo`.
+    hi: [[[f64; LANES]; 3]; LINEAR_SCAN_MAX / LANES],
 }
 
 impl Default for LinearBoxes {
     fn default() -> Self {
         LinearBoxes {
-            lo: [[f64::INFINITY; LINEAR_SCAN_MAX]; 3],
-            hi: [[f64::NEG_INFINITY; LINEAR_SCAN_MAX]; 3],
+            lo: [[[f64::INFINITY; LANES]; 3]; LINEAR_SCAN_MAX / LANES],
+            hi: [[[f64::NEG_INFINITY; LANES]; 3]; LINEAR_SCAN_MAX / LANES],
         }
     }
 }
@@ -495,29 +538,30 @@ impl LinearBoxes {
                 ),
             };
             for k in 0..3 {
-                self.lo[k][i] = lo[k];
-                self.hi[k][i] = hi[k];
+                self.lo[i / LANES][k][i % LANES] = lo[k];
+                self.hi[i / LANES][k][i % LANES] = hi[k];
             }
         }
     }
 
-    /// [`key`] of the signed box distance of `p` (see `aabb_signed_distance`) for the first `n` lanes,
-    /// branch-free and without square roots; the other lanes are +∞.
+    /// [`key`] of the signed box distance of `p` (see `aabb_signed_distance`) for the first `n` lanes
+    /// (`n <= LINEAR_SCAN_MAX`; entry `i` is `[i / LANES][i % LANES]`), branch-free and without square
+    /// roots; the other lanes are +∞, unbounded obstacles -∞.
     #[inline]
-    fn bound_keys(&self, p: &Point3<f64>, n: usize) -> [f64; LINEAR_SCAN_MAX] {
-        let mut out = [f64::INFINITY; LINEAR_SCAN_MAX];
-        for (i, o) in out.iter_mut().enumerate().take(n) {
-            let ex = fmax(self.lo[0][i] - p.x, p.x - self.hi[0][i]);
-            let ey = fmax(self.lo[1][i] - p.y, p.y - self.hi[1][i]);
-            let ez = fmax(self.lo[2][i] - p.z, p.z - self.hi[2][i]);
-            let (ox, oy, oz) = (fmax(ex, 0.0), fmax(ey, 0.0), fmax(ez, 0.0));
-            let outside2 = ox * ox + oy * oy + oz * oz;
-            let inside = fmax(fmax(ex, ey), ez);
-            *o = if outside2 > 0.0 {
-                outside2
-            } else {
-                -(inside * inside)
-            };
+    fn bound_keys(&self, p: &Point3<f64>, n: usize) -> [[f64; LANES]; LINEAR_SCAN_MAX / LANES] {
+        let mut out = [[f64::INFINITY; LANES]; LINEAR_SCAN_MAX / LANES];
+        let chunks = out.iter_mut().zip(&self.lo).zip(&self.hi);
+        for ((o, lo), hi) in chunks.take(n.div_ceil(LANES)) {
+            for l in 0..LANES {
+                let ex = fmax(lo[0][l] - p.x, p.x - hi[0][l]);
+                let ey = fmax(lo[1][l] - p.y, p.y - hi[1][l]);
+                let ez = fmax(lo[2][l] - p.z, p.z - hi[2][l]);
+                let (ox, oy, oz) = (fmax(ex, 0.0), fmax(ey, 0.0), fmax(ez, 0.0));
+                // Outside (some e > 0): `inside` > 0, m = 0 and the key is the squared distance;
+                // inside: the outside part is 0 and the key is -inside².
+                let m = fmin(fmax(fmax(ex, ey), ez), 0.0);
+                o[l] = (ox * ox + oy * oy + oz * oz) - m * m;
+            }
         }
         out
     }
@@ -613,4 +657,52 @@ fn pair_distance(
             return best;
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The increasing-bound scan of small scenes and the BVH search find the same nearest obstacle
+    /// (distinct random distances: no ties), for every scene size the scan handles, with a half-space.
+    #[test]
+    fn small_scene_search_matches_bvh_search() {
+        let mut r = ChaCha8Rng::seed_from_u64(5);
+        fn v(r: &mut ChaCha8Rng, a: f64, b: f64) -> Vector3<f64> {
+            Vector3::new(r.gen_range(a..b), r.gen_range(a..b), r.gen_range(a..b))
+        }
+        let mut scene = Scene::new();
+        let floor = Isometry3::translation(0.0, 0.0, -1.0);
+        scene
+            .add(Obstacle::new("floor", Shape::HalfSpace, floor))
+            .unwrap();
+        while scene.len() < LINEAR_SCAN_MAX {
+            let pose = Isometry3::new(v(&mut r, -0.8, 0.8), v(&mut r, -3.0, 3.0));
+            let shape = match scene.len() % 4 {
+                0 => Shape::Cuboid {
+                    half_extents: v(&mut r, 0.02, 0.3),
+                },
+                1 => Shape::Cylinder {
+                    half_height: r.gen_range(0.02..0.3),
+                    radius: r.gen_range(0.02..0.2),
+                },
+                2 => Shape::Sphere {
+                    radius: r.gen_range(0.02..0.2),
+                },
+                _ => Shape::Capsule {
+                    half_height: r.gen_range(0.0..0.2),
+                    radius: r.gen_range(0.02..0.2),
+                },
+            };
+            scene.add(Obstacle::new("o", shape, pose)).unwrap();
+            for _ in 0..200 {
+                let p = v(&mut r, -1.2, 1.2);
+                let linear = scene.nearest_linear(&p).map(|e| e.id);
+                let bvh = scene.nearest_bvh(&p).map(|e| e.id);
+                assert_eq!(linear, bvh, "scene of {} at {p:?}", scene.len());
+            }
+        }
+    }
 }
