@@ -67,7 +67,8 @@ pub struct KinematicsWorkspace {
     /// Bias linear acceleration a_b (m/s², q̈ = 0) of each link origin.
     acc: Vec<Vector3<f64>>,
     /// Angular Jacobian of each rigid body (see [`Robot::rigid_bodies`]), `dof` columns stored at the
-    /// body's label link `b` (entry `b · dof + c`; entries of other links are unused), unitless: the
+    /// body's label link `b` (entry `b · dof + c`; entries of other links are unused; only the first
+    /// `Robot::cols[b]` columns are maintained, the others are zero), unitless: the
     /// sum of `scale · a` (a the unit world axis, scale the mimic multiplier) over the revolute joints
     /// driven by coordinate `c` on the path from the base, so that ω = Σ_c `jw_c` q̇_c.
     jw: Vec<Vector3<f64>>,
@@ -76,10 +77,6 @@ pub struct KinematicsWorkspace {
     /// the prismatic ones. Column `c` of the Jacobian of a world point x fixed on the body is
     /// `jw_c × x − jm_c`.
     jm: Vec<Vector3<f64>>,
-    /// Per link: the number of leading Jacobian columns that may be non-zero for its rigid body (one
-    /// more than the largest coordinate driving a joint between it and the base; 0 for the base body).
-    /// Only these entries of `jw` and `jm` are maintained; the other columns are zero.
-    cols: Vec<usize>,
 }
 
 impl KinematicsWorkspace {
@@ -97,19 +94,6 @@ impl KinematicsWorkspace {
             acc: vec![Vector3::zeros(); n],
             jw: vec![Vector3::zeros(); n * dof],
             jm: vec![Vector3::zeros(); n * dof],
-            cols: (0..n)
-                .scan(Vec::with_capacity(n), |cols: &mut Vec<usize>, i| {
-                    let c = match &robot.joints[i] {
-                        None => 0,
-                        Some(j) => cols[j.parent].max(match (j.coord, j.motion) {
-                            (Some(c), Motion::Revolute(_) | Motion::Prismatic(_)) => c + 1,
-                            _ => 0,
-                        }),
-                    };
-                    cols.push(c);
-                    Some(c)
-                })
-                .collect(),
         }
     }
 }
@@ -216,12 +200,14 @@ impl Robot {
             // Jacobian terms of a body: those of the parent's body plus this joint's column (links
             // on the same rigid body share them).
             if let (Some(c), true) = (j.coord, self.bodies[i] == i) {
-                let (pb, n) = (self.bodies[p], ws.cols[i]);
-                ws.jw.copy_within(pb * dof..pb * dof + ws.cols[p], i * dof);
-                ws.jm.copy_within(pb * dof..pb * dof + ws.cols[p], i * dof);
+                let (pb, n) = (self.bodies[p], self.cols[i]);
+                ws.jw
+                    .copy_within(pb * dof..pb * dof + self.cols[p], i * dof);
+                ws.jm
+                    .copy_within(pb * dof..pb * dof + self.cols[p], i * dof);
                 // Columns between the parent's last and this joint's stay zero.
-                ws.jw[i * dof + ws.cols[p]..i * dof + n].fill(Vector3::zeros());
-                ws.jm[i * dof + ws.cols[p]..i * dof + n].fill(Vector3::zeros());
+                ws.jw[i * dof + self.cols[p]..i * dof + n].fill(Vector3::zeros());
+                ws.jm[i * dof + self.cols[p]..i * dof + n].fill(Vector3::zeros());
                 let scaled = axis * j.scale;
                 match j.motion {
                     Motion::Revolute(_) => {
@@ -311,8 +297,8 @@ impl Robot {
         out.xd = ws.vel[link] + w.cross(&r);
         out.jdot_qdot = ws.acc[link] + ws.alpha[link].cross(&r) + w.cross(&w.cross(&r));
         let b = self.bodies[link];
-        let terms = b * ws.dof..b * ws.dof + ws.cols[link];
-        let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * ws.cols[link]);
+        let terms = b * ws.dof..b * ws.dof + self.cols[link];
+        let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * self.cols[link]);
         for ((col, a), m) in jac
             .chunks_exact_mut(3)
             .zip(&ws.jw[terms.clone()])
@@ -341,8 +327,8 @@ impl Robot {
         out.xd = w.cross(&u);
         out.jdot_qdot = ws.alpha[link].cross(&u) + w.cross(&w.cross(&u));
         let b = self.bodies[link];
-        let terms = b * ws.dof..b * ws.dof + ws.cols[link];
-        let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * ws.cols[link]);
+        let terms = b * ws.dof..b * ws.dof + self.cols[link];
+        let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * self.cols[link]);
         for (col, a) in jac.chunks_exact_mut(3).zip(&ws.jw[terms]) {
             col.copy_from_slice(a.cross(&u).as_slice());
         }

@@ -120,6 +120,9 @@ pub struct Robot {
     pub(crate) joints: Vec<Option<TreeJoint>>,
     /// Rigid body of each link: links joined by fixed or locked joints share a body index.
     pub(crate) bodies: Vec<usize>,
+    /// Per link: the number of leading Jacobian columns that may be non-zero for a point on it (one
+    /// more than the largest coordinate driving a joint between it and the base; 0 on the base body).
+    pub(crate) cols: Vec<usize>,
     pub(crate) ee: usize,
     pub(crate) joint_names: Vec<String>,
     pub(crate) lower: Vec<f64>,

@@ -443,12 +443,14 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
     let (spheres, geometry) = collisions(&g, &t, mesh_dir)?;
 
     let n = t.order.len();
-    let mut bodies = vec![0; n];
+    let (mut bodies, mut cols) = (vec![0; n], vec![0; n]);
     for i in 1..n {
         if let Some(j) = &joints[i] {
-            bodies[i] = match (j.coord, j.motion) {
-                (Some(_), Motion::Revolute(_) | Motion::Prismatic(_)) => i,
-                _ => bodies[j.parent],
+            (bodies[i], cols[i]) = match (j.coord, j.motion) {
+                (Some(c), Motion::Revolute(_) | Motion::Prismatic(_)) => {
+                    (i, cols[j.parent].max(c + 1))
+                }
+                _ => (bodies[j.parent], cols[j.parent]),
             };
         }
     }
@@ -462,6 +464,7 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
             .collect(),
         joints,
         bodies,
+        cols,
         ee,
         joint_names: active
             .iter()
