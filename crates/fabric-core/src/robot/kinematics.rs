@@ -46,21 +46,14 @@ impl TaskPoint {
             jdot_qdot: Vector3::zeros(),
         }
     }
-
-    /// Zero the Jacobian, resizing it to 3 × dof first if needed (allocates only then).
-    fn reset_jacobian(&mut self, dof: usize) {
-        if self.jac.ncols() == dof {
-            self.jac.as_mut_slice().fill(0.0);
-        } else {
-            self.jac = Matrix3xX::zeros(dof);
-        }
-    }
 }
 
 /// Per-thread scratch for one robot: every link's pose and motion after [`Robot::update`].
 /// Create it once with [`KinematicsWorkspace::new`]; it is reused without allocation.
 #[derive(Clone, Debug)]
 pub struct KinematicsWorkspace {
+    /// Number of active coordinates (columns of the per-link Jacobian terms below).
+    dof: usize,
     /// World pose of each link.
     pose: Vec<Isometry3<f64>>,
     /// World rotation matrix of each link (same as `pose`, cached for fast point transforms).
@@ -73,38 +66,65 @@ pub struct KinematicsWorkspace {
     alpha: Vec<Vector3<f64>>,
     /// Bias linear acceleration a_b (m/s², q̈ = 0) of each link origin.
     acc: Vec<Vector3<f64>>,
-    /// `scale · a`: mimic-scaled world axis of the joint above each link (zero for fixed joints).
-    jaxis: Vec<Vector3<f64>>,
-    /// `jaxis × o` with o a world point on the joint axis: the Jacobian column of a revolute joint at a
-    /// point x is `jaxis × (x − o) = jaxis × x − moment`.
-    moment: Vec<Vector3<f64>>,
+    /// Angular Jacobian of each rigid body (see [`Robot::rigid_bodies`]), `dof` columns stored at the
+    /// body's label link `b` (entry `b · dof + c`; entries of other links are unused; only the first
+    /// `Robot::cols[b]` columns are maintained, the others are zero), unitless: the
+    /// sum of `scale · a` (a the unit world axis, scale the mimic multiplier) over the revolute joints
+    /// driven by coordinate `c` on the path from the base, so that ω = Σ_c `jw_c` q̇_c.
+    jw: Vec<Vector3<f64>>,
+    /// Jacobian "moments" of each rigid body (m), laid out as `jw`: the sum of `scale · a × o` (o a
+    /// world point on the joint axis) over the same revolute joints, minus the sum of `scale · a` over
+    /// the prismatic ones. Column `c` of the Jacobian of a world point x fixed on the body is
+    /// `jw_c × x − jm_c`.
+    jm: Vec<Vector3<f64>>,
 }
 
 impl KinematicsWorkspace {
-    /// Scratch sized for `robot` (one entry per link).
+    /// Scratch sized for `robot` (one entry per link, `dof` Jacobian terms per link).
     pub fn new(robot: &Robot) -> Self {
         let n = robot.link_names.len();
+        let dof = robot.dof();
         KinematicsWorkspace {
+            dof,
             pose: vec![Isometry3::identity(); n],
             rot: vec![Matrix3::identity(); n],
             omega: vec![Vector3::zeros(); n],
             vel: vec![Vector3::zeros(); n],
             alpha: vec![Vector3::zeros(); n],
             acc: vec![Vector3::zeros(); n],
-            jaxis: vec![Vector3::zeros(); n],
-            moment: vec![Vector3::zeros(); n],
+            jw: vec![Vector3::zeros(); n * dof],
+            jm: vec![Vector3::zeros(); n * dof],
         }
     }
 }
 
-/// Add `col` to column `c` of a column-major 3 × dof matrix stored in `jac`.
+/// `a × x − m`, written out in the order of nalgebra's `cross`.
+#[inline(always)]
+fn cross_minus(a: &Vector3<f64>, x: &Vector3<f64>, m: &Vector3<f64>) -> Vector3<f64> {
+    Vector3::new(
+        a.y * x.z - a.z * x.y - m.x,
+        a.z * x.x - a.x * x.z - m.y,
+        a.x * x.y - a.y * x.x - m.z,
+    )
+}
+
+/// `r v` for a 3 × 3 matrix `r`, written out (the generic nalgebra product is slower here).
+#[inline(always)]
+fn rotate(r: &Matrix3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
+    Vector3::new(
+        r.m11 * v.x + r.m12 * v.y + r.m13 * v.z,
+        r.m21 * v.x + r.m22 * v.y + r.m23 * v.z,
+        r.m31 * v.x + r.m32 * v.y + r.m33 * v.z,
+    )
+}
+
+/// The Jacobian storage of `out`, resized to 3 × dof first when needed (allocates only then).
 #[inline]
-fn add_column(jac: &mut [f64], c: usize, col: &Vector3<f64>) {
-    if let Some(dst) = jac.get_mut(3 * c..3 * c + 3) {
-        dst[0] += col.x;
-        dst[1] += col.y;
-        dst[2] += col.z;
+fn jacobian_of_width(out: &mut TaskPoint, dof: usize) -> &mut [f64] {
+    if out.jac.ncols() != dof {
+        out.jac = Matrix3xX::zeros(dof);
     }
+    out.jac.as_mut_slice()
 }
 
 impl Robot {
@@ -115,11 +135,11 @@ impl Robot {
             check_len("qd", qd.len(), self.dof())?;
             check_finite("qd", qd)?;
         }
-        if ws.pose.len() != self.link_names.len() {
+        if ws.pose.len() != self.link_names.len() || ws.dof != self.dof() {
             return Err(FabricError::Shape {
-                what: "kinematics workspace (links)".into(),
-                expected: format!("({},)", self.link_names.len()),
-                got: format!("({},)", ws.pose.len()),
+                what: "kinematics workspace (links, dof)".into(),
+                expected: format!("({}, {})", self.link_names.len(), self.dof()),
+                got: format!("({}, {})", ws.pose.len(), ws.dof),
             });
         }
         Ok(())
@@ -142,6 +162,7 @@ impl Robot {
     }
 
     fn propagate<const VEL: bool>(&self, q: &[f64], qd: &[f64], ws: &mut KinematicsWorkspace) {
+        let dof = ws.dof;
         for (i, joint) in self.joints.iter().enumerate() {
             let Some(j) = joint else {
                 ws.pose[i] = Isometry3::identity();
@@ -153,22 +174,50 @@ impl Robot {
                 continue;
             };
             let p = j.parent;
-            let parent = ws.pose[p];
-            // Joint frame after the motion; its origin lies on the joint axis.
-            let frame = parent * j.moved_frame(j.position(q));
-            let child = match &j.post {
-                Some(post) => frame * post,
-                None => frame,
+            let (parent_rot, parent_q) = (ws.rot[p], ws.pose[p].rotation);
+            let parent_o = ws.pose[p].translation.vector;
+            // Joint frame after the motion (its origin lies on the joint axis); offsets are rotated
+            // with the parent's rotation matrix, which is cheaper than with its quaternion.
+            let local = j.moved_frame(j.position(q));
+            let frame_q = parent_q * local.rotation;
+            let frame_rot = *frame_q.to_rotation_matrix().matrix();
+            let frame_o = parent_o + rotate(&parent_rot, &local.translation.vector);
+            let (child_q, child_rot, child_o) = match &j.post {
+                Some(post) => {
+                    let q = frame_q * post.rotation;
+                    let o = frame_o + rotate(&frame_rot, &post.translation.vector);
+                    (q, *q.to_rotation_matrix().matrix(), o)
+                }
+                None => (frame_q, frame_rot, frame_o),
             };
             let axis = match j.motion {
                 Motion::Fixed => Vector3::zeros(),
                 // The rotation about a (revolute) or the translation (prismatic) leaves a unchanged.
-                Motion::Revolute(a) | Motion::Prismatic(a) => frame.rotation * a.into_inner(),
+                Motion::Revolute(a) | Motion::Prismatic(a) => rotate(&frame_rot, &a),
             };
-            ws.pose[i] = child;
-            ws.rot[i] = *child.rotation.to_rotation_matrix().matrix();
-            ws.jaxis[i] = axis * j.scale;
-            ws.moment[i] = ws.jaxis[i].cross(&frame.translation.vector);
+            ws.pose[i] = Isometry3::from_parts(child_o.into(), child_q);
+            ws.rot[i] = child_rot;
+            // Jacobian terms of a body: those of the parent's body plus this joint's column (links
+            // on the same rigid body share them).
+            if let (Some(c), true) = (j.coord, self.bodies[i] == i) {
+                let (pb, n) = (self.bodies[p], self.cols[i]);
+                ws.jw
+                    .copy_within(pb * dof..pb * dof + self.cols[p], i * dof);
+                ws.jm
+                    .copy_within(pb * dof..pb * dof + self.cols[p], i * dof);
+                // Columns between the parent's last and this joint's stay zero.
+                ws.jw[i * dof + self.cols[p]..i * dof + n].fill(Vector3::zeros());
+                ws.jm[i * dof + self.cols[p]..i * dof + n].fill(Vector3::zeros());
+                let scaled = axis * j.scale;
+                match j.motion {
+                    Motion::Revolute(_) => {
+                        ws.jw[i * dof + c] += scaled;
+                        ws.jm[i * dof + c] += scaled.cross(&frame_o);
+                    }
+                    Motion::Prismatic(_) => ws.jm[i * dof + c] -= scaled,
+                    Motion::Fixed => {}
+                }
+            }
             if !VEL {
                 ws.omega[i] = Vector3::zeros();
                 ws.vel[i] = Vector3::zeros();
@@ -179,7 +228,7 @@ impl Robot {
             let rate = axis * j.velocity(qd);
             let (wp, ap) = (ws.omega[p], ws.alpha[p]);
             // Joint-frame origin as a point of the parent body...
-            let r = frame.translation.vector - parent.translation.vector;
+            let r = frame_o - parent_o;
             let mut v = ws.vel[p] + wp.cross(&r);
             let mut acc = ws.acc[p] + ap.cross(&r) + wp.cross(&wp.cross(&r));
             let (mut w, mut al) = (wp, ap);
@@ -197,7 +246,7 @@ impl Robot {
             }
             if j.post.is_some() {
                 // Child origin as a point of the child body.
-                let s = child.translation.vector - frame.translation.vector;
+                let s = child_o - frame_o;
                 v += w.cross(&s);
                 acc += al.cross(&s) + w.cross(&w.cross(&s));
             }
@@ -241,23 +290,23 @@ impl Robot {
         local: &Vector3<f64>,
         out: &mut TaskPoint,
     ) {
-        let r = ws.rot[link] * local;
+        let r = rotate(&ws.rot[link], local);
         let x = ws.pose[link].translation.vector + r;
         let w = ws.omega[link];
         out.x = x;
         out.xd = ws.vel[link] + w.cross(&r);
         out.jdot_qdot = ws.acc[link] + ws.alpha[link].cross(&r) + w.cross(&w.cross(&r));
-        out.reset_jacobian(self.dof());
-        let jac = out.jac.as_mut_slice();
-        for e in &self.chains[link] {
-            let a = ws.jaxis[e.link];
-            let col = if e.revolute {
-                a.cross(&x) - ws.moment[e.link]
-            } else {
-                a
-            };
-            add_column(jac, e.coord, &col);
+        let b = self.bodies[link];
+        let terms = b * ws.dof..b * ws.dof + self.cols[link];
+        let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * self.cols[link]);
+        for ((col, a), m) in jac
+            .chunks_exact_mut(3)
+            .zip(&ws.jw[terms.clone()])
+            .zip(&ws.jm[terms])
+        {
+            col.copy_from_slice(cross_minus(a, &x, m).as_slice());
         }
+        zero.fill(0.0);
     }
 
     /// A direction fixed on `link`: x = R_link · local_axis (unitless); J column j is `a_j × x` for a
@@ -272,16 +321,18 @@ impl Robot {
         local_axis: &Vector3<f64>,
         out: &mut TaskPoint,
     ) {
-        let u = ws.rot[link] * local_axis;
+        let u = rotate(&ws.rot[link], local_axis);
         let w = ws.omega[link];
         out.x = u;
         out.xd = w.cross(&u);
         out.jdot_qdot = ws.alpha[link].cross(&u) + w.cross(&w.cross(&u));
-        out.reset_jacobian(self.dof());
-        let jac = out.jac.as_mut_slice();
-        for e in self.chains[link].iter().filter(|e| e.revolute) {
-            add_column(jac, e.coord, &ws.jaxis[e.link].cross(&u));
+        let b = self.bodies[link];
+        let terms = b * ws.dof..b * ws.dof + self.cols[link];
+        let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * self.cols[link]);
+        for (col, a) in jac.chunks_exact_mut(3).zip(&ws.jw[terms]) {
+            col.copy_from_slice(a.cross(&u).as_slice());
         }
+        zero.fill(0.0);
     }
 
     /// Centre of collision sphere `i` (world, m) and its kinematics: [`Robot::point`] on the sphere's
@@ -300,7 +351,7 @@ impl Robot {
     /// As [`Robot::sphere`].
     pub fn sphere_center(&self, ws: &KinematicsWorkspace, i: usize) -> Vector3<f64> {
         let s = &self.spheres[i];
-        ws.pose[s.link].translation.vector + ws.rot[s.link] * s.center
+        ws.pose[s.link].translation.vector + rotate(&ws.rot[s.link], &s.center)
     }
 }
 

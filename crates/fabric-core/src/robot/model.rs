@@ -107,18 +107,6 @@ impl TreeJoint {
     }
 }
 
-/// One driven joint on the path from the base to a link: the Jacobian of a point on the link receives
-/// `scale · a × (p − o)` (revolute) or `scale · a` (prismatic) in column `coord`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct ChainEntry {
-    /// Child link of the joint (indexes the per-joint arrays of the workspace).
-    pub link: usize,
-    /// Active coordinate (column of the Jacobian).
-    pub coord: usize,
-    /// Revolute (true) or prismatic (false).
-    pub revolute: bool,
-}
-
 /// An immutable robot model: kinematic tree, active coordinates and limits, collision spheres and
 /// self-collision pairs. `Send + Sync + Clone`; evaluate it with a
 /// [`KinematicsWorkspace`](super::KinematicsWorkspace) per thread.
@@ -130,11 +118,11 @@ pub struct Robot {
     pub(crate) link_names: Vec<String>,
     /// `joints[i]` connects link `i` to its parent; `None` only for the base link (index 0).
     pub(crate) joints: Vec<Option<TreeJoint>>,
-    /// For each link, the joints driven by an active coordinate on the path from the base: the
-    /// Jacobian columns of a point on the link.
-    pub(crate) chains: Vec<Vec<ChainEntry>>,
     /// Rigid body of each link: links joined by fixed or locked joints share a body index.
     pub(crate) bodies: Vec<usize>,
+    /// Per link: the number of leading Jacobian columns that may be non-zero for a point on it (one
+    /// more than the largest coordinate driving a joint between it and the base; 0 on the base body).
+    pub(crate) cols: Vec<usize>,
     pub(crate) ee: usize,
     pub(crate) joint_names: Vec<String>,
     pub(crate) lower: Vec<f64>,

@@ -9,7 +9,7 @@ use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use urdf_rs::{Geometry, JointType, Pose};
 
 use super::geometry::{resolve_mesh_path, GeometryKind, LinkGeometry};
-use super::model::{ChainEntry, Motion, Robot, RobotOptions, TreeJoint};
+use super::model::{Motion, Robot, RobotOptions, TreeJoint};
 use super::spheres::CollisionSphere;
 use super::tree::{default_ee, is_movable, reroot, urdf_err, Graph, Rooted};
 use crate::error::{FabricError, Result};
@@ -443,23 +443,15 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
     let (spheres, geometry) = collisions(&g, &t, mesh_dir)?;
 
     let n = t.order.len();
-    let mut chains: Vec<Vec<ChainEntry>> = vec![Vec::new(); n];
-    let mut bodies = vec![0; n];
+    let (mut bodies, mut cols) = (vec![0; n], vec![0; n]);
     for i in 1..n {
         if let Some(j) = &joints[i] {
-            chains[i] = chains[j.parent].clone();
-            match (j.coord, j.motion) {
-                (Some(coord), Motion::Revolute(_) | Motion::Prismatic(_)) => {
-                    let revolute = matches!(j.motion, Motion::Revolute(_));
-                    chains[i].push(ChainEntry {
-                        link: i,
-                        coord,
-                        revolute,
-                    });
-                    bodies[i] = i;
+            (bodies[i], cols[i]) = match (j.coord, j.motion) {
+                (Some(c), Motion::Revolute(_) | Motion::Prismatic(_)) => {
+                    (i, cols[j.parent].max(c + 1))
                 }
-                _ => bodies[i] = bodies[j.parent],
-            }
+                _ => (bodies[j.parent], cols[j.parent]),
+            };
         }
     }
     let mut robot = Robot {
@@ -471,8 +463,8 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
             .map(|&l| urdf.links[l].name.clone())
             .collect(),
         joints,
-        chains,
         bodies,
+        cols,
         ee,
         joint_names: active
             .iter()
@@ -520,14 +512,14 @@ mod tests {
         );
         assert!((j2.pre.to_homogeneous() - expect.to_homogeneous()).norm() < 1e-15);
         assert_eq!(robot.bodies, [0, 1, 1]);
-        assert_eq!(
-            robot.chains[2],
-            [ChainEntry {
-                link: 1,
-                coord: 0,
-                revolute: true
-            }]
-        );
+        // Link 2 moves with j1 only: its origin turns about z through (0, 0, 0.1) at radius 0.2.
+        let mut ws = crate::robot::KinematicsWorkspace::new(&robot);
+        robot.update_positions(&[0.4], &mut ws).unwrap();
+        let mut tp = crate::robot::TaskPoint::new(1);
+        robot.point(&ws, 2, &Vector3::zeros(), &mut tp);
+        let (s, c) = 0.4_f64.sin_cos();
+        assert!((tp.x - Vector3::new(0.2 * c, 0.2 * s, 0.1)).norm() < 1e-15);
+        assert!((tp.jac.column(0) - Vector3::new(-0.2 * s, 0.2 * c, 0.0)).norm() < 1e-15);
     }
 
     #[test]
