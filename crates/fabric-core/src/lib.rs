@@ -6,6 +6,7 @@
 
 pub mod error;
 pub mod fabric;
+mod linalg;
 pub mod robot;
 pub mod rollout;
 pub mod scene;

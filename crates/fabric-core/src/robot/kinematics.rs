@@ -19,6 +19,7 @@ use nalgebra::{Isometry3, Matrix3, Matrix3xX, Vector3};
 
 use super::model::{Motion, Robot};
 use crate::error::{check_finite, check_len, FabricError, Result};
+use crate::linalg::rotate;
 
 /// Kinematic quantities of one task point or one task axis, in the world (base) frame:
 /// `x` (m, or unitless for an axis), `xd = J q̇`, `jac = ∂x/∂q` (3 × dof), `jdot_qdot = J̇ q̇`.
@@ -105,16 +106,6 @@ fn cross_minus(a: &Vector3<f64>, x: &Vector3<f64>, m: &Vector3<f64>) -> Vector3<
         a.y * x.z - a.z * x.y - m.x,
         a.z * x.x - a.x * x.z - m.y,
         a.x * x.y - a.y * x.x - m.z,
-    )
-}
-
-/// `r v` for a 3 × 3 matrix `r`, written out (the generic nalgebra product is slower here).
-#[inline(always)]
-fn rotate(r: &Matrix3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
-    Vector3::new(
-        r.m11 * v.x + r.m12 * v.y + r.m13 * v.z,
-        r.m21 * v.x + r.m22 * v.y + r.m23 * v.z,
-        r.m31 * v.x + r.m32 * v.y + r.m33 * v.z,
     )
 }
 

@@ -39,6 +39,7 @@ use parry3d_f64::shape::{Segment, TriMesh, TrianglePointLocation};
 
 use super::shape::{fmax, PointCloud, Shape};
 use super::ObstacleId;
+use crate::linalg::rotate;
 
 /// Below this distance (m) to a point/edge feature the Hessian `1/r` is replaced by 0 and the gradient by
 /// a fixed fallback direction (see the module documentation).
@@ -122,16 +123,6 @@ fn to_local(rot: &Matrix3<f64>, trans: &Vector3<f64>, p: &Vector3<f64>) -> Vecto
         rot.m11 * dx + rot.m21 * dy + rot.m31 * dz,
         rot.m12 * dx + rot.m22 * dy + rot.m32 * dz,
         rot.m13 * dx + rot.m23 * dy + rot.m33 * dz,
-    )
-}
-
-/// `R v`, written out.
-#[inline(always)]
-fn rotate(rot: &Matrix3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
-    Vector3::new(
-        rot.m11 * v.x + rot.m12 * v.y + rot.m13 * v.z,
-        rot.m21 * v.x + rot.m22 * v.y + rot.m23 * v.z,
-        rot.m31 * v.x + rot.m32 * v.y + rot.m33 * v.z,
     )
 }
 
