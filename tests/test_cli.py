@@ -75,10 +75,20 @@ def test_generate_then_bench(tmp_path):
     assert r.returncode == 0, r.stderr
     rows = read_rows(rows_file.read_text().splitlines())
     labels = {(row["class"], row["label"]) for row in rows}
-    assert labels == {(c, lab) for c in ("bookshelf_small", "box") for lab in ("GF", "Ours (1 b)", "Ours (2 b)")}
+    want = ("GF", "Ours (1 b)", "Ours (2 b)", "Ours (2 b, retry)")
+    assert labels == {(c, lab) for c in ("bookshelf_small", "box") for lab in want}
+    for c in ("bookshelf_small", "box"):  # the retry row is the plain row when that succeeded
+        plain, retried = ([row for row in rows if row["class"] == c and row["label"] == lab][0]
+                          for lab in want[2:])
+        if plain["success"]:
+            assert retried["cost"] == plain["cost"] and retried["time"] == plain["time"]
     text = md.read_text()
     assert "### box" in text and "| Method | % Success |" in text
     assert "Ours (2 b)" in r.stdout
+    r = run("bench", "--problems", str(tmp_path / "suite"), "--classes", "box", "--batches", "1",
+            "--population", "4", "--method", "gfcs", "--no-retry", "--json", str(rows_file), "--no-progress")
+    assert r.returncode == 0, r.stderr
+    assert {row["label"] for row in read_rows(rows_file.read_text().splitlines())} == {"Ours (1 b)"}
 
 
 def test_missing_external_command_is_one_line(monkeypatch, capsys):

@@ -157,20 +157,26 @@ def test_approach_sampler_mixes_approach_and_uniform_commands():
     robot = gfcs.Robot.panda()
     goal = np.array([0.3, 0.4, -0.2, -1.9, 0.1, 2.2, 0.6])
     problem = types.SimpleNamespace(robot=robot, goal=goal)
-    sampler = opt.ApproachSampler(n_commands=2, fraction=0.25, distances=(0.05, 0.1), sigma=0.01)
-    y = sampler.sample(problem, 400, np.random.default_rng(0))
     lo, up = np.asarray(robot.lower), np.asarray(robot.upper)
-    assert y.shape == (400, 14)
-    assert np.all(y >= np.tile(lo, 2)) and np.all(y <= np.tile(up, 2))
-    # the last command of the first quarter: the two approach configurations in turn, with 1 % noise
-    approach = approach_configurations(robot, goal, (0.05, 0.1))
-    near = y[:100, 7:]
+    # one command: the last (only) command of the first quarter at the two approach distances in turn
+    one = opt.ApproachSampler(1, fraction=0.25, distances=(0.05, 0.1), sigma=0.01)
+    y = one.sample(problem, 400, np.random.default_rng(0))
+    assert y.shape == (400, 7) and np.all(y >= lo) and np.all(y <= up)
+    near = approach_configurations(robot, goal, (0.05, 0.1))
     for i in range(2):
-        np.testing.assert_allclose(np.median(near[i::2], axis=0), approach[i], atol=0.01 * (up - lo).max())
-    assert np.all(np.abs(near - approach[np.arange(100) % 2]) <= 5 * 0.01 * (up - lo))
-    # earlier commands and the other candidates are uniform
-    assert np.all(np.abs(y[:, :7].mean(axis=0) - (lo + up) / 2) < 0.1 * (up - lo))
-    assert np.mean(np.linalg.norm(y[100:, 7:] - goal, axis=1) < 0.5) < 0.05
+        np.testing.assert_allclose(np.median(y[i:100:2], axis=0), near[i], atol=0.01 * (up - lo).max())
+    assert np.all(np.abs(y[:100] - near[np.arange(100) % 2]) <= 5 * 0.01 * (up - lo))
+    # the others are uniform
+    assert np.all(np.abs(y[100:].mean(axis=0) - (lo + up) / 2) < 0.1 * (up - lo))
+    assert np.mean(np.linalg.norm(y[100:] - goal, axis=1) < 0.5) < 0.05
+    # two commands: the earlier one backs off one spacing (0.2 m) further along the corridor
+    two = opt.ApproachSampler(2, fraction=0.25, distances=(0.05, 0.1), spacings=(0.2,), sigma=0.01)
+    y2 = two.sample(problem, 400, np.random.default_rng(0)).reshape(400, 2, 7)
+    levels = approach_configurations(robot, goal, (0.05, 0.1, 0.25, 0.3))
+    for i in range(2):
+        np.testing.assert_allclose(np.median(y2[i:100:2, 1], axis=0), levels[i], atol=0.01 * (up - lo).max())
+        np.testing.assert_allclose(np.median(y2[i:100:2, 0], axis=0), levels[i + 2],
+                                   atol=0.01 * (up - lo).max())
     # fraction 0 is the uniform sampler, draw for draw
     u = opt.ApproachSampler(2, fraction=0.0).sample(problem, 50, np.random.default_rng(3))
     np.testing.assert_array_equal(u, opt.UniformSampler(2).sample(problem, 50, np.random.default_rng(3)))
@@ -178,7 +184,8 @@ def test_approach_sampler_mixes_approach_and_uniform_commands():
 
 @pytest.mark.parametrize("kwargs, match", [({"fraction": 1.5}, "fraction"), ({"fraction": -0.1}, "fraction"),
                                            ({"sigma": -0.1}, "sigma"), ({"sigma": math.nan}, "sigma"),
-                                           ({"distances": ()}, "distances"), ({"distances": (0.1, -0.1)}, "distances")])
+                                           ({"distances": ()}, "distances"), ({"distances": (0.1, -0.1)}, "distances"),
+                                           ({"spacings": (math.inf,)}, "spacings"), ({"n_commands": 0}, "n_commands")])
 def test_approach_sampler_rejects_bad_settings(kwargs, match):
     with pytest.raises(ValueError, match=match):
         opt.ApproachSampler(**kwargs)

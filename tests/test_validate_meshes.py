@@ -239,6 +239,29 @@ def test_solve_returns_the_best_mesh_free_candidate(shelf):
     assert "mesh_clearance" in gf.metrics and not gf.success
 
 
+def test_failed_solve_retries_with_one_more_command(shelf):
+    # the checker flags the first two trajectories it sees: the one-command attempt (two candidates
+    # checked) fails, the two-command retry succeeds
+    flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
+    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2)
+    assert r.success and r.commands.shape == (2, 7)
+    assert r.settings["commands_tried"] == [1, 2] and r.settings["n_commands"] == 2
+    assert r.n_evaluations == 16
+    # without a retry the one-command attempt is returned, failed
+    once = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
+    r1 = opt.solve(once, batches=1, population=8, seed=0, mesh_candidates=2, max_commands=1)
+    assert not r1.success and r1.commands.shape == (1, 7) and "commands_tried" not in r1.settings
+    # a sampler of your own proposes a fixed width: no retry by default, an error when asked for one
+    mine = opt.UniformSampler(1)
+    again = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
+    r2 = opt.solve(again, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine)
+    assert not r2.success and r2.commands.shape == (1, 7)
+    with pytest.raises(ValueError, match="max_commands"):
+        opt.solve(shelf, batches=1, population=8, sampler=mine, max_commands=2)
+    with pytest.raises(ValueError, match="max_commands"):
+        opt.solve(shelf, batches=1, population=8, n_commands=2, max_commands=1)
+
+
 # ------------------------------------------------------------------------------ MotionBenchMaker Panda
 def test_mbm_panda_attaches_its_mesh_checker(shared_dir):
     folder = shared_dir / "robots" / "mbm_panda"

@@ -88,6 +88,8 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="warm-start sampler: approach (default: half the first batch at the goal's approach "
                         "corridor, the rest uniform), uniform (the paper's), or a model trained by "
                         "`gfcs train` (needs torch)")
+    g.add_argument("--no-retry", action="store_true",
+                   help="with the default sampler, do not retry a failed solve with one more command")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
     r.add_argument("--dt", type=float, default=0.01, help="integration step, s (default 0.01)")
     r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
@@ -123,10 +125,10 @@ def _robot(args: argparse.Namespace) -> Any:
 
 
 def _sampler(args: argparse.Namespace) -> Any:
-    from gfcs.optimize import ApproachSampler, UniformSampler
+    from gfcs.optimize import UniformSampler
 
     if args.sampler == "approach":
-        return ApproachSampler(args.commands)
+        return None  # solve's default (ApproachSampler), with its retry on failure
     if args.sampler == "uniform":
         return UniformSampler(args.commands)
     try:
@@ -220,6 +222,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         problem, method=args.method, batches=args.batches, population=args.population,
         n_commands=args.commands, seed=args.seed, sampler=_sampler(args), fabric_config=args.config,
         threads=args.threads, progress=args.progress, settings=_settings(args),
+        max_commands=args.commands if args.no_retry and args.method == "gfcs" else None,
     )
     text = summary_text(result, problem)
     if args.json:
@@ -271,11 +274,15 @@ def load_problems(args: argparse.Namespace, robot: Any) -> List[Any]:
 
 def bench_problem(problem: Any, methods: Sequence[str], batches: int, population: int, seed: int,
                   n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
-                  threads: Optional[int] = None, settings: Any = None) -> Tuple[List[Dict[str, Any]], List[Any]]:
+                  threads: Optional[int] = None, settings: Any = None,
+                  retry: bool = True) -> Tuple[List[Dict[str, Any]], List[Any]]:
     """Rows (:func:`gfcs.results.bench_row`) and results of the methods on one problem.
 
-    GFCS yields two rows, "Ours (1 b)" (the best sequence after the first batch, replayed for its metrics,
-    time = first batch) and "Ours (B b)" (after all B batches), as the paper's Table I; GF yields "GF".
+    GFCS yields the paper's Table I rows with n = ``n_commands`` free commands and no retry: "Ours (1 b)"
+    (the best sequence after the first batch, replayed for its metrics, time = first batch) and
+    "Ours (B b)" (after all B batches); with ``retry`` (and the default sampler) a third row, "Ours (B b,
+    retry)", is what :func:`gfcs.optimize.solve` returns by default: the same unless that failed, then the
+    retry with n + 1 commands (time = both attempts). GF yields "GF".
     """
     from gfcs import optimize
     from gfcs.results import bench_row
@@ -283,9 +290,10 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     rows: List[Dict[str, Any]] = []
     results: List[Any] = []
     for method in methods:
+        once = {"max_commands": n_commands} if method == "gfcs" else {}
         res = optimize.solve(problem, method=method, batches=batches, population=population,
                              n_commands=n_commands, seed=seed, sampler=sampler,
-                             fabric_config=fabric_config, threads=threads, settings=settings)
+                             fabric_config=fabric_config, threads=threads, settings=settings, **once)
         results.append(res)
         if method == "gf":
             rows.append(bench_row(problem.name, problem.cls, "GF", "gf", 0, seed, res.solve_time,
@@ -299,14 +307,23 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
                                   float(res.batch_times[0]), first.cost, first.metrics))
         rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b)", "gfcs", batches, seed,
                               res.solve_time, res.cost, res.metrics))
+        if retry and sampler is None:
+            if not res.success:  # solve's default: the same attempt again, then n + 1 commands
+                res = optimize.solve(problem, batches=batches, population=population, n_commands=n_commands,
+                                     seed=seed, fabric_config=fabric_config, threads=threads,
+                                     settings=settings)
+                results[-1] = res
+            rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b, retry)", "gfcs", batches,
+                                  seed, res.solve_time, res.cost, res.metrics))
     return rows, results
 
 
 def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5, population: int = 32,
               seed: int = 0, n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
               threads: Optional[int] = None, settings: Any = None, jsonl: Optional[str] = None,
-              rrd_dir: Optional[str] = None, progress: bool = True) -> List[Dict[str, Any]]:
-    """Benchmark ``methods`` on ``problems``; rows are appended to ``jsonl`` as they are produced.
+              rrd_dir: Optional[str] = None, progress: bool = True, retry: bool = True) -> List[Dict[str, Any]]:
+    """Benchmark ``methods`` on ``problems``; rows are appended to ``jsonl`` as they are produced (rows:
+    :func:`bench_problem`).
 
     Returns:
         All rows (see :mod:`gfcs.results` for the row format).
@@ -325,7 +342,7 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
         for problem in bar:
             bar.set_postfix_str(problem.name)
             new, results = bench_problem(problem, methods, batches, population, seed, n_commands, sampler,
-                                         fabric_config, threads, settings)
+                                         fabric_config, threads, settings, retry)
             rows.extend(new)
             if out is not None:
                 for r in new:
@@ -348,7 +365,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
                      n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
                      threads=args.threads, settings=_settings(args), jsonl=args.json, rrd_dir=args.rrd_dir,
-                     progress=not args.no_progress)
+                     progress=not args.no_progress, retry=not args.no_retry)
     summary = summarize(rows)
     print(format_table(summary, markdown=False))
     if args.markdown:

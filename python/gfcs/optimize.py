@@ -101,22 +101,24 @@ class UniformSampler:
 
 @dataclass
 class ApproachSampler:
-    """The default warm start: part of the candidates end at the goal's approach corridor, the rest are
+    """The default warm start: part of the candidates follow the goal's approach corridor, the rest are
     uniform.
 
     A grasp goal (MotionBenchMaker's shelves, boxes, cages) sits in narrow free space that the fabric
     enters only along the gripper's approach direction; a uniform waypoint almost never lies at the mouth
-    of that corridor. The first round(``fraction``·n) candidates have their last free command at an
-    approach configuration (the goal's end-effector pose backed off by one of ``distances`` along
-    ``axis``, see :func:`gfcs.approach.approach_configurations`; the distances in turn) plus
-    N(0, (sigma·(q_up − q_low))²) per joint, clipped into the limits, and earlier commands uniform; the
-    other candidates are those of :class:`UniformSampler`. ``fraction = 0`` is the uniform sampler (the
-    paper's "No learning").
+    of that corridor. The first round(``fraction``·n) candidates are approach candidates: their last free
+    command is an approach configuration (the goal's end-effector pose backed off by one of ``distances``
+    along ``axis``, see :func:`gfcs.approach.approach_configurations`; the distances in turn) and each
+    earlier command backs off one ``spacing`` further (spacings in turn), so that a sequence enters the
+    corridor step by step; every command gets N(0, (sigma·(q_up − q_low))²) per joint, clipped into the
+    limits. The other candidates are those of :class:`UniformSampler`. ``fraction = 0`` is the uniform
+    sampler (the paper's "No learning").
 
     Attributes:
         n_commands: number n of free commands per candidate (output width n·dof).
         fraction: share of approach candidates, in [0, 1].
-        distances: back-off distances (m), ≥ 0.
+        distances: back-off distances (m) of the last command, ≥ 0.
+        spacings: extra back-off (m, ≥ 0) of each earlier command over the next one (n ≥ 2 only).
         sigma: joint noise around the approach configurations as a fraction of each joint range, ≥ 0.
         axis: approach direction in the end-effector frame (default z, the Panda gripper's).
     """
@@ -124,19 +126,24 @@ class ApproachSampler:
     n_commands: int = 1
     fraction: float = 0.5
     distances: Tuple[float, ...] = (0.05, 0.10, 0.15, 0.20)
+    spacings: Tuple[float, ...] = (0.10, 0.15, 0.20)
     sigma: float = 0.02
     axis: Tuple[float, float, float] = (0.0, 0.0, 1.0)
 
     def __post_init__(self) -> None:
+        if int(self.n_commands) < 1:
+            raise ValueError(f"ApproachSampler.n_commands must be >= 1, got {self.n_commands}")
         if not 0.0 <= float(self.fraction) <= 1.0:
             raise ValueError(f"ApproachSampler.fraction must be in [0, 1], got {self.fraction}")
         if not (math.isfinite(self.sigma) and self.sigma >= 0):
             raise ValueError(f"ApproachSampler.sigma must be a finite number >= 0, got {self.sigma}")
-        if len(self.distances) == 0 or not all(math.isfinite(d) and d >= 0 for d in self.distances):
-            raise ValueError(f"ApproachSampler.distances must be finite numbers >= 0, got {self.distances}")
+        for name in ("distances", "spacings"):
+            values = getattr(self, name)
+            if len(values) == 0 or not all(math.isfinite(d) and d >= 0 for d in values):
+                raise ValueError(f"ApproachSampler.{name} must be finite numbers >= 0, got {values}")
 
     def sample(self, problem: Any, n: int, rng: np.random.Generator) -> np.ndarray:
-        """(n, n_commands·dof) candidates: the first round(fraction·n) at the approach configurations of
+        """(n, n_commands·dof) candidates: the first round(fraction·n) along the approach corridor of
         ``problem.goal`` (with noise), then uniform ones."""
         from gfcs.approach import approach_configurations
 
@@ -147,10 +154,17 @@ class ApproachSampler:
         robot = problem.robot
         lo = np.asarray(robot.lower, dtype=np.float64)
         up = np.asarray(robot.upper, dtype=np.float64)
-        approach = approach_configurations(robot, problem.goal, self.distances, self.axis)
-        rows = approach[np.arange(k) % approach.shape[0]]
-        noise = rng.standard_normal((k, lo.shape[0])) * (float(self.sigma) * (up - lo))
-        y[:k, -lo.shape[0]:] = np.clip(rows + noise, lo, up)
+        dof, m = lo.shape[0], int(self.n_commands)
+        i = np.arange(k)
+        # back-off distance of command c of candidate i: the last one's plus (m-1-c) spacings
+        last = np.asarray(self.distances, dtype=np.float64)[i % len(self.distances)]
+        step = np.asarray(self.spacings, dtype=np.float64)[i % len(self.spacings)]
+        back = last[:, None] + step[:, None] * np.arange(m - 1, -1, -1)[None, :]
+        levels, index = np.unique(back, return_inverse=True)
+        approach = approach_configurations(robot, problem.goal, levels, self.axis)
+        rows = approach[index.reshape(k, m)]  # (k, m, dof)
+        noise = rng.standard_normal((k, m, dof)) * (float(self.sigma) * (up - lo))
+        y[:k] = np.clip(rows + noise, lo, up).reshape(k, m * dof)
         return y
 
 
@@ -531,6 +545,7 @@ def solve(
     sigma0: float = 0.25,
     mesh_candidates: int = 8,
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
+    max_commands: Optional[int] = None,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1) or with the local fabric alone (``method="gf"``).
 
@@ -555,6 +570,12 @@ def solve(
         mesh_candidates: with a mesh checker, at most this many candidates (in cost order, reached ones)
             are rolled out and checked against the meshes before giving up (see the module docstring).
         callback: called after every batch with a :class:`BatchInfo`; True stops early.
+        max_commands: when the returned candidate with n free commands does not succeed, solve again
+            with n + 1, up to ``max_commands`` (default: ``n_commands + 1`` with the default sampler,
+            whose approach candidates then enter the goal's corridor in two steps; ``n_commands``, no
+            retry, with a sampler of your own, which proposes a fixed number of commands). The first
+            success is returned, else the lowest-cost attempt; ``solve_time`` and ``n_evaluations``
+            then cover every attempt and ``settings["commands_tried"]`` lists them.
 
     Returns:
         :class:`gfcs.results.SolveResult` (trajectory of the best sequence, metrics, per-batch data).
@@ -586,7 +607,44 @@ def solve(
     n_commands = int(n_commands)
     if n_commands < 1:
         raise ValueError(f"n_commands must be ≥ 1 for method 'gfcs', got {n_commands}")
-    sampler = sampler if sampler is not None else ApproachSampler(n_commands)
+    if max_commands is None:
+        max_commands = n_commands + 1 if sampler is None else n_commands
+    max_commands = int(max_commands)
+    if max_commands < n_commands:
+        raise ValueError(f"max_commands must be ≥ n_commands ({n_commands}), got {max_commands}")
+    if sampler is not None and max_commands != n_commands:
+        raise ValueError("max_commands > n_commands needs the default sampler: a sampler of your own "
+                         f"proposes {n_commands} command(s) per candidate")
+    options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
+                   settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
+                   callback=callback)
+    attempts: List[SolveResult] = []
+    for n in range(n_commands, max_commands + 1):
+        attempts.append(_solve_commands(problem, fabric, mesh_checker, common, n,
+                                        sampler if sampler is not None else ApproachSampler(n), **options))
+        if attempts[-1].success:
+            break
+    if len(attempts) == 1:
+        return attempts[0]
+    best = attempts[-1] if attempts[-1].success else min(attempts, key=lambda r: r.cost)
+    return dataclasses.replace(
+        best,
+        solve_time=float(sum(r.solve_time for r in attempts)),
+        n_evaluations=int(sum(r.n_evaluations for r in attempts)),
+        settings={**best.settings, "commands_tried": [int(r.settings["n_commands"]) for r in attempts]},
+    )
+
+
+def _solve_commands(
+    problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, Any], n_commands: int, sampler: Sampler,
+    *, batches: int, population: int, seed: int, threads: Optional[int], progress: bool,
+    settings: RolloutSettings, top_m: int, sigma0: float, mesh_candidates: int,
+    callback: Optional[Callable[[BatchInfo], Optional[bool]]],
+) -> SolveResult:
+    """GFCS with exactly ``n_commands`` free commands (the body of :func:`solve`)."""
+    robot = problem.robot
+    dof = int(robot.dof)
+    q0, qd0, goal = common["q0"], common["qd0"], common["goal"]
     dim = n_commands * dof
     lower = np.tile(np.asarray(robot.lower, dtype=np.float64), n_commands)
     upper = np.tile(np.asarray(robot.upper, dtype=np.float64), n_commands)
@@ -611,7 +669,7 @@ def solve(
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=int(batches), desc=f"{problem.name}", unit="batch", leave=False)
+        bar = tqdm(total=int(batches), desc=f"{problem.name} ({n_commands} cmd)", unit="batch", leave=False)
 
     def on_batch(info: BatchInfo) -> Optional[bool]:
         if bar is not None:
