@@ -308,10 +308,11 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
         rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b)", "gfcs", batches, seed,
                               res.solve_time, res.cost, res.metrics))
         if retry and sampler is None:
-            if not res.success:  # solve's default: the same attempt again, then n + 1 commands
-                res = optimize.solve(problem, batches=batches, population=population, n_commands=n_commands,
-                                     seed=seed, fabric_config=fabric_config, threads=threads,
-                                     settings=settings)
+            if not res.success:  # solve's default: the attempt above, then one with n + 1 commands
+                more = optimize.solve(problem, batches=batches, population=population,
+                                      n_commands=n_commands + 1, seed=seed, fabric_config=fabric_config,
+                                      threads=threads, settings=settings, max_commands=n_commands + 1)
+                res = optimize.combine_attempts([res, more])
                 results[-1] = res
             rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b, retry)", "gfcs", batches,
                                   seed, res.solve_time, res.cost, res.metrics))

@@ -62,6 +62,7 @@ __all__ = [
     "RolloutSettings",
     "solve_gfcop",
     "solve",
+    "combine_attempts",
     "replay",
     "make_fabric",
     "rollout_commands",
@@ -624,6 +625,15 @@ def solve(
                                         sampler if sampler is not None else ApproachSampler(n), **options))
         if attempts[-1].success:
             break
+    return combine_attempts(attempts)
+
+
+def combine_attempts(attempts: List[SolveResult]) -> SolveResult:
+    """The result of solving one problem in several attempts, in order (:func:`solve`'s retry): the last
+    attempt if it succeeded, else the lowest-cost one, with ``solve_time`` and ``n_evaluations`` summed
+    over all attempts and ``settings["commands_tried"]`` listing their command counts. One attempt is
+    returned unchanged.
+    """
     if len(attempts) == 1:
         return attempts[0]
     best = attempts[-1] if attempts[-1].success else min(attempts, key=lambda r: r.cost)
