@@ -339,7 +339,10 @@ def test_selection_skips_candidates_whose_meshes_collide(sphere_and_mesh_sliders
     0.4 m box into it; the dearer one (x = −0.3) stays clear. An unreached candidate is never tried."""
     spheres, checker, scene = sphere_and_mesh_sliders
     p = Problem("slide", spheres, scene, q0=[-0.2], goal=[-0.1], mesh_checker=checker)
-    fabric = opt.make_fabric(p)
+    # joint-space speed control at 1.2 rad/s, no hand attractor: the slider overshoots the command's
+    # waypoint tolerance far enough for the box to reach the ball
+    fabric = opt.make_fabric(p, {"speed": {"ee_weight": 0.0, "desired_speed": 1.2},
+                                 "ee_position": {"enabled": False}})
     settings = opt.RolloutSettings()
     result = _fake_optimum([[0.25], [-0.9], [-0.3]], [1.0, 150.0, 2.0])
     commands, _, _, reached, _, met = opt._select_candidate(fabric, p, result, 1, settings, checker, 8)

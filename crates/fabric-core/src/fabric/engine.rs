@@ -35,6 +35,7 @@ use super::config::FabricConfig;
 use super::energy::{ConstantMass, TanhMass};
 use super::leaves::{obstacle_leaf, self_collision_leaf};
 use super::root::RootSystem;
+use super::speed::EeMotion;
 use crate::error::{check_finite, check_len, FabricError, Result};
 use crate::robot::{CollisionSphere, KinematicsWorkspace, Robot, TaskPoint};
 use crate::scene::distance::NearObstacle;
@@ -690,6 +691,17 @@ impl Fabric {
             .map(|(a, b)| (a - b) * (a - b))
             .sum::<f64>()
             .sqrt();
+        // the end-effector part of the execution energy (App. E-B), when weighted
+        let ee = if self.config.speed.enabled && self.config.speed.ee_weight > 0.0 {
+            robot.point(&ws.kin, robot.ee_link(), &Vector3::zeros(), &mut ws.task);
+            Some(EeMotion {
+                xd: ws.task.xd,
+                jac: &ws.task.jac,
+                jdot_qdot: ws.task.jdot_qdot,
+            })
+        } else {
+            None
+        };
         let terms = ws
             .root
             .solve(
@@ -698,6 +710,7 @@ impl Fabric {
                 qd,
                 goal_distance,
                 self.config.joint_attraction.mass,
+                ee,
                 qdd,
             )
             .map_err(|e| match e {

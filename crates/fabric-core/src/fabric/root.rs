@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector, Dim, Dyn, Matrix, Storage};
 
 use super::config::{Mode, SpeedConfig};
 use super::spec::{cholesky_in_place, cholesky_solve_in_place, ENERGIZATION_EPSILON};
-use super::speed::{regulate, regulated_acceleration, SpeedInputs, SpeedTerms};
+use super::speed::{regulate, regulated_acceleration, EeMotion, SpeedInputs, SpeedTerms};
 use crate::error::{FabricError, Result};
 
 /// Preallocated root accumulators and solver scratch for an n-dimensional configuration space.
@@ -212,8 +212,10 @@ impl RootSystem {
 
     /// Resolve the accumulated system at velocity `qd` into `qdd` (eq. 7, 17, 40-46). `goal_distance` is
     /// ‖q − q_g‖ for the speed switches; `damping_mass` is the mass m of a force-level goal damper
-    /// (`GoalDampingForm::Force`: q̈ −= s_β B m M̃⁻¹ q̇). Errors when M̃ is not positive definite or the
-    /// result is not finite.
+    /// (`GoalDampingForm::Force`: q̈ −= s_β B m M̃⁻¹ q̇); `ee` the end-effector motion for an execution
+    /// energy with `speed.ee_weight` > 0. Errors when M̃ is not positive definite or the result is not
+    /// finite.
+    #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &mut self,
         mode: Mode,
@@ -221,6 +223,7 @@ impl RootSystem {
         qd: &[f64],
         goal_distance: f64,
         damping_mass: f64,
+        ee: Option<EeMotion<'_>>,
         qdd: &mut [f64],
     ) -> Result<RootTerms> {
         let n = self.dim();
@@ -271,6 +274,7 @@ impl RootSystem {
                 minv_grad: self.minv_grad.as_slice(),
                 alpha_le,
                 goal_distance,
+                ee,
             },
         );
         regulated_acceleration(

@@ -12,8 +12,11 @@
 //! α_boost = k η (1 − s_β) / (‖q̇‖ + ε)
 //! ```
 //!
-//! with the execution energy L_ex = ½‖q̇‖² (M_ex = I, ξ_ex = 0) and L_ex,d = ½ v_d². α_ex^0 and α_ex^ψ are
-//! the energization coefficients (eq. 7) of π̃ and of −M̃⁻¹∂ψ + π̃ with respect to L_ex.
+//! with the execution energy L_ex = ½ q̇ᵀM_ex q̇, M_ex = I + w J_eeᵀJ_ee, i.e. ½(‖q̇‖² + w‖ẋ_ee‖²)
+//! (`SpeedConfig::ee_weight` = w; w = 0: ½‖q̇‖², M_ex = I, ξ_ex = 0), and L_ex,d = ½ v_d². α_ex^0 and α_ex^ψ
+//! are the energization coefficients (eq. 7) of π̃ and of −M̃⁻¹∂ψ + π̃ with respect to L_ex: for an
+//! acceleration a, dL_ex/dt = q̇ᵀa + w ẋ_eeᵀ(J_ee a + J̇_ee q̇) = gᵀa + c with g = M_ex q̇ and
+//! c = w ẋ_eeᵀ J̇_ee q̇, so a + α q̇ conserves L_ex for α = −(gᵀa + c) / q̇ᵀM_ex q̇.
 //!
 //! The goal damper s_β B either sits inside β_reg as above (GF, [`GoalDampingForm::Velocity`]) or acts as
 //! a force-level damper −s_β B m q̇ added by the root ([`GoalDampingForm::Force`], see its docs).
@@ -25,6 +28,8 @@
 //! continuously for HD2 π̃; α_ex^ψ q̇ stays bounded by ‖M̃⁻¹∂ψ‖ + ‖π̃‖, so the term α q̇ → 0 either way. At
 //! rest the acceleration is −M̃⁻¹∂ψ: finite and nonzero away from the command (the potential starts the
 //! motion, as the paper notes for α_boost).
+
+use nalgebra::{Matrix3xX, Vector3};
 
 use super::config::{GoalDampingForm, SpeedConfig};
 
@@ -44,6 +49,60 @@ pub struct SpeedInputs<'a> {
     pub alpha_le: f64,
     /// ‖q − q_g‖: distance to the command (rad), argument of s_β (eq. 45).
     pub goal_distance: f64,
+    /// Motion of the end-effector point for the w‖ẋ_ee‖² part of L_ex; ignored when w = 0, treated as
+    /// ẋ_ee = 0 when `None`.
+    pub ee: Option<EeMotion<'a>>,
+}
+
+/// The end-effector point's velocity terms (world frame).
+#[derive(Clone, Copy, Debug)]
+pub struct EeMotion<'a> {
+    /// ẋ_ee = J_ee q̇ (m/s).
+    pub xd: Vector3<f64>,
+    /// J_ee (3 × n, m/rad).
+    pub jac: &'a Matrix3xX<f64>,
+    /// J̇_ee q̇ (m/s²).
+    pub jdot_qdot: Vector3<f64>,
+}
+
+/// q̇ᵀM_ex q̇ and the map a ↦ gᵀa + c of the module docs, for the execution energy of `cfg`.
+struct ExecEnergy<'a> {
+    qd: &'a [f64],
+    /// w ẋ_ee and J_ee when w > 0 and the motion is given.
+    ee: Option<(Vector3<f64>, &'a Matrix3xX<f64>)>,
+    /// q̇ᵀM_ex q̇ (rad²/s²).
+    v2: f64,
+    /// c = w ẋ_eeᵀ J̇_ee q̇ (rad²/s³).
+    c: f64,
+}
+
+impl<'a> ExecEnergy<'a> {
+    fn new(cfg: &SpeedConfig, qd: &'a [f64], ee: Option<EeMotion<'a>>) -> Self {
+        let mut e = ExecEnergy {
+            qd,
+            ee: None,
+            v2: dot(qd, qd),
+            c: 0.0,
+        };
+        if let Some(m) = ee.filter(|_| cfg.ee_weight > 0.0) {
+            let wxd = cfg.ee_weight * m.xd;
+            e.v2 += wxd.dot(&m.xd);
+            e.c = wxd.dot(&m.jdot_qdot);
+            e.ee = Some((wxd, m.jac));
+        }
+        e
+    }
+
+    /// gᵀa = q̇ᵀa + w ẋ_eeᵀ J_ee a.
+    fn g_dot(&self, a: &[f64]) -> f64 {
+        let mut s = dot(self.qd, a);
+        if let Some((wxd, jac)) = self.ee {
+            for (k, ak) in a.iter().enumerate() {
+                s += ak * wxd.dot(&jac.column(k));
+            }
+        }
+        s
+    }
 }
 
 /// Every coefficient of the regulation, for diagnostics (all in 1/s unless stated).
@@ -90,8 +149,8 @@ pub fn eta(cfg: &SpeedConfig, exec_energy: f64) -> f64 {
 /// Compute the regulation coefficients of eq. 44-46 (see module docs). With `cfg.enabled == false` the
 /// result is the plain energized, forced and damped fabric: α_reg = α_Le − (s_β B + B̲).
 pub fn regulate(cfg: &SpeedConfig, inp: &SpeedInputs<'_>) -> SpeedTerms {
-    let v2 = dot(inp.qd, inp.qd);
-    let exec_energy = 0.5 * v2;
+    let ex = ExecEnergy::new(cfg, inp.qd, inp.ee);
+    let exec_energy = 0.5 * ex.v2;
     let s_beta = goal_switch(cfg, inp.goal_distance);
     let (damping, force_damping) = match cfg.goal_damping_form {
         GoalDampingForm::Velocity => (s_beta * cfg.goal_damping + cfg.base_damping, 0.0),
@@ -107,17 +166,18 @@ pub fn regulate(cfg: &SpeedConfig, inp: &SpeedInputs<'_>) -> SpeedTerms {
             ..SpeedTerms::default()
         };
     }
-    let (alpha_ex0, alpha_expsi) = if v2 > SPEED_EPSILON {
-        let qd_pi = dot(inp.qd, inp.pi);
-        let qd_g = dot(inp.qd, inp.minv_grad);
-        (-qd_pi / v2, -(qd_pi - qd_g) / v2)
+    let (alpha_ex0, alpha_expsi) = if ex.v2 > SPEED_EPSILON {
+        let g_pi = ex.g_dot(inp.pi) + ex.c;
+        let g_grad = ex.g_dot(inp.minv_grad);
+        (-g_pi / ex.v2, -(g_pi - g_grad) / ex.v2)
     } else {
         (0.0, 0.0)
     };
     let eta = eta(cfg, exec_energy);
     let alpha_ex_eta = eta * alpha_ex0 + (1.0 - eta) * alpha_expsi;
     let beta = damping + (alpha_ex_eta - inp.alpha_le).max(0.0);
-    let alpha_boost = cfg.boost_gain * eta * (1.0 - s_beta) / (v2.sqrt() + cfg.boost_epsilon);
+    let speed = dot(inp.qd, inp.qd).sqrt();
+    let alpha_boost = cfg.boost_gain * eta * (1.0 - s_beta) / (speed + cfg.boost_epsilon);
     SpeedTerms {
         exec_energy,
         alpha_ex0,
@@ -176,6 +236,7 @@ mod tests {
                 minv_grad: &g,
                 alpha_le: 0.0,
                 goal_distance: 1.0,
+                ee: None,
             },
         );
         assert!(t.alpha_reg.is_finite() && t.alpha_boost.is_finite());
@@ -193,6 +254,7 @@ mod tests {
                     minv_grad: &g,
                     alpha_le: 0.0,
                     goal_distance: 1.0,
+                    ee: None,
                 },
             );
             let n = dot(&qd, &qd).sqrt();
@@ -218,6 +280,7 @@ mod tests {
                 minv_grad: &g,
                 alpha_le: -0.1,
                 goal_distance: 0.2,
+                ee: None,
             },
         );
         let v2 = 1.25;
@@ -237,6 +300,67 @@ mod tests {
         let mut a = [0.0; 2];
         regulated_acceleration(&[0.0, 0.0], &pi, t.alpha_ex0, &qd, &mut a);
         assert!(dot(&qd, &a).abs() < 1e-15);
+    }
+
+    #[test]
+    fn end_effector_weight_energizes_the_combined_execution_energy() {
+        // L_ex = ½(‖q̇‖² + w‖J q̇‖²): dL_ex/dt along a = q̇ᵀa + w ẋᵀ(J a + J̇q̇) vanishes for a + α q̇
+        let c = SpeedConfig {
+            ee_weight: 4.0,
+            ..cfg()
+        };
+        let qd = [0.7, -0.2, 0.4];
+        let pi = [0.3, 1.1, -0.6];
+        let g = [0.5, -1.0, 0.2];
+        let jac = Matrix3xX::from_column_slice(&[0.1, 0.5, -0.2, 0.3, 0.0, 0.4, -0.6, 0.2, 0.1]);
+        let xd = &jac * Vector3::from_row_slice(&qd);
+        let jdot_qdot = Vector3::new(0.05, -0.3, 0.2);
+        let ee = Some(EeMotion {
+            xd,
+            jac: &jac,
+            jdot_qdot,
+        });
+        let t = regulate(
+            &c,
+            &SpeedInputs {
+                qd: &qd,
+                pi: &pi,
+                minv_grad: &g,
+                alpha_le: 0.0,
+                goal_distance: 1.0,
+                ee,
+            },
+        );
+        let v2 = dot(&qd, &qd) + 4.0 * xd.norm_squared();
+        assert!((t.exec_energy - 0.5 * v2).abs() < 1e-15);
+        let ldot = |a: &[f64]| {
+            let ja = &jac * Vector3::from_row_slice(a);
+            dot(&qd, a) + 4.0 * xd.dot(&(ja + jdot_qdot))
+        };
+        let mut a = [0.0; 3];
+        regulated_acceleration(&[0.0; 3], &pi, t.alpha_ex0, &qd, &mut a);
+        assert!(ldot(&a).abs() < 1e-14, "{}", ldot(&a));
+        regulated_acceleration(&g, &pi, t.alpha_expsi, &qd, &mut a);
+        assert!(ldot(&a).abs() < 1e-14, "{}", ldot(&a));
+        // w = 0 (or no end-effector motion) is the C-space energy
+        let plain = |w: f64, ee: Option<EeMotion<'_>>| {
+            regulate(
+                &SpeedConfig {
+                    ee_weight: w,
+                    ..cfg()
+                },
+                &SpeedInputs {
+                    qd: &qd,
+                    pi: &pi,
+                    minv_grad: &g,
+                    alpha_le: 0.0,
+                    goal_distance: 1.0,
+                    ee,
+                },
+            )
+        };
+        assert_eq!(plain(0.0, ee), plain(4.0, None));
+        assert!((plain(0.0, ee).exec_energy - 0.5 * dot(&qd, &qd)).abs() < 1e-15);
     }
 
     #[test]
@@ -264,6 +388,7 @@ mod tests {
                 minv_grad: &[0.0],
                 alpha_le: -3.0,
                 goal_distance: 5.0,
+                ee: None,
             },
         );
         assert!((t.alpha_reg - (-3.0 - t.beta)).abs() < 1e-15);
@@ -281,6 +406,7 @@ mod tests {
                 minv_grad: &[0.0],
                 alpha_le: -3.0,
                 goal_distance: 0.0,
+                ee: None,
             },
         );
         assert!((t.beta - f.base_damping).abs() < 1e-15);
