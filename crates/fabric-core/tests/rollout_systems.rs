@@ -55,6 +55,36 @@ impl System for Kinematic {
     }
 }
 
+/// [`Kinematic`] that stops dead once its first coordinate reaches `wall`.
+struct Walled {
+    inner: Kinematic,
+    wall: f64,
+}
+
+impl System for Walled {
+    type Workspace = ();
+    fn dof(&self) -> usize {
+        self.inner.dof
+    }
+    fn workspace(&self) {}
+    fn acceleration(
+        &self,
+        ws: &mut (),
+        q: &[f64],
+        qd: &[f64],
+        command: &[f64],
+        qdd: &mut [f64],
+    ) -> Result<()> {
+        if q[0] >= self.wall - 1e-12 {
+            for i in 0..qdd.len() {
+                qdd[i] = -qd[i] / self.inner.dt;
+            }
+            return Ok(());
+        }
+        self.inner.acceleration(ws, q, qd, command, qdd)
+    }
+}
+
 /// Damped oscillator attracted to the command, q̈ = −ω²(q − q_g) − 2ζω q̇, with the clearance monitor
 /// c = q₀ − `wall` (negative when the first coordinate passes below the wall).
 struct Oscillator {
@@ -883,7 +913,7 @@ fn invalid_inputs_name_the_culprit() {
 }
 
 /// Stall detection: a system creeping toward its command at 0.005 rad/s gains less than
-/// `stall_progress` = 0.01 rad per `stall_window` = 1 s and stops at the first window boundary
+/// `stall_progress` = 0.01 rad per `stall_window` = 1 s and stops after one window
 /// (t = 1 s, t* = t_max); at 0.02 rad/s it keeps going until the budget; with the window 0 it never stalls.
 #[test]
 fn stall_detection_stops_rollouts_without_progress() {
@@ -926,6 +956,17 @@ fn stall_detection_stops_rollouts_without_progress() {
     .unwrap();
     assert_eq!(r.reason, StopReason::Timeout);
     assert_eq!(r.steps, 500);
+    // the window slides: a system that progresses at 0.02 rad/s until it hits a wall at q₀ = 0.03 (t =
+    // 1.5 s) stops once the last second has gained less than 0.01 rad, at t ≈ 2 s (fixed windows
+    // starting at t = 0 would only notice at t = 3 s)
+    let walled = Walled {
+        inner: progressing,
+        wall: 0.03,
+    };
+    let r = rollout_system(&walled, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &stalling)
+        .unwrap();
+    assert_eq!(r.reason, StopReason::Stalled);
+    assert!((200..=202).contains(&r.steps), "stopped after {} steps", r.steps);
     let off = RolloutOptions {
         stall_window: 0.0,
         ..stalling.clone()

@@ -28,8 +28,8 @@ pub struct RolloutOptions {
     /// Keep the trajectory (t, q, q̇, q̈ at every step). Default false.
     pub record: bool,
     /// Stall detection (an extension of eq. 2 that saves computation, not a change of the cost of a
-    /// rollout that cannot reach): the rollout keeps the smallest distance ‖q − q_g‖ seen so far; when a
-    /// whole window of `stall_window` seconds passes without that distance shrinking by at least
+    /// rollout that cannot reach): the rollout keeps the smallest distance ‖q − q_g‖ seen so far; when, at
+    /// any step, the last `stall_window` seconds have passed without that distance shrinking by at least
     /// `stall_progress` (rad), the fabric is at rest at a local minimum away from the command (Thm IV.4), or
     /// sliding along a barrier with the speed controller keeping it in motion, and would not reach it before
     /// t_max: the rollout stops with [`StopReason::Stalled`] and t* = t_max. Default 1 s and 0.01 rad;
@@ -236,6 +236,8 @@ pub(crate) struct Buffers {
     q_next: Vec<f64>,
     qd_next: Vec<f64>,
     scratch: StepScratch,
+    /// Stall detection: the best distance of the last `window` steps, indexed by step modulo `window`.
+    best_history: Vec<f64>,
 }
 
 impl Buffers {
@@ -248,6 +250,7 @@ impl Buffers {
             q_next: z.clone(),
             qd_next: z,
             scratch: StepScratch::new(dof),
+            best_history: Vec::new(),
         }
     }
 }
@@ -303,10 +306,11 @@ pub(crate) fn run<S: System>(
         .record
         .then(|| Trajectory::with_capacity(dof, (n_max + 1).min(RECORD_RESERVE)));
     let mut min_clearance = f64::INFINITY;
-    // stall detection: best distance so far, and its value at the start of the current window
+    // stall detection: best distance so far, compared with its value `window` steps earlier
     let window = (opts.stall_window / opts.dt).round() as usize;
     let mut best = f64::INFINITY;
-    let mut window_start_best = f64::INFINITY;
+    b.best_history.clear();
+    b.best_history.resize(window, f64::INFINITY);
     let mut k = 0usize;
     let reason = loop {
         let t = k as f64 * opts.dt;
@@ -326,11 +330,13 @@ pub(crate) fn run<S: System>(
         if k >= n_max {
             break StopReason::Timeout;
         }
-        if window > 0 && k.is_multiple_of(window) {
-            if best > window_start_best - opts.stall_progress {
+        if window > 0 {
+            // the slot of step k − window (+∞ during the first window)
+            let slot = &mut b.best_history[k % window];
+            if best > *slot - opts.stall_progress {
                 break StopReason::Stalled;
             }
-            window_start_best = best;
+            *slot = best;
         }
         let mut accel =
             |q: &[f64], qd: &[f64], out: &mut [f64]| system.acceleration(ws, q, qd, command, out);
