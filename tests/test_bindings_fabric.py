@@ -157,6 +157,22 @@ def test_distance_penalty_adds_the_closest_approach_when_not_reached(fabric):
         fabric.evaluate(Q0, None, GOAL, GOAL[None], distance_penalty=-1.0)
 
 
+def test_blend_time_smooths_the_handover(fabric):
+    waypoint = 0.5 * (Q0 + GOAL) + np.array([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    jump = fabric.rollout_sequence(Q0, None, waypoint[None], GOAL, blend_time=0.0)
+    blended = fabric.rollout_sequence(Q0, None, waypoint[None], GOAL)  # default 0.5 s
+    assert jump.reached and blended.reached
+    # the first command is never blended; after the handover the command moves gradually
+    assert blended.t_stars[0] == jump.t_stars[0]
+    k = int(round(jump.t_stars[0] / 0.01))
+    step = lambda r: np.abs(np.diff(r.qdd[k - 1:k + 2], axis=0)).max()  # noqa: E731
+    assert step(blended) < 0.5 * step(jump)
+    costs, _, _ = fabric.evaluate(Q0, None, GOAL, waypoint[None], blend_time=0.0)
+    assert costs[0] == jump.cost
+    with pytest.raises(gfcs.InvalidValueError, match="blend_time"):
+        fabric.evaluate(Q0, None, GOAL, waypoint[None], blend_time=-0.1)
+
+
 def test_collision_penalty_and_tolerance(robot):
     s = gfcs.Scene()
     # a box around the start configuration's hand: every sequence starts in collision

@@ -378,20 +378,21 @@ class Fabric:
         dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
         waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
         collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
-        distance_penalty: Optional[float] = None,
+        distance_penalty: Optional[float] = None, blend_time: Optional[float] = None,
         stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
         integrator: str = "euler", record: bool = True,
     ) -> SequenceRollout:
         """Commands (n, dof) then the goal (dof,) (GFCS eq. 4-8). Defaults: waypoint_tol 0.1,
         penalty 100 s and distance_penalty 0 s/rad (× the closest approach to the goal), both added when
         the goal is not reached; collision_penalty 0 s (added when min_clearance < -collision_tol,
-        default 0 m)."""
+        default 0 m). At each handover the fabric's command moves from the previous command to the next
+        along a smoothstep over ``blend_time`` s (default 0.5; 0 = the paper's jump)."""
     def evaluate(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], goal: ArrayLike, candidates: ArrayLike,
         dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
         waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
         collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
-        distance_penalty: Optional[float] = None,
+        distance_penalty: Optional[float] = None, blend_time: Optional[float] = None,
         stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
         integrator: str = "euler", threads: Optional[int] = None, return_trajectories: bool = False,
     ) -> Union[

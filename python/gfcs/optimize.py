@@ -403,6 +403,10 @@ class RolloutSettings:
             only by their waypoint times, so a batch without a success tells CMA-ES nothing; this term
             ranks them by how near they came. Not the default: on the 20 MotionBenchMaker problems that
             5 batches failed, 20 s/rad solved 6-7 against 8 without it, in more time.
+        blend_time: at each handover the fabric's command moves from the previous command to the next
+            along a smoothstep over this time [s] instead of jumping (an extension of eq. 7; 0 = the
+            paper's switch): the jump of the command was a jump of the acceleration that dominated the
+            jerk of the trajectories.
         integrator: ``"euler"`` (semi-implicit Euler, the paper's) or ``"rk4"``.
         stall_window, stall_progress: a rollout stops as "stalled" (t* = t_max, not reached) when its
             distance to the command has not shrunk by ``stall_progress`` [rad] over ``stall_window`` [s]
@@ -419,6 +423,7 @@ class RolloutSettings:
     penalty: float = 100.0
     collision_penalty: float = 100.0
     distance_penalty: float = 0.0
+    blend_time: float = 0.5
     integrator: str = "euler"
     stall_window: float = 1.0
     stall_progress: float = 0.01
@@ -433,6 +438,7 @@ class RolloutSettings:
             "penalty": self.penalty,
             "collision_penalty": self.collision_penalty,
             "distance_penalty": self.distance_penalty,
+            "blend_time": self.blend_time,
             "integrator": self.integrator,
             "stall_window": self.stall_window,
             "stall_progress": self.stall_progress,

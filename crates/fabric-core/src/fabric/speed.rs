@@ -369,7 +369,7 @@ mod tests {
         let d = 0.5 * c.desired_speed * c.desired_speed;
         assert!((eta(&c, d) - 0.5).abs() < 1e-12);
         assert!(eta(&c, 0.0) > 0.99);
-        assert!(eta(&c, d + 1.0) < 1e-6);
+        assert!(eta(&c, d + 3.0) < 1e-6);
         assert!(goal_switch(&c, 0.0) > 0.9 && goal_switch(&c, 2.0) < 1e-6);
     }
 

@@ -238,6 +238,19 @@ pub(crate) struct Buffers {
     scratch: StepScratch,
     /// Stall detection: the best distance of the last `window` steps, indexed by step modulo `window`.
     best_history: Vec<f64>,
+    /// The blended command of the current step (see [`Blend`]).
+    command: Vec<f64>,
+}
+
+/// A command handover smoothed in time: during the first `duration` seconds of a rollout the fabric is
+/// given c(t) = c_prev + s(t/duration)(c − c_prev), s(u) = 3u² − 2u³ (continuous rate, zero at both ends),
+/// instead of switching from c_prev to c in one step. Stopping tests (tolerance, stall) use c itself.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Blend<'a> {
+    /// The previous command c_prev (dof,).
+    pub from: &'a [f64],
+    /// Blend duration (s), ≥ 0.
+    pub duration: f64,
 }
 
 impl Buffers {
@@ -251,6 +264,7 @@ impl Buffers {
             qd_next: z,
             scratch: StepScratch::new(dof),
             best_history: Vec::new(),
+            command: vec![0.0; dof],
         }
     }
 }
@@ -284,8 +298,9 @@ pub(crate) fn validate_start<S: System>(
 }
 
 /// The rollout loop on validated inputs, stopping at `tol` (the options' own `tol` is ignored here so
-/// that sequences can use their waypoint tolerance). Per step k (t = k·dt): evaluate q̈ = f(q, q̇; q_g),
-/// monitor the clearance, record, test eq. 3, test the budget, then integrate one step.
+/// that sequences can use their waypoint tolerance). Per step k (t = k·dt): evaluate q̈ = f(q, q̇; q_g)
+/// (q_g blended from the previous command while `blend` lasts), monitor the clearance, record, test
+/// eq. 3, test the budget, then integrate one step.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn run<S: System>(
     system: &S,
@@ -294,6 +309,7 @@ pub(crate) fn run<S: System>(
     q0: &[f64],
     qd0: &[f64],
     command: &[f64],
+    blend: Option<Blend<'_>>,
     opts: &RolloutOptions,
     tol: f64,
 ) -> Result<RolloutResult> {
@@ -314,7 +330,18 @@ pub(crate) fn run<S: System>(
     let mut k = 0usize;
     let reason = loop {
         let t = k as f64 * opts.dt;
-        system.acceleration(ws, &b.q, &b.qd, command, &mut b.qdd)?;
+        let fabric_command: &[f64] = match blend {
+            Some(bl) if t < bl.duration => {
+                let u = t / bl.duration;
+                let s = u * u * (3.0 - 2.0 * u);
+                for ((c, &from), &to) in b.command.iter_mut().zip(bl.from).zip(command) {
+                    *c = from + s * (to - from);
+                }
+                &b.command
+            }
+            _ => command,
+        };
+        system.acceleration(ws, &b.q, &b.qd, fabric_command, &mut b.qdd)?;
         if !all_finite(&b.qdd) {
             break StopReason::NonFinite;
         }
@@ -338,8 +365,9 @@ pub(crate) fn run<S: System>(
             }
             *slot = best;
         }
-        let mut accel =
-            |q: &[f64], qd: &[f64], out: &mut [f64]| system.acceleration(ws, q, qd, command, out);
+        let mut accel = |q: &[f64], qd: &[f64], out: &mut [f64]| {
+            system.acceleration(ws, q, qd, fabric_command, out)
+        };
         let ok = opts.integrator.step(
             &mut accel,
             opts.dt,
@@ -393,5 +421,15 @@ pub fn rollout_system<S: System>(
     check_len("command", command.len(), system.dof())?;
     check_finite("command", command)?;
     let mut buffers = Buffers::new(system.dof());
-    run(system, ws, &mut buffers, q0, qd0, command, opts, opts.tol)
+    run(
+        system,
+        ws,
+        &mut buffers,
+        q0,
+        qd0,
+        command,
+        None,
+        opts,
+        opts.tol,
+    )
 }
