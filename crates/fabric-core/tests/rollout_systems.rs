@@ -7,7 +7,7 @@ use rollout_support::bits;
 
 use fabric_core::rollout::{
     evaluate_batch_system, rollout_sequence_system, rollout_system, Integrator, RolloutOptions,
-    SequenceOptions, SequenceResult, StopReason, System,
+    RolloutResult, SequenceOptions, SequenceResult, StopReason, System,
 };
 use fabric_core::{FabricError, Result};
 use rand::{Rng, SeedableRng};
@@ -1003,20 +1003,16 @@ fn stall_detection_stops_rollouts_without_progress() {
         stall_progress: 0.01,
         ..opts(dt, 5.0, 0.01)
     };
+    /// From rest at the origin toward (1, 0).
+    fn run<S: System<Workspace = ()>>(sys: &S, opts: &RolloutOptions) -> RolloutResult {
+        rollout_system(sys, &mut (), &[0.0, 0.0], &[0.0, 0.0], &[1.0, 0.0], opts).unwrap()
+    }
     let slow = Kinematic {
         dof: 2,
         speed: 0.005,
         dt,
     };
-    let r = rollout_system(
-        &slow,
-        &mut (),
-        &[0.0, 0.0],
-        &[0.0, 0.0],
-        &[1.0, 0.0],
-        &stalling,
-    )
-    .unwrap();
+    let r = run(&slow, &stalling);
     assert_eq!(r.reason, StopReason::Stalled);
     assert_eq!(r.steps, 100);
     assert_eq!(r.t_star, 5.0);
@@ -1025,15 +1021,7 @@ fn stall_detection_stops_rollouts_without_progress() {
         speed: 0.02,
         dt,
     };
-    let r = rollout_system(
-        &progressing,
-        &mut (),
-        &[0.0, 0.0],
-        &[0.0, 0.0],
-        &[1.0, 0.0],
-        &stalling,
-    )
-    .unwrap();
+    let r = run(&progressing, &stalling);
     assert_eq!(r.reason, StopReason::Timeout);
     assert_eq!(r.steps, 500);
     // the window slides: a system that progresses at 0.02 rad/s until it hits a wall at q₀ = 0.03 (t =
@@ -1043,15 +1031,7 @@ fn stall_detection_stops_rollouts_without_progress() {
         inner: progressing,
         wall: 0.03,
     };
-    let r = rollout_system(
-        &walled,
-        &mut (),
-        &[0.0, 0.0],
-        &[0.0, 0.0],
-        &[1.0, 0.0],
-        &stalling,
-    )
-    .unwrap();
+    let r = run(&walled, &stalling);
     assert_eq!(r.reason, StopReason::Stalled);
     assert!(
         (200..=202).contains(&r.steps),

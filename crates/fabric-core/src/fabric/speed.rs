@@ -222,23 +222,36 @@ mod tests {
         }
     }
 
+    /// `regulate` at these inputs.
+    fn at(
+        c: &SpeedConfig,
+        qd: &[f64],
+        pi: &[f64],
+        minv_grad: &[f64],
+        alpha_le: f64,
+        goal_distance: f64,
+        ee: Option<EeMotion<'_>>,
+    ) -> SpeedTerms {
+        regulate(
+            c,
+            &SpeedInputs {
+                qd,
+                pi,
+                minv_grad,
+                alpha_le,
+                goal_distance,
+                ee,
+            },
+        )
+    }
+
     #[test]
     fn at_rest_the_potential_drives_and_nothing_blows_up() {
         let c = cfg();
         let qd = [0.0; 3];
         let pi = [0.0; 3];
         let g = [0.5, -1.0, 0.2];
-        let t = regulate(
-            &c,
-            &SpeedInputs {
-                qd: &qd,
-                pi: &pi,
-                minv_grad: &g,
-                alpha_le: 0.0,
-                goal_distance: 1.0,
-                ee: None,
-            },
-        );
+        let t = at(&c, &qd, &pi, &g, 0.0, 1.0, None);
         assert!(t.alpha_reg.is_finite() && t.alpha_boost.is_finite());
         let mut a = [0.0; 3];
         regulated_acceleration(&g, &pi, t.alpha_reg, &qd, &mut a);
@@ -246,17 +259,7 @@ mod tests {
         // tiny velocities: α q̇ stays bounded by ‖M⁻¹∂ψ‖ + ‖π‖ + boost gain
         for e in [1e-3, 1e-6, 1e-9] {
             let qd = [e, 0.3 * e, -e];
-            let t = regulate(
-                &c,
-                &SpeedInputs {
-                    qd: &qd,
-                    pi: &pi,
-                    minv_grad: &g,
-                    alpha_le: 0.0,
-                    goal_distance: 1.0,
-                    ee: None,
-                },
-            );
+            let t = at(&c, &qd, &pi, &g, 0.0, 1.0, None);
             let n = dot(&qd, &qd).sqrt();
             assert!(
                 (t.alpha_reg * n).abs() <= 1.2 + 2.0 + 1e-9,
@@ -272,17 +275,7 @@ mod tests {
         let qd = [1.0, 0.5];
         let pi = [0.2, -0.4];
         let g = [1.0, 1.0];
-        let t = regulate(
-            &c,
-            &SpeedInputs {
-                qd: &qd,
-                pi: &pi,
-                minv_grad: &g,
-                alpha_le: -0.1,
-                goal_distance: 0.2,
-                ee: None,
-            },
-        );
+        let t = at(&c, &qd, &pi, &g, -0.1, 0.2, None);
         let v2 = 1.25;
         assert!((t.alpha_ex0 - 0.0 / v2).abs() < 1e-15); // q̇ᵀπ = 0.2 − 0.2 = 0
         assert!((t.alpha_expsi - 1.5 / v2).abs() < 1e-15);
@@ -320,17 +313,7 @@ mod tests {
             jac: &jac,
             jdot_qdot,
         });
-        let t = regulate(
-            &c,
-            &SpeedInputs {
-                qd: &qd,
-                pi: &pi,
-                minv_grad: &g,
-                alpha_le: 0.0,
-                goal_distance: 1.0,
-                ee,
-            },
-        );
+        let t = at(&c, &qd, &pi, &g, 0.0, 1.0, ee);
         let v2 = dot(&qd, &qd) + 4.0 * xd.norm_squared();
         assert!((t.exec_energy - 0.5 * v2).abs() < 1e-15);
         let ldot = |a: &[f64]| {
@@ -344,20 +327,11 @@ mod tests {
         assert!(ldot(&a).abs() < 1e-14, "{}", ldot(&a));
         // w = 0 (or no end-effector motion) is the C-space energy
         let plain = |w: f64, ee: Option<EeMotion<'_>>| {
-            regulate(
-                &SpeedConfig {
-                    ee_weight: w,
-                    ..cfg()
-                },
-                &SpeedInputs {
-                    qd: &qd,
-                    pi: &pi,
-                    minv_grad: &g,
-                    alpha_le: 0.0,
-                    goal_distance: 1.0,
-                    ee,
-                },
-            )
+            let c = SpeedConfig {
+                ee_weight: w,
+                ..cfg()
+            };
+            at(&c, &qd, &pi, &g, 0.0, 1.0, ee)
         };
         assert_eq!(plain(0.0, ee), plain(4.0, None));
         assert!((plain(0.0, ee).exec_energy - 0.5 * dot(&qd, &qd)).abs() < 1e-15);
@@ -380,17 +354,7 @@ mod tests {
             goal_damping_form: GoalDampingForm::Velocity,
             ..SpeedConfig::default()
         };
-        let t = regulate(
-            &c,
-            &SpeedInputs {
-                qd: &[1.0],
-                pi: &[3.0],
-                minv_grad: &[0.0],
-                alpha_le: -3.0,
-                goal_distance: 5.0,
-                ee: None,
-            },
-        );
+        let t = at(&c, &[1.0], &[3.0], &[0.0], -3.0, 5.0, None);
         assert!((t.alpha_reg - (-3.0 - t.beta)).abs() < 1e-15);
         assert!((t.beta - (t.s_beta * c.goal_damping + c.base_damping)).abs() < 1e-15);
         assert_eq!(t.force_damping, 0.0);
@@ -398,17 +362,7 @@ mod tests {
             goal_damping_form: GoalDampingForm::Force,
             ..c
         };
-        let t = regulate(
-            &f,
-            &SpeedInputs {
-                qd: &[1.0],
-                pi: &[3.0],
-                minv_grad: &[0.0],
-                alpha_le: -3.0,
-                goal_distance: 0.0,
-                ee: None,
-            },
-        );
+        let t = at(&f, &[1.0], &[3.0], &[0.0], -3.0, 0.0, None);
         assert!((t.beta - f.base_damping).abs() < 1e-15);
         assert!(
             (t.force_damping - t.s_beta * f.goal_damping).abs() < 1e-15 && t.force_damping > 0.0
