@@ -11,7 +11,7 @@ torch = pytest.importorskip("torch")
 
 from gfcs.errors import ConfigError  # noqa: E402
 from gfcs.learning.ebm import EnergyModel, info_nce_loss  # noqa: E402
-from gfcs.learning.sgld import SGLDConfig, sgld, sigma2  # noqa: E402
+from gfcs.learning.sgld import SGLDConfig, reflect_into_box, sgld, sigma2  # noqa: E402
 from gfcs.learning.train import train_energy_model  # noqa: E402
 
 
@@ -101,7 +101,7 @@ class Quadratic:
 
 
 def test_sgld_descends_a_known_energy_and_stays_in_the_box():
-    mu = torch.tensor([[0.5, -0.3, 0.9], [-0.8, 0.0, 0.2]], dtype=torch.float64)
+    mu = torch.tensor([[0.5, -0.3, 0.7], [-0.7, 0.0, 0.2]], dtype=torch.float64)
     gen = torch.Generator().manual_seed(0)
     y, e = sgld(Quadratic(3, 0.1), mu, 200, SGLDConfig(iters=100), gen)
     assert y.shape == (2, 200, 3) and e.shape == (2, 200)
@@ -115,6 +115,12 @@ def test_sgld_descends_a_known_energy_and_stays_in_the_box():
     torch.testing.assert_close(e, Quadratic(3, 0.1).energy_from_features(mu, y))
 
 
+def test_reflect_into_box_mirrors_at_the_faces():
+    y = torch.tensor([1.3, -1.25, 5.5, 0.2, -1.0, 3.0], dtype=torch.float64)
+    torch.testing.assert_close(reflect_into_box(y),
+                               torch.tensor([0.7, -0.75, 0.5, 0.2, -1.0, -1.0], dtype=torch.float64))
+
+
 def test_sgld_sign_moves_toward_lower_energy_without_noise():
     mu = torch.tensor([[0.7, -0.7]], dtype=torch.float64)
     init = torch.zeros(1, 4, 2, dtype=torch.float64)
@@ -123,7 +129,7 @@ def test_sgld_sign_moves_toward_lower_energy_without_noise():
     torch.testing.assert_close(y, (mu / 2.0)[:, None, :].expand(1, 4, 2))
 
 
-def test_sgld_is_reproducible_and_clamps_under_huge_gradients():
+def test_sgld_is_reproducible_and_reflects_under_huge_gradients():
     mu = torch.tensor([[5.0, -5.0]], dtype=torch.float64)  # minimum outside the box, gradients ~ 1e5
     run = lambda: sgld(Quadratic(2, 0.01), mu, 16, SGLDConfig(iters=20),  # noqa: E731
                        torch.Generator().manual_seed(7))[0]
@@ -134,9 +140,10 @@ def test_sgld_is_reproducible_and_clamps_under_huge_gradients():
     zero = torch.zeros(1, 3, 2, dtype=torch.float64)
     y1, _ = sgld(Quadratic(2, 0.01), mu, 3, SGLDConfig(iters=1, noise_scale=0.0, max_step=0.1), init=zero)
     torch.testing.assert_close(y1, torch.tensor([0.1, -0.1], dtype=torch.float64).expand(1, 3, 2))
-    # 20 noiseless clipped steps end clamped on the joint limits
-    y20, _ = sgld(Quadratic(2, 0.01), mu, 3, SGLDConfig(iters=20, noise_scale=0.0, max_step=0.1), init=zero)
-    torch.testing.assert_close(y20, torch.tensor([1.0, -1.0], dtype=torch.float64).expand(1, 3, 2))
+    # 20 noiseless clipped steps toward a minimum outside the box: reflected at the faces, the particles
+    # end within one step of the limits, not stuck on them
+    y20, _ = sgld(Quadratic(2, 0.01), mu, 3, SGLDConfig(iters=21, noise_scale=0.0, max_step=0.1), init=zero)
+    torch.testing.assert_close(y20, torch.tensor([0.9, -0.9], dtype=torch.float64).expand(1, 3, 2))
     with pytest.raises(ConfigError, match="iters"):
         sgld(Quadratic(2, 1.0), mu, 4, SGLDConfig(iters=-1))
     with pytest.raises(ConfigError, match="init"):

@@ -99,6 +99,9 @@ def test_algorithm2_loop_buffer_trainings_and_sampler_switch(tmp_path):
     res = train(problems, out=out, config=small_config(), solve_fn=solver, progress=False)
     # 2 passes x 6 problems, training after every 4 solves -> 3 trainings
     assert res.steps_done == 12 and res.trainings == 3
+    # 2 x 5: after solves 4 and 8, and after the last (10) so that solves 9-10 are learned too
+    five = train(make_problems(5), config=small_config(), solve_fn=ToySolver(), progress=False)
+    assert five.steps_done == 10 and five.trainings == 3
     assert [c[0] for c in solver.calls] == [p.name for p in problems] * 2
     # uniform sampler (None) until the first training, then the EBM sampler
     assert all(c[1] is None for c in solver.calls[:4])

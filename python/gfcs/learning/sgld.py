@@ -3,7 +3,7 @@
 Particles start uniform in the joint-limit box (``y⁰ ~ U(q_low, q_up)``) and follow, for
 ``k = 0 … iters − 1``,
 
-    y^{k+1} = clamp( y^k − s · (σ_k² / 2) · ∇_y E_θ(x^c, y^k) + η^k ),   η^k ~ N(0, σ_k² · τ² I),
+    y^{k+1} = reflect( y^k − s · (σ_k² / 2) · ∇_y E_θ(x^c, y^k) + η^k ),   η^k ~ N(0, σ_k² · τ² I),
     σ_k² = (1 + k)^{−0.5},
 
 **Sign.** Eq. 10 is printed with ``+ ∇E``, but the loss of eq. 9 gives the positives (the solutions)
@@ -23,7 +23,11 @@ give eq. 10-11 exactly):
 * ``max_step`` clips each coordinate of the drift to ``[−max_step, max_step]`` (unit-box units, default
   0.1, ``None`` disables it): a sharp EBM has gradients that would throw every particle onto the box
   boundary in one step. 100 iterations still let a particle cross the box several times;
-* clamping: after every step the particles are clamped to the joint limits.
+* reflection: a step that leaves the joint-limit box is mirrored back into it at the face it crossed
+  (a reflecting boundary, under which the chain keeps sampling ``∝ exp(−E_θ s / τ²)`` restricted to the
+  box). Clamping instead made the faces absorbing: with a ReLU energy that keeps sloping outward beyond
+  the data, 40 % of the coordinates of trained-model samples ended exactly on a joint limit (2 % for
+  uniform draws) and the learned first batch solved fewer problems than a uniform one.
 
 Coordinates: everything runs in the unit box ``[-1, 1]^D`` of :func:`gfcs.learning.encoding.to_unit`
 (joint limits map to ±1), so the schedule ``σ_k²`` has the same meaning for every joint and robot.
@@ -38,7 +42,7 @@ import torch
 
 from ._validate import ConfigError, check_positive, check_positive_int
 
-__all__ = ["SGLDConfig", "sigma2", "sgld"]
+__all__ = ["SGLDConfig", "reflect_into_box", "sigma2", "sgld"]
 
 
 def sigma2(k: int) -> float:
@@ -83,6 +87,13 @@ class SGLDConfig:
         if unknown:
             raise ConfigError(f"sgld config: unknown fields {sorted(unknown)}")
         return cls(**d).validate()
+
+
+def reflect_into_box(y: torch.Tensor) -> torch.Tensor:
+    """Mirror ``y`` into ``[-1, 1]`` at the faces it crossed (a triangle wave of period 4, so any
+    overshoot, however large, lands inside)."""
+    m = torch.remainder(y + 1.0, 4.0)
+    return torch.where(m > 2.0, 4.0 - m, m) - 1.0
 
 
 def sgld(
@@ -133,7 +144,7 @@ def sgld(
             if cfg.max_step is not None:
                 drift = drift.clamp(-cfg.max_step, cfg.max_step)
             noise = torch.randn(y.shape, generator=generator, device=dev, dtype=dtype)
-            y = (y - drift + (cfg.noise_scale * s2 ** 0.5) * noise).clamp(-1.0, 1.0)
+            y = reflect_into_box(y - drift + (cfg.noise_scale * s2 ** 0.5) * noise)
     y = y.detach()
     with torch.no_grad():
         energy = model.energy_from_features(feats, y)

@@ -455,7 +455,8 @@ def train(
             history.append({"event": "solve", "step": step, "problem": names[idx], "best_cost": best,
                             "inserted": inserted})
             trained = False
-            if (step + 1) % cfg.n_train == 0 and len(buffer) > 0:
+            # every n_train solves (Alg. 2), and once more at the end so that the last solves are learned
+            if ((step + 1) % cfg.n_train == 0 or step + 1 == len(order)) and len(buffer) > 0:
                 t0 = time.perf_counter()
                 gen = torch.Generator(device=device).manual_seed(_derived_seed(cfg.seed, step, 0x7A))
                 ctx_t = torch.as_tensor(buffer.contexts(), dtype=torch.float32, device=device)
