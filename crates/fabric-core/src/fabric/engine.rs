@@ -541,18 +541,21 @@ impl Fabric {
         ws.root
             .add_identity(e.mass, &ws.xi[..n], &ws.f[..n], &ws.grad[..n], e.psi);
 
-        // 2. end-effector attraction (VII-A3, App. G)
+        // 2. end-effector attraction (VII-A3, App. G); the position last, so that `ws.task` still holds
+        // the end-effector point when the speed control needs it below
+        let mut ee_point_in_task = false;
         if let Some(t) = targets {
             let ee = robot.ee_link();
-            if self.config.ee_position.enabled {
-                robot.point(&ws.kin, ee, &Vector3::zeros(), &mut ws.task);
-                self.add_ee(ws, &t.position);
-            }
             if self.config.ee_orientation.enabled {
                 for (k, target) in t.axes.iter().enumerate() {
                     robot.axis(&ws.kin, ee, &Vector3::ith(k, 1.0), &mut ws.task);
                     self.add_ee_axis(ws, target);
                 }
+            }
+            if self.config.ee_position.enabled {
+                robot.point(&ws.kin, ee, &Vector3::zeros(), &mut ws.task);
+                self.add_ee(ws, &t.position);
+                ee_point_in_task = true;
             }
         }
 
@@ -693,7 +696,9 @@ impl Fabric {
             .sqrt();
         // the end-effector part of the execution energy (App. E-B), when weighted
         let ee = if self.config.speed.enabled && self.config.speed.ee_weight > 0.0 {
-            robot.point(&ws.kin, robot.ee_link(), &Vector3::zeros(), &mut ws.task);
+            if !ee_point_in_task {
+                robot.point(&ws.kin, robot.ee_link(), &Vector3::zeros(), &mut ws.task);
+            }
             Some(EeMotion {
                 xd: ws.task.xd,
                 jac: &ws.task.jac,

@@ -68,6 +68,8 @@ pub struct EeMotion<'a> {
 /// q̇ᵀM_ex q̇ and the map a ↦ gᵀa + c of the module docs, for the execution energy of `cfg`.
 struct ExecEnergy<'a> {
     qd: &'a [f64],
+    /// ‖q̇‖² (rad²/s²).
+    qd2: f64,
     /// w ẋ_ee and J_ee when w > 0 and the motion is given.
     ee: Option<(Vector3<f64>, &'a Matrix3xX<f64>)>,
     /// q̇ᵀM_ex q̇ (rad²/s²).
@@ -78,10 +80,12 @@ struct ExecEnergy<'a> {
 
 impl<'a> ExecEnergy<'a> {
     fn new(cfg: &SpeedConfig, qd: &'a [f64], ee: Option<EeMotion<'a>>) -> Self {
+        let qd2 = dot(qd, qd);
         let mut e = ExecEnergy {
             qd,
+            qd2,
             ee: None,
-            v2: dot(qd, qd),
+            v2: qd2,
             c: 0.0,
         };
         if let Some(m) = ee.filter(|_| cfg.ee_weight > 0.0) {
@@ -176,8 +180,7 @@ pub fn regulate(cfg: &SpeedConfig, inp: &SpeedInputs<'_>) -> SpeedTerms {
     let eta = eta(cfg, exec_energy);
     let alpha_ex_eta = eta * alpha_ex0 + (1.0 - eta) * alpha_expsi;
     let beta = damping + (alpha_ex_eta - inp.alpha_le).max(0.0);
-    let speed = dot(inp.qd, inp.qd).sqrt();
-    let alpha_boost = cfg.boost_gain * eta * (1.0 - s_beta) / (speed + cfg.boost_epsilon);
+    let alpha_boost = cfg.boost_gain * eta * (1.0 - s_beta) / (ex.qd2.sqrt() + cfg.boost_epsilon);
     SpeedTerms {
         exec_energy,
         alpha_ex0,
