@@ -372,7 +372,7 @@ class Fabric:
     ) -> Rollout:
         """rollout_t (GFCS eq. 1-3); defaults dt 0.01 s, t_max 7 s, tol 0.01; integrator "euler" | "rk4".
         Stall detection: stops as "stalled" (t* = t_max) when ‖q − command‖ has not shrunk by
-        ``stall_progress`` (default 0.01 rad) over a window of ``stall_window`` s (default 1 s; 0 = off)."""
+        ``stall_progress`` (default 0.005 rad) over a window of ``stall_window`` s (default 0.5 s; 0 = off)."""
     def rollout_sequence(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], commands: ArrayLike, goal: ArrayLike,
         dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,

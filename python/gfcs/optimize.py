@@ -425,8 +425,8 @@ class RolloutSettings:
     distance_penalty: float = 0.0
     blend_time: float = 0.5
     integrator: str = "euler"
-    stall_window: float = 1.0
-    stall_progress: float = 0.01
+    stall_window: float = 0.5
+    stall_progress: float = 0.005
 
     def as_kwargs(self) -> Dict[str, Any]:
         """Keyword arguments for ``gfcs.Fabric.rollout_sequence`` / ``evaluate``."""

@@ -75,7 +75,7 @@ fn single_rollout(c: &mut Criterion) {
     let fabric =
         Fabric::new(Arc::new(Robot::panda()), FabricConfig::default()).expect("default fabric");
     let scene = bookshelf_scene();
-    let mut ws = FabricWorkspace::new(&fabric);
+    let mut ws = FabricWorkspace::for_rollouts(&fabric);
     let opts = RolloutOptions::default();
     let r = rollout(&fabric, &scene, &READY, &[0.0; 7], &GOAL, &opts, &mut ws).expect("rollout");
     eprintln!(

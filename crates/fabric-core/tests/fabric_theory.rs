@@ -244,7 +244,7 @@ fn component_metrics_are_hd0_and_forces_hd2() {
         }
         let x = rng.gen_range(0.001..0.4);
         let xd = rng.gen_range(-2.0..2.0);
-        let (b1, b2) = (barrier.eval(x, xd), barrier.eval(x, xd * l));
+        let (b1, b2) = (barrier.eval(x, xd, true), barrier.eval(x, xd * l, true));
         assert_eq!(b1.m, b2.m);
         assert!((b2.xi - l * l * b1.xi).abs() < 1e-9 * (1.0 + b1.xi.abs() * l * l));
         assert!((b2.f - l * l * b1.f).abs() < 1e-9 * (1.0 + b1.f.abs() * l * l));
@@ -550,7 +550,7 @@ impl Toy {
         let n: Vec<f64> = d.iter().map(|v| v / dist).collect();
         let along: f64 = n.iter().zip(qd).map(|(a, b)| a * b).sum();
         let v2: f64 = qd.iter().map(|v| v * v).sum();
-        let b = self.barrier.eval(dist - 0.3, along);
+        let b = self.barrier.eval(dist - 0.3, along, true);
         root.add_scalar(
             &n,
             (v2 - along * along) / dist,

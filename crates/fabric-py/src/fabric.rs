@@ -312,7 +312,7 @@ impl PyFabric {
         )?;
         let (fabric, scene) = self.shared();
         let result = detached(py, move || {
-            let mut ws = FabricWorkspace::new(&fabric);
+            let mut ws = FabricWorkspace::for_rollouts(&fabric);
             core_rollout::rollout(&fabric, &scene, &q0, &qd0, &command, &opts, &mut ws)
         })?;
         Ok(PyRollout::new(n, result))
@@ -370,7 +370,7 @@ impl PyFabric {
         let opts = kwargs.options(n_commands, record)?;
         let (fabric, scene) = self.shared();
         let result = detached(py, move || {
-            let mut ws = FabricWorkspace::new(&fabric);
+            let mut ws = FabricWorkspace::for_rollouts(&fabric);
             core_rollout::rollout_sequence(
                 &fabric, &scene, &q0, &qd0, &commands, &goal, &opts, &mut ws,
             )

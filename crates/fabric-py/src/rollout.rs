@@ -34,7 +34,7 @@ pub fn parse_integrator(name: &str) -> PyResult<Integrator> {
 }
 
 /// Keyword options of one rollout; `None` keeps the core default of `RolloutOptions` (dt 0.01 s,
-/// t_max 7 s, tol 0.01, stall_window 1 s, stall_progress 0.01).
+/// t_max 7 s, tol 0.01, stall_window 0.5 s, stall_progress 0.005).
 pub struct RolloutKwargs<'a> {
     pub dt: Option<f64>,
     pub t_max: Option<f64>,

@@ -285,8 +285,9 @@ impl Barrier {
         }
     }
 
-    /// Evaluate at distance `x` and rate `xd`.
-    pub fn eval(&self, x: f64, xd: f64) -> BarrierEval {
+    /// Evaluate at distance `x` and rate `xd`; with `potential` false, ψ is not computed (`psi` = 0)
+    /// and every other field is unchanged (ψ' needs one exponential, ψ a logarithm more).
+    pub fn eval(&self, x: f64, xd: f64, potential: bool) -> BarrierEval {
         let (m, xi, energy) = self.energy.eval(x, xd);
         let approaching = xd < 0.0 && m != 0.0;
         let f = if approaching {
@@ -295,7 +296,12 @@ impl Barrier {
             0.0
         };
         let damping = barrier_damping(x, xd, m, self.energy.metric.x_min, self.braking_time);
-        let (psi, slope, _) = self.potential.eval(x);
+        let (psi, slope) = if potential {
+            let (psi, slope, _) = self.potential.eval(x);
+            (psi, slope)
+        } else {
+            (0.0, self.potential.slope(x))
+        };
         BarrierEval {
             m,
             xi,
@@ -360,16 +366,16 @@ mod tests {
     #[test]
     fn barrier_switches_off_when_moving_away_and_pushes_out_when_penetrating() {
         let b = Barrier::from_config(&FabricConfig::default().obstacles);
-        let away = b.eval(0.05, 0.2);
+        let away = b.eval(0.05, 0.2, true);
         assert_eq!((away.m, away.xi, away.f, away.energy), (0.0, 0.0, 0.0, 0.0));
         assert!(away.grad < 0.0, "the potential still pushes out");
-        let toward = b.eval(0.05, -0.2);
+        let toward = b.eval(0.05, -0.2, true);
         assert!(
             toward.m > 0.0 && toward.f < 0.0,
             "geometry accelerates x upward: π = −f/M > 0"
         );
         for &x in &[0.0, -0.01, -0.2] {
-            let e = b.eval(x, -0.5);
+            let e = b.eval(x, -0.5, true);
             assert!(e.m.is_finite() && e.m > 0.0 && e.f.is_finite() && e.xi.is_finite());
             assert!(e.grad < 0.0 && e.grad.is_finite());
             // braking: the geometry (capped, sharing with the damper) and the damper
@@ -468,24 +474,24 @@ mod tests {
         assert!(tau > 0.0);
         let slope = |x: f64| b.potential.eval(x).1;
         // inside, moving out: the metric (and energy) stay, no geometry force, no damping
-        let out = b.eval(-0.01, 0.3);
+        let out = b.eval(-0.01, 0.3, true);
         let (g, dg) = b.energy.metric.g_dg(-0.01);
         assert_eq!(out.m, g);
         assert_eq!(out.xi, 0.5 * dg * 0.09);
         assert!((out.energy - 0.5 * g * 0.09).abs() < 1e-12);
         assert_eq!((out.f, out.damping, out.grad), (0.0, 0.0, slope(-0.01)));
         // outside, moving out: the paper's switch
-        assert_eq!(b.eval(0.002, 0.3).m, 0.0);
+        assert_eq!(b.eval(0.002, 0.3, true).m, 0.0);
         // approaching below x_min: damper b ẋ with b = w M / τ, added to the forcing
         let x = 0.002;
-        let e = b.eval(x, -0.4);
+        let e = b.eval(x, -0.4, true);
         let w = damper_weight(x, cfg.x_min);
         assert!(w > 0.0 && e.m > 0.0);
         assert!((e.damping - w * e.m / tau * -0.4).abs() < 1e-12 * e.m);
         assert!((e.grad - (slope(x) + e.damping)).abs() < 1e-12 * e.grad.abs());
         assert!((e.f + e.m * b.geometry_acceleration(x, -0.4)).abs() < 1e-12 * e.f.abs());
         // approaching above x_min: no damper, paper's geometry while c|ẋ|τ ≤ ½
-        let far = b.eval(0.08, -0.2);
+        let far = b.eval(0.08, -0.2, true);
         assert_eq!(far.damping, 0.0);
         let c = -b.geometry.slope(0.08);
         assert!(c * 0.2 * tau <= BRAKE_EXACT_RATIO);
@@ -496,7 +502,7 @@ mod tests {
             ..b
         };
         for (x, xd) in [(0.002, -0.4), (-0.02, -2.0), (0.001, -5.0)] {
-            let e = paper.eval(x, xd);
+            let e = paper.eval(x, xd, true);
             assert_eq!(e.damping, 0.0);
             assert!((e.f - e.m * xd * xd * paper.geometry.slope(x)).abs() < 1e-9 * e.f.abs());
         }

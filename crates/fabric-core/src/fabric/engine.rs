@@ -58,7 +58,8 @@ pub struct Diagnostics {
     pub energy: f64,
     /// Execution energy L_ex = ½ ‖q̇‖² (rad²/s²).
     pub exec_energy: f64,
-    /// Total forcing potential ψ (the Lyapunov function is L̃_e + ψ, GF Thm IV.4).
+    /// Total forcing potential ψ (the Lyapunov function is L̃_e + ψ, GF Thm IV.4); NaN when the
+    /// workspace does not accumulate it ([`FabricWorkspace::set_potential`]).
     pub potential: f64,
     /// Minimum over (robot sphere, obstacle) pairs within the obstacle influence radius (plus margin) of
     /// d(c) − r (m, negative in collision); +∞ when no sphere is that close to any obstacle.
@@ -320,6 +321,7 @@ pub struct FabricWorkspace {
     f: Vec<f64>,
     grad: Vec<f64>,
     diag: Diagnostics,
+    with_potential: bool,
 }
 
 impl FabricWorkspace {
@@ -348,7 +350,25 @@ impl FabricWorkspace {
             f: vec![0.0; n.max(3)],
             grad: vec![0.0; n.max(3)],
             diag: Diagnostics::default(),
+            with_potential: true,
         }
+    }
+
+    /// Scratch for rollouts: [`FabricWorkspace::new`] with the potential off ([`set_potential`]).
+    ///
+    /// [`set_potential`]: FabricWorkspace::set_potential
+    pub fn for_rollouts(fabric: &Fabric) -> Self {
+        let mut ws = FabricWorkspace::new(fabric);
+        ws.set_potential(false);
+        ws
+    }
+
+    /// Whether evaluations accumulate the forcing potential ψ into [`Diagnostics::potential`] (default
+    /// true). ψ only reports energy: q̈ depends on its gradient alone, and the soft-plus of every barrier
+    /// leaf's ψ cost ~7 % of a fabric step, so rollouts turn it off (`Diagnostics::potential` is then
+    /// NaN). q̈ is identical bit for bit either way.
+    pub fn set_potential(&mut self, on: bool) {
+        self.with_potential = on;
     }
 
     /// The root system of the last evaluation: M̃, ξ̃, f̃, ∂ψ, π̃ and M̃⁻¹∂ψ (for analysis and tests).
@@ -576,7 +596,7 @@ impl Fabric {
                 (-1.0, upper[i] - jl.margin - q[i]),
             ] {
                 if x < jl.influence {
-                    let b = self.joint_limits.eval(x, sign * qd[i]);
+                    let b = self.joint_limits.eval(x, sign * qd[i], ws.with_potential);
                     ws.root
                         .add_coordinate(i, sign, b.m, b.xi, b.f, b.grad, b.psi);
                     leaves += 1;
@@ -628,7 +648,7 @@ impl Fabric {
                 sc.min_curvature_radius,
                 &mut ws.jrow,
             );
-            let bv = self.self_collision.eval(leaf.x, leaf.xd);
+            let bv = self.self_collision.eval(leaf.x, leaf.xd, ws.with_potential);
             ws.root
                 .add_scalar(&ws.jrow, leaf.jdot_qdot, bv.m, bv.xi, bv.f, bv.grad, bv.psi);
             leaves += 1;
@@ -671,7 +691,7 @@ impl Fabric {
                         if leaf.x >= ob.influence {
                             continue;
                         }
-                        let bv = self.obstacles.eval(leaf.x, leaf.xd);
+                        let bv = self.obstacles.eval(leaf.x, leaf.xd, ws.with_potential);
                         ws.root.add_scalar(
                             &ws.jrow,
                             leaf.jdot_qdot,
@@ -730,7 +750,11 @@ impl Fabric {
             })?;
         diag.energy = terms.energy;
         diag.exec_energy = terms.speed.exec_energy;
-        diag.potential = terms.potential;
+        diag.potential = if ws.with_potential {
+            terms.potential
+        } else {
+            f64::NAN
+        };
         diag.alpha_le = terms.alpha_le;
         diag.alpha_ex0 = terms.speed.alpha_ex0;
         diag.alpha_expsi = terms.speed.alpha_expsi;
@@ -924,6 +948,22 @@ mod tests {
                 assert_eq!(qdd, qdd_ref, "q = {q:?}");
                 assert_eq!(fabric.diagnostics(&ws), unculled.diagnostics(&ws_ref));
                 with_leaves += (fabric.diagnostics(&ws).min_clearance.is_finite()) as usize;
+                // skipping ψ (rollout workspaces) changes no bit of q̈ nor of the other diagnostics
+                let mut no_psi = FabricWorkspace::for_rollouts(&fabric);
+                let mut qdd_np = vec![0.0; 7];
+                fabric
+                    .acceleration(&scene, &q, &qd, &command, &mut no_psi, &mut qdd_np)
+                    .unwrap();
+                assert_eq!(qdd_np, qdd, "q = {q:?}");
+                let (d, d_np) = (fabric.diagnostics(&ws), fabric.diagnostics(&no_psi));
+                assert!(d.potential.is_finite() && d_np.potential.is_nan());
+                assert_eq!(
+                    Diagnostics {
+                        potential: d.potential,
+                        ..d_np
+                    },
+                    d
+                );
             }
         }
         assert!(with_leaves > 50, "{with_leaves} states near obstacles");

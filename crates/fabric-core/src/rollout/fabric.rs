@@ -33,8 +33,9 @@ impl System for FabricSystem<'_> {
         self.fabric.robot().dof()
     }
 
+    /// A workspace that skips the forcing potential ψ (rollouts read only q̈ and the clearance).
     fn workspace(&self) -> FabricWorkspace {
-        FabricWorkspace::new(self.fabric)
+        FabricWorkspace::for_rollouts(self.fabric)
     }
 
     fn acceleration(
