@@ -63,7 +63,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             source = str(shared / "mbm")
     robot_kind = args.robot if args.robot != "auto" else ("mbm" if source else "panda")
     robot = problems.mbm_panda() if robot_kind == "mbm" else gfcs.Robot.panda()
-    suite_args = SimpleNamespace(problems=source, classes=args.classes, limit=args.limit,
+    suite_args = SimpleNamespace(problems=source, classes=args.classes, limit=args.limit, skip=0,
                                  problem_seed=args.problem_seed)
     suite = cli.load_problems(suite_args, robot)
     out = Path(args.out)
