@@ -6,6 +6,7 @@ import types
 import numpy as np
 import pytest
 
+from gfcs import metrics
 from gfcs import optimize as opt
 
 
@@ -210,7 +211,11 @@ def test_solve_end_to_end(shelf_problem, solved):
     assert r.success and r.reached and r.method == "gfcs" and r.problem == p.name and r.cls == p.cls
     assert r.commands.shape == (1, 7) and r.t_stars.shape == (2,)
     np.testing.assert_array_equal(r.trajectory.q[0], p.q0)
-    assert np.linalg.norm(r.trajectory.q[-1] - p.goal) < r.settings["tol"]
+    # the rollout stops within ε (0.02 rad) and the blend ends the trajectory exactly at the goal, at rest,
+    # so success is judged at the tighter metrics tolerance (0.01 rad) on the returned trajectory
+    np.testing.assert_array_equal(r.trajectory.q[-1], p.goal)
+    np.testing.assert_array_equal(r.trajectory.qd[-1], np.zeros(7))
+    assert r.metrics["final_error"] == 0.0 < metrics.DEFAULT_SUCCESS_TOL < r.settings["tol"]
     assert np.all(np.diff(r.trajectory.t) > 0)
     # the recorded rollout of the best candidate costs what the batch evaluation said (deterministic core)
     assert r.cost == pytest.approx(r.batch_best_costs[-1], abs=1e-12)
