@@ -523,8 +523,7 @@ def _select_candidate(
     for rank, x in enumerate(candidates):
         commands = np.asarray(x, dtype=np.float64).reshape(n_commands, dof)
         traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, commands, settings)
-        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal,
-                                          tol=_metrics.DEFAULT_SUCCESS_TOL, mesh_checker=mesh_checker)
+        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker)
         chosen = (commands, traj, cost, reached, t_stars, met)
         if mesh_checker is None:
             return chosen
@@ -613,8 +612,7 @@ def solve(
         start = time.perf_counter()
         traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, np.zeros((0, dof)), settings)
         elapsed = time.perf_counter() - start
-        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal,
-                                          tol=_metrics.DEFAULT_SUCCESS_TOL, mesh_checker=mesh_checker)
+        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker)
         return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached,
                            t_stars=t_stars, trajectory=traj, success=bool(met["success"]), metrics=met,
                            n_evaluations=1, solve_time=elapsed, settings=_settings_dict(settings),
@@ -779,7 +777,6 @@ def replay(
     dof = result.dof
     cmds = np.asarray(result.commands if commands is None else commands, dtype=np.float64).reshape(-1, dof)
     traj, cost, reached, t_stars = rollout_commands(fabric, result.q0, result.qd0, result.goal, cmds, settings)
-    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal,
-                                      tol=_metrics.DEFAULT_SUCCESS_TOL, mesh_checker=mesh_checker)
+    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, mesh_checker=mesh_checker)
     return dataclasses.replace(result, commands=cmds, trajectory=traj, cost=cost, reached=reached,
                                t_stars=t_stars, metrics=met, success=bool(met["success"]), robot=robot)
