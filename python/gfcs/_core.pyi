@@ -382,7 +382,7 @@ class Fabric:
         stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
         integrator: str = "euler", record: bool = True,
     ) -> SequenceRollout:
-        """Commands (n, dof) then the goal (dof,) (GFCS eq. 4-8). Defaults: waypoint_tol 0.1,
+        """Commands (n, dof) then the goal (dof,) (GFCS eq. 4-8). Defaults: waypoint_tol 0.3,
         penalty 100 s and distance_penalty 0 s/rad (× the closest approach to the goal), both added when
         the goal is not reached; collision_penalty 0 s (added when min_clearance < -collision_tol,
         default 0 m). At each handover the fabric's command moves from the previous command to the next

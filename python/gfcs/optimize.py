@@ -399,7 +399,8 @@ class RolloutSettings:
             potentials of objects in contact (grasps) stopped 0.013–0.036 rad short on MotionBenchMaker
             (cage 20 and 47, bookshelf_small 19, seeds 0 and 1: 6 failures, 1 with 0.02); the 0.02 → 0.01
             tail took a median 0.21 s of each successful rollout.
-        waypoint_tol: ε for the intermediate commands [rad] (looser: a command only steers).
+        waypoint_tol: ε for the intermediate commands [rad] (looser: a command only steers; 0.1 before,
+            0.3 gave up to 5 % shorter times to goal in 6 of 7 MotionBenchMaker classes, success unchanged).
         penalty: p of eq. 4/8 added when the goal is not reached [s].
         collision_penalty: added when the sphere model collides (min clearance < 0) [s]. An extension of
             eq. 4 (the paper's cost has no collision term): success requires a collision-free motion, so
@@ -425,7 +426,7 @@ class RolloutSettings:
     dt: float = 0.01
     t_max: float = 7.0
     tol: float = 0.02
-    waypoint_tol: float = 0.1
+    waypoint_tol: float = 0.3
     penalty: float = 100.0
     collision_penalty: float = 100.0
     distance_penalty: float = 0.0

@@ -70,7 +70,7 @@ impl PyFabric {
 }
 
 /// Keyword options of `rollout_sequence` and `evaluate`; `None` keeps the core default of
-/// `SequenceOptions` (waypoint_tol 0.1 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m,
+/// `SequenceOptions` (waypoint_tol 0.3 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m,
 /// distance_penalty 0 s/rad, blend_time 0.5 s) and
 /// of `RolloutOptions` (dt 0.01 s, t_max 7 s, tol 0.01).
 struct SequenceKwargs<'a> {
@@ -319,7 +319,7 @@ impl PyFabric {
     }
 
     /// One command sequence (GFCS eq. 4–8): `commands` (n, dof) free commands (n may be 0), then `goal`
-    /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol (default 0.1); the goal at
+    /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol (default 0.3); the goal at
     /// tol. Cost = Σ tᵢ* + penalty (default 100 s) + distance_penalty (default 0 s/rad) × the closest
     /// approach to the goal, both if the goal is not reached, + collision_penalty (default 0 s) if the
     /// minimum clearance drops below −collision_tol (default 0 m). At each handover the fabric's command
