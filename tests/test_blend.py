@@ -30,3 +30,56 @@ def test_blend_ends_exactly_at_the_goal_at_rest_and_moves_little():
     assert np.allclose(np.diff(t2), dt)
     step = np.linalg.norm(np.diff(q2[4:], axis=0), axis=1)
     assert step.sum() < 0.05
+
+
+def _abrupt_start(dt=0.01, n=120):
+    """A start from rest with the fabric's defects: the acceleration jumps to 15 rad/s² at t = 0 and drops to
+    0 in one step at 1.5 rad/s, along a planar arc of radius 2 (so the path bends), then cruises."""
+    t = dt * np.arange(n)
+    qd = np.zeros((n, 3)); q = np.zeros((n, 3)); qdd = np.zeros((n, 3))
+    s = v = 0.0
+    for k in range(n):
+        a = 15.0 if v < 1.5 else 0.0
+        th = s / 2.0
+        u = np.array([np.cos(th), np.sin(th), 0.0])
+        q[k] = 2.0 * np.array([np.sin(th), 1.0 - np.cos(th), 0.0])
+        qd[k] = v * u
+        qdd[k] = a * u + v * v / 2.0 * np.array([-np.sin(th), np.cos(th), 0.0])
+        v = min(v + a * dt, 1.5)
+        s += v * dt
+    return t, q, qd, qdd
+
+
+def test_retime_start_keeps_the_path_and_joins_the_rollout():
+    from gfcs.blend import START_WINDOW, retime_start
+    dt = 0.01
+    t, q, qd, qdd = _abrupt_start(dt)
+    t2, q2, qd2 = retime_start(t, q, qd, qdd, dt)
+    J = int(round(START_WINDOW / dt))
+    n_new = len(t2) - (len(t) - J - 1)
+    assert np.allclose(np.diff(t2), dt) and t2[0] == 0.0
+    # the same path: every re-timed state lies on the arc (radius 2 about (0, 2, 0))
+    r = np.linalg.norm(q2[:n_new] - np.array([0.0, 2.0, 0.0]), axis=1)
+    assert np.abs(r - 2.0).max() < 1e-6 and np.all(np.diff(np.arctan2(q2[:n_new, 0], 2.0 - q2[:n_new, 1])) >= 0)
+    # starts at rest, joins the rollout exactly, then the rollout's own samples follow
+    assert np.array_equal(q2[0], q[0]) and np.array_equal(qd2[0], np.zeros(3))
+    assert np.array_equal(q2[n_new - 1], q[J]) and np.array_equal(qd2[n_new - 1], qd[J])
+    assert np.array_equal(q2[n_new:], q[J + 1:]) and np.array_equal(qd2[n_new:], qd[J + 1:])
+    # velocities are the derivative of the positions, the start leaves rest gently, and the jerk falls
+    assert np.allclose(np.gradient(q2, dt, axis=0)[1:n_new - 1], qd2[1:n_new - 1], atol=5e-3)
+    assert np.linalg.norm(q2[1] - q2[0]) < 0.1 * np.linalg.norm(q[1] - q[0])
+    jerk = lambda x: np.sum(np.diff(x, 3, axis=0) ** 2)
+    assert jerk(q2) < 0.05 * jerk(q)
+
+
+def test_retime_start_leaves_other_trajectories_alone():
+    from gfcs.blend import retime_start
+    dt = 0.01
+    t, q, qd, qdd = _abrupt_start(dt)
+    moving = qd.copy(); moving[0] = 0.1
+    assert retime_start(t, q, moving, qdd, dt)[1] is q  # does not start at rest
+    q_short = q[:20]
+    assert retime_start(t[:20], q_short, qd[:20], qdd[:20], dt)[1] is q_short  # shorter than the window
+    still = np.zeros_like(q)
+    out = retime_start(t, still, np.zeros_like(qd), np.zeros_like(qdd), dt)  # no motion
+    assert out[0] is t and out[1] is still

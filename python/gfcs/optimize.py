@@ -50,7 +50,7 @@ from typing import Any, Callable, Dict, List, Optional, Protocol, Tuple, Union
 import numpy as np
 
 from gfcs import metrics as _metrics
-from gfcs.blend import append_goal_blend
+from gfcs.blend import append_goal_blend, retime_start
 from gfcs.results import SolveResult, Trajectory
 
 __all__ = [
@@ -469,7 +469,9 @@ def make_fabric(problem: Any, fabric_config: Any = None, scene: Any = None) -> A
 def rollout_commands(
     fabric: Any, q0: Any, qd0: Any, goal: Any, commands: Any, settings: RolloutSettings
 ) -> Tuple[Trajectory, float, bool, np.ndarray]:
-    """Roll out a command sequence q_g¹..q_gⁿ then the goal (GFCS eq. 5-7) and record it.
+    """Roll out a command sequence q_g¹..q_gⁿ then the goal (GFCS eq. 5-7) and record it. The recorded
+    trajectory is finished by :mod:`gfcs.blend`: a start from rest re-timed over its first 0.3 s along the
+    same path, and, when the goal is reached, a blend ending exactly at the goal, at rest.
 
     Args:
         fabric: a ``gfcs.Fabric``.
@@ -484,6 +486,8 @@ def rollout_commands(
     cmds = np.asarray(commands, dtype=np.float64).reshape(-1, dof)
     seq = fabric.rollout_sequence(q0, qd0, cmds, goal, **settings.as_kwargs())
     t, q, qd = np.asarray(seq.t), np.asarray(seq.q), np.asarray(seq.qd)
+    # Leave rest smoothly (see gfcs.blend): the same path, re-timed over its first 0.3 s.
+    t, q, qd = retime_start(t, q, qd, np.asarray(seq.qdd), settings.dt)
     if seq.reached:
         # End exactly at the goal, at rest (see gfcs.blend): the fabric only converges asymptotically.
         t, q, qd = append_goal_blend(t, q, qd, np.asarray(seq.qdd)[-1], np.asarray(goal, dtype=np.float64),
