@@ -128,12 +128,13 @@ def retime_start(t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, 
     while True:
         n = int(np.ceil(duration / dt - 1e-9))
         T = n * dt
-        c3 = (20 * s_j - 8 * v_j * T + a_j * T**2) / (2 * T**3)
-        c4 = (-30 * s_j + 14 * v_j * T - 2 * a_j * T**2) / (2 * T**4)
-        c5 = (12 * s_j - 6 * v_j * T + a_j * T**2) / (2 * T**5)
         tau = dt * np.arange(n + 1)
-        s_new = c3 * tau**3 + c4 * tau**4 + c5 * tau**5
-        v_new = 3 * c3 * tau**2 + 4 * c4 * tau**3 + 5 * c5 * tau**4
+        # s(τ) run backwards from the junction is a quintic to rest at s = 0: r(σ) = s(T − σ) has r(0) = s_J,
+        # r'(0) = −ṡ_J, r''(0) = s̈_J and r = r' = r'' = 0 at σ = T
+        r, r_dot = quintic_to_rest(np.array([s_j]), np.array([-v_j]), np.array([a_j]), np.zeros(1), T,
+                                   T - tau)
+        s_new, v_new = r[:, 0], -r_dot[:, 0]
+        s_new[0] = v_new[0] = 0.0  # at rest by construction (the polynomial leaves rounding there)
         if np.all(v_new >= 0.0):
             break
         if duration > 10.0 * window:  # no monotone profile: keep the rollout's own start

@@ -485,12 +485,12 @@ def rollout_commands(
     dof = int(np.asarray(goal).shape[0])
     cmds = np.asarray(commands, dtype=np.float64).reshape(-1, dof)
     seq = fabric.rollout_sequence(q0, qd0, cmds, goal, **settings.as_kwargs())
-    t, q, qd = np.asarray(seq.t), np.asarray(seq.q), np.asarray(seq.qd)
+    t, q, qd, qdd = np.asarray(seq.t), np.asarray(seq.q), np.asarray(seq.qd), np.asarray(seq.qdd)
     # Leave rest smoothly (see gfcs.blend): the same path, re-timed over its first 0.3 s.
-    t, q, qd = retime_start(t, q, qd, np.asarray(seq.qdd), settings.dt)
+    t, q, qd = retime_start(t, q, qd, qdd, settings.dt)
     if seq.reached:
         # End exactly at the goal, at rest (see gfcs.blend): the fabric only converges asymptotically.
-        t, q, qd = append_goal_blend(t, q, qd, np.asarray(seq.qdd)[-1], np.asarray(goal, dtype=np.float64),
+        t, q, qd = append_goal_blend(t, q, qd, qdd[-1], np.asarray(goal, dtype=np.float64),
                                      settings.dt)
     traj = Trajectory(t, q, qd)
     return traj, float(seq.cost), bool(seq.reached), np.asarray(seq.t_stars, dtype=np.float64)
