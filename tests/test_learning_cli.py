@@ -28,14 +28,17 @@ def test_register_defaults_are_the_papers():
     assert cfg == TrainConfig()
     assert (cfg.passes, cfg.n_train, cfg.buffer_size, cfg.top_m, cfg.hidden) == (2, 25, 200, 4, (800, 800, 800))
     assert cfg.encoder.spacing == 0.15
+    assert cfg.sampler_sgld().noise_scale == 1.0  # the sampler's SGLD at the paper's temperature (eq. 10-11)
 
 
 def test_flags_reach_the_config():
     pytest.importorskip("torch")
     args = parse(["train", "--problems", "DIR", "--out", "m.pt", "--passes", "3", "--n-train", "10",
                   "--buffer", "50", "--top-m", "2", "--seed", "7", "--hidden", "64", "32", "--n-neg", "4",
-                  "--n-uniform-neg", "0", "--batches", "2", "--population", "8", "--shuffle"])
+                  "--n-uniform-neg", "0", "--batches", "2", "--population", "8", "--shuffle",
+                  "--sample-noise", "0.5"])
     cfg = _config(args)
+    assert cfg.sample_noise == 0.5 and cfg.sampler_sgld().noise_scale == 0.5
     assert (cfg.passes, cfg.n_train, cfg.buffer_size, cfg.top_m, cfg.seed) == (3, 10, 50, 2, 7)
     assert cfg.hidden == (64, 32) and cfg.n_neg == 4 and cfg.n_uniform_neg == 0 and cfg.shuffle
     assert cfg.solve == {"method": "gfcs", "batches": 2, "population": 8}
@@ -87,6 +90,13 @@ def test_gfcs_train_end_to_end_then_solve_with_the_sampler(tmp_path):
                  "--json", str(tmp_path / "r.json")])
     assert code in (0, 1)  # 1 = solved without success; the point is that the sampler loads and runs
     assert "EBMSampler" in (tmp_path / "r.json").read_text()
+    # --sgld-noise replaces the model file's sampler noise, and needs a model
+    from gfcs.cli import _sampler, build_parser
+
+    tuned = _sampler(build_parser().parse_args(["solve", "--sampler", str(out), "--sgld-noise", "0.7"]))
+    assert tuned.sgld_config.noise_scale == 0.7 and sampler.sgld_config.noise_scale == 1.0
+    assert tuned.sgld_config.iters == sampler.sgld_config.iters
+    assert main(["solve", "--sampler", "uniform", "--sgld-noise", "0.7", "--batches", "1"]) == 2
     # a checkpoint passed as a model file is a clean user error (exit 2), not a traceback
     assert main(["solve", "--sampler", str(tmp_path / "model.ckpt.pt"), "--batches", "1"]) == 2
 

@@ -88,6 +88,9 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="warm-start sampler: approach (default: half the first batch at the goal's approach "
                         "corridor, the rest uniform), uniform (the paper's), or a model trained by "
                         "`gfcs train` (needs torch)")
+    g.add_argument("--sgld-noise", type=float, metavar="TAU",
+                   help="with --sampler MODEL.pt: SGLD noise scale of the sampler (default: the model "
+                        "file's; 1 is the paper's eq. 10-11)")
     g.add_argument("--no-retry", action="store_true",
                    help="with the default sampler, do not retry a failed solve with one more command")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
@@ -127,15 +130,21 @@ def _robot(args: argparse.Namespace) -> Any:
 def _sampler(args: argparse.Namespace) -> Any:
     from gfcs.optimize import UniformSampler
 
-    if args.sampler == "approach":
-        return None  # solve's default (ApproachSampler), with its retry on failure
-    if args.sampler == "uniform":
-        return UniformSampler(args.commands)
+    if args.sampler in ("approach", "uniform"):
+        if args.sgld_noise is not None:
+            raise ValueError("--sgld-noise needs --sampler MODEL.pt")
+        # approach: solve's default (ApproachSampler), with its retry on failure
+        return None if args.sampler == "approach" else UniformSampler(args.commands)
     try:
         from gfcs.learning.sampler import EBMSampler
+        from gfcs.learning.sgld import SGLDConfig
     except ImportError as e:
         raise _MissingExtra(f"--sampler needs the 'learn' extra (pip install 'gfcs[learn]'): {e}") from e
-    return EBMSampler(args.sampler)
+    sampler = EBMSampler(args.sampler)
+    if args.sgld_noise is not None:
+        sampler.sgld_config = SGLDConfig.from_dict({**sampler.sgld_config.to_dict(),
+                                                    "noise_scale": args.sgld_noise})
+    return sampler
 
 
 class _MissingExtra(Exception):

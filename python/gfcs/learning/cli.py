@@ -25,6 +25,7 @@ _CONFIG_FLAGS = {
     "n_neg": "n_neg", "epochs": "epochs", "batch_size": "batch_size", "lr": "lr", "hidden": "hidden",
     "latent_dim": "latent_dim", "n_commands": "n_commands", "max_cost": "max_cost", "device": "device",
     "neg_refresh": "neg_refresh", "n_uniform_neg": "n_uniform_neg", "shuffle": "shuffle",
+    "sample_noise": "sample_noise",
 }
 
 
@@ -65,6 +66,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     alg.add_argument("--n-neg", type=int, help="SGLD negatives per positive (default 16)")
     alg.add_argument("--n-uniform-neg", type=int, help="uniform negatives per positive (default 8)")
     alg.add_argument("--neg-refresh", type=int, help="redraw negatives every N epochs, 0 = once (default 10)")
+    alg.add_argument("--sample-noise", type=float, metavar="TAU",
+                     help="SGLD noise scale of the sampler in the model file (default 1, the paper's)")
     alg.add_argument("--epochs", type=int, help="epochs per training (default 100)")
     alg.add_argument("--batch-size", type=int, help="positives per Adam step (default 64)")
     alg.add_argument("--lr", type=float, help="Adam learning rate (default 1e-3)")
