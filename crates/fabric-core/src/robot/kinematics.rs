@@ -169,10 +169,10 @@ impl Robot {
             let parent_o = ws.pose[p].translation.vector;
             // Joint frame after the motion (its origin lies on the joint axis); offsets are rotated
             // with the parent's rotation matrix, which is cheaper than with its quaternion.
-            let local = j.moved_frame(j.position(q));
-            let frame_q = parent_q * local.rotation;
+            let (local_q, local_o) = j.moved_parts(j.position(q));
+            let frame_q = parent_q * local_q;
             let frame_rot = *frame_q.to_rotation_matrix().matrix();
-            let frame_o = parent_o + rotate(&parent_rot, &local.translation.vector);
+            let frame_o = parent_o + rotate(&parent_rot, &local_o);
             let (child_q, child_rot, child_o) = match &j.post {
                 Some(post) => {
                     let q = frame_q * post.rotation;
@@ -188,25 +188,31 @@ impl Robot {
             };
             ws.pose[i] = Isometry3::from_parts(child_o.into(), child_q);
             ws.rot[i] = child_rot;
-            // Jacobian terms of a body: those of the parent's body plus this joint's column (links
-            // on the same rigid body share them).
+            // Jacobian terms of a body: those of the parent's body, zero up to this joint's column,
+            // plus this joint's column (links on the same rigid body share them). One pass, without
+            // library copies (the runs are a few columns long).
             if let (Some(c), true) = (j.coord, self.bodies[i] == i) {
-                let (pb, n) = (self.bodies[p], self.cols[i]);
-                ws.jw
-                    .copy_within(pb * dof..pb * dof + self.cols[p], i * dof);
-                ws.jm
-                    .copy_within(pb * dof..pb * dof + self.cols[p], i * dof);
-                // Columns between the parent's last and this joint's stay zero.
-                ws.jw[i * dof + self.cols[p]..i * dof + n].fill(Vector3::zeros());
-                ws.jm[i * dof + self.cols[p]..i * dof + n].fill(Vector3::zeros());
+                let (pb, np, n) = (self.bodies[p] * dof, self.cols[p], self.cols[i]);
                 let scaled = axis * j.scale;
-                match j.motion {
-                    Motion::Revolute(_) => {
-                        ws.jw[i * dof + c] += scaled;
-                        ws.jm[i * dof + c] += scaled.cross(&frame_o);
+                // The parent body's block lies before this one (pb <= p < i).
+                let (parent_w, own_w) = ws.jw.split_at_mut(i * dof);
+                let (parent_m, own_m) = ws.jm.split_at_mut(i * dof);
+                let (parent_w, parent_m) = (&parent_w[pb..pb + np], &parent_m[pb..pb + np]);
+                for (k, (w, m)) in own_w[..n].iter_mut().zip(&mut own_m[..n]).enumerate() {
+                    (*w, *m) = match (parent_w.get(k), parent_m.get(k)) {
+                        (Some(&pw), Some(&pm)) => (pw, pm),
+                        _ => (Vector3::zeros(), Vector3::zeros()),
+                    };
+                    if k == c {
+                        match j.motion {
+                            Motion::Revolute(_) => {
+                                *w += scaled;
+                                *m += scaled.cross(&frame_o);
+                            }
+                            Motion::Prismatic(_) => *m -= scaled,
+                            Motion::Fixed => {}
+                        }
                     }
-                    Motion::Prismatic(_) => ws.jm[i * dof + c] -= scaled,
-                    Motion::Fixed => {}
                 }
             }
             if !VEL {
@@ -287,17 +293,17 @@ impl Robot {
         out.x = x;
         out.xd = ws.vel[link] + w.cross(&r);
         out.jdot_qdot = ws.acc[link] + ws.alpha[link].cross(&r) + w.cross(&w.cross(&r));
-        let b = self.bodies[link];
-        let terms = b * ws.dof..b * ws.dof + self.cols[link];
-        let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * self.cols[link]);
-        for ((col, a), m) in jac
-            .chunks_exact_mut(3)
-            .zip(&ws.jw[terms.clone()])
-            .zip(&ws.jm[terms])
-        {
-            col.copy_from_slice(cross_minus(a, &x, m).as_slice());
+        let b = self.bodies[link] * ws.dof;
+        let terms = b..b + self.cols[link];
+        let (jw, jm) = (&ws.jw[terms.clone()], &ws.jm[terms]);
+        let jac = jacobian_of_width(out, ws.dof);
+        for (k, col) in jac.chunks_exact_mut(3).enumerate() {
+            let v = match (jw.get(k), jm.get(k)) {
+                (Some(a), Some(m)) => cross_minus(a, &x, m),
+                _ => Vector3::zeros(),
+            };
+            col.copy_from_slice(v.as_slice());
         }
-        zero.fill(0.0);
     }
 
     /// A direction fixed on `link`: x = R_link · local_axis (unitless); J column j is `a_j × x` for a

@@ -95,14 +95,26 @@ impl TreeJoint {
     /// The transform `pre · motion(θ)` (parent link frame → joint frame after the motion).
     #[inline]
     pub fn moved_frame(&self, theta: f64) -> Isometry3<f64> {
+        let (rotation, translation) = self.moved_parts(theta);
+        Isometry3::from_parts(translation.into(), rotation)
+    }
+
+    /// [`moved_frame`](Self::moved_frame) as (rotation, translation): always inlined, so that
+    /// `Robot::update` keeps the parts in registers instead of reading back an isometry returned
+    /// through memory.
+    #[inline(always)]
+    pub(crate) fn moved_parts(&self, theta: f64) -> (UnitQuaternion<f64>, Vector3<f64>) {
+        let (rotation, translation) = (self.pre.rotation, self.pre.translation.vector);
         match self.motion {
-            Motion::Fixed => self.pre,
-            Motion::Revolute(axis) => self.pre * UnitQuaternion::from_axis_angle(&axis, theta),
-            Motion::Prismatic(axis) => {
-                let mut iso = self.pre;
-                iso.translation.vector += iso.rotation * (axis.into_inner() * theta);
-                iso
-            }
+            Motion::Fixed => (rotation, translation),
+            Motion::Revolute(axis) => (
+                rotation * UnitQuaternion::from_axis_angle(&axis, theta),
+                translation,
+            ),
+            Motion::Prismatic(axis) => (
+                rotation,
+                translation + rotation * (axis.into_inner() * theta),
+            ),
         }
     }
 }

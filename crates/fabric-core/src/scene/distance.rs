@@ -94,7 +94,9 @@ pub fn point_distance(
     eval_world(shape, &rot, &pose.translation.vector, p, max_distance)
 }
 
-/// [`point_distance`] with the rotation matrix `rot` (obstacle to world) precomputed.
+/// [`point_distance`] with the rotation matrix `rot` (obstacle to world) precomputed. Each closed form
+/// tests its distance against `max_distance` before computing derivatives, so obstacles that the
+/// broadphase bound could not exclude cost little more than their distance.
 pub(crate) fn eval_world(
     shape: &Shape,
     rot: &Matrix3<f64>,
@@ -103,15 +105,26 @@ pub(crate) fn eval_world(
     max_distance: f64,
 ) -> Option<SurfaceDistance> {
     let local = to_local(rot, trans, p);
-    let l = eval_local(shape, &local, max_distance)?;
-    if l.d.is_nan() || l.d > max_distance {
-        return None;
-    }
-    Some(SurfaceDistance {
-        distance: l.d,
-        gradient: rotate(rot, &l.g),
-        hessian: l.h.world(rot),
-    })
+    let f = Frame {
+        rot,
+        max: max_distance,
+    };
+    let s = match shape {
+        Shape::Sphere { radius } => f.about_point(&local, 1.0, *radius, Vector3::z()),
+        Shape::Cuboid { half_extents } => cuboid(&f, &local, half_extents),
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => cylinder(&f, &local, *half_height, *radius),
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => capsule(&f, &local, *half_height, *radius),
+        Shape::HalfSpace => f.flat(local.z, column(rot, 2)),
+        Shape::TriMesh(m) => trimesh(&f, m, &local),
+        Shape::PointCloud(pc) => point_cloud(&f, pc, &local),
+    }?;
+    (!beyond(s.distance, max_distance)).then_some(s)
 }
 
 /// `Rᵀ (p - t)`: world point to obstacle frame, written out (the generic nalgebra product is several
@@ -180,109 +193,114 @@ pub(crate) fn distance_world(
     (d <= max_distance).then_some(d)
 }
 
-/// Result in the obstacle frame.
-#[derive(Clone, Copy, Debug)]
-struct Local {
-    d: f64,
-    g: Vector3<f64>,
-    h: Curvature,
+/// Whether a distance fails the limit `max` (NaN included), the final test of [`eval_world`].
+#[inline(always)]
+fn beyond(d: f64, max: f64) -> bool {
+    d.is_nan() || d > max
 }
 
-/// A Hessian `α I + Σ_k β_k v_k v_kᵀ` (at most two terms, obstacle frame). Every closed form of this
-/// module has this shape, and it rotates to the world frame by rotating the vectors only
-/// (`R (α I + β v vᵀ) Rᵀ = α I + β (Rv)(Rv)ᵀ`), which is cheaper than `R H Rᵀ`.
-#[derive(Clone, Copy, Debug)]
-struct Curvature {
-    alpha: f64,
-    terms: [(f64, Vector3<f64>); 2],
-    n: usize,
+/// Column `k` of `rot`: the world direction of the obstacle's local axis `k` (= `rotate(rot, e_k)`).
+#[inline(always)]
+fn column(rot: &Matrix3<f64>, k: usize) -> Vector3<f64> {
+    rot.column(k).into_owned()
 }
 
-impl Curvature {
-    const ZERO: Curvature = Curvature {
-        alpha: 0.0,
-        terms: [(0.0, Vector3::new(0.0, 0.0, 0.0)); 2],
-        n: 0,
-    };
+/// The Hessian `α I + Σ_k β_k w_k w_kᵀ` (world frame) from world vectors `w_k`. Every closed form of
+/// this module has this shape, and `R (α I + β v vᵀ) Rᵀ = α I + β (Rv)(Rv)ᵀ`: the obstacle-frame
+/// vectors are rotated, never the matrix.
+#[inline(always)]
+fn curvature(alpha: f64, terms: &[(f64, Vector3<f64>)]) -> Matrix3<f64> {
+    // Upper triangle xx, xy, xz, yy, yz, zz.
+    let mut h = [alpha, 0.0, 0.0, alpha, 0.0, alpha];
+    for (b, w) in terms {
+        let (bx, by, bz) = (b * w.x, b * w.y, b * w.z);
+        h[0] += bx * w.x;
+        h[1] += bx * w.y;
+        h[2] += bx * w.z;
+        h[3] += by * w.y;
+        h[4] += by * w.z;
+        h[5] += bz * w.z;
+    }
+    Matrix3::new(h[0], h[1], h[2], h[1], h[3], h[4], h[2], h[4], h[5])
+}
 
-    fn new(alpha: f64, terms: &[(f64, Vector3<f64>)]) -> Curvature {
-        let mut c = Curvature {
-            alpha,
-            ..Curvature::ZERO
+/// The obstacle being evaluated: its rotation `rot` (obstacle to world) and the distance limit `max`
+/// (m). Its closed forms take obstacle-frame vectors and return world-frame results, or `None` when
+/// the distance is [`beyond`] the limit (tested before any derivative is computed).
+struct Frame<'a> {
+    rot: &'a Matrix3<f64>,
+    max: f64,
+}
+
+impl Frame<'_> {
+    /// Flat feature: distance `d`, world gradient `g`, Hessian 0.
+    #[inline(always)]
+    fn flat(&self, d: f64, g: Vector3<f64>) -> Option<SurfaceDistance> {
+        (!beyond(d, self.max)).then_some(SurfaceDistance {
+            distance: d,
+            gradient: g,
+            hessian: Matrix3::zeros(),
+        })
+    }
+
+    /// `d = s|v| - offset` about a point feature (`v = p - c`, obstacle frame).
+    #[inline(always)]
+    fn about_point(
+        &self,
+        v: &Vector3<f64>,
+        s: f64,
+        offset: f64,
+        fallback: Vector3<f64>,
+    ) -> Option<SurfaceDistance> {
+        self.radial(v, s, offset, fallback, None)
+    }
+
+    /// `d = s|v| - offset` about a straight line of world unit direction `e` (`v = p - c ⟂ e`,
+    /// obstacle frame).
+    #[inline(always)]
+    fn about_line(
+        &self,
+        v: &Vector3<f64>,
+        e: Vector3<f64>,
+        s: f64,
+        offset: f64,
+        fallback: Vector3<f64>,
+    ) -> Option<SurfaceDistance> {
+        self.radial(v, s, offset, fallback, Some(e))
+    }
+
+    /// `d = s|v| - offset` (`s = ±1`) with `v` the offset from a point or (with `axis`, world frame)
+    /// from a line: gradient `s·u`, `u = R v/|v|`, Hessian `(s/|v|)(I − uuᵀ)`, minus `eeᵀ` along the
+    /// line. At `|v| ≤ SINGULAR_EPS`: flat, with the obstacle-frame `fallback` normal.
+    #[inline(always)]
+    fn radial(
+        &self,
+        v: &Vector3<f64>,
+        s: f64,
+        offset: f64,
+        fallback: Vector3<f64>,
+        axis: Option<Vector3<f64>>,
+    ) -> Option<SurfaceDistance> {
+        let r = v.norm();
+        let d = s * r - offset;
+        if beyond(d, self.max) {
+            return None;
+        }
+        if r <= SINGULAR_EPS {
+            return self.flat(d, rotate(self.rot, &fallback));
+        }
+        let inv = 1.0 / r;
+        let u = rotate(self.rot, &(v * inv));
+        let k = s * inv;
+        let hessian = match axis {
+            None => curvature(k, &[(-k, u)]),
+            Some(e) => curvature(k, &[(-k, u), (-k, e)]),
         };
-        for (slot, t) in c.terms.iter_mut().zip(terms) {
-            *slot = *t;
-            c.n += 1;
-        }
-        c
-    }
-
-    /// The Hessian in the world frame, `rot` mapping obstacle to world.
-    fn world(&self, rot: &Matrix3<f64>) -> Matrix3<f64> {
-        // Upper triangle xx, xy, xz, yy, yz, zz.
-        let mut h = [self.alpha, 0.0, 0.0, self.alpha, 0.0, self.alpha];
-        for (b, v) in self.terms.iter().take(self.n) {
-            let w = rotate(rot, v);
-            let (bx, by, bz) = (b * w.x, b * w.y, b * w.z);
-            h[0] += bx * w.x;
-            h[1] += bx * w.y;
-            h[2] += bx * w.z;
-            h[3] += by * w.y;
-            h[4] += by * w.z;
-            h[5] += bz * w.z;
-        }
-        Matrix3::new(h[0], h[1], h[2], h[1], h[3], h[4], h[2], h[4], h[5])
-    }
-}
-
-fn flat(d: f64, g: Vector3<f64>) -> Local {
-    Local {
-        d,
-        g,
-        h: Curvature::ZERO,
-    }
-}
-
-/// `d = s|v| - offset` about a point feature (`v = p - c`).
-fn about_point(v: &Vector3<f64>, s: f64, offset: f64, fallback: Vector3<f64>) -> Local {
-    radial(v, s, offset, fallback, None)
-}
-
-/// `d = s|v| - offset` about a straight line of unit direction `e` (`v = p - c ⟂ e`).
-fn about_line(
-    v: &Vector3<f64>,
-    e: &Vector3<f64>,
-    s: f64,
-    offset: f64,
-    fallback: Vector3<f64>,
-) -> Local {
-    radial(v, s, offset, fallback, Some(e))
-}
-
-/// `d = s|v| - offset` with `v` the offset from a point or (with `axis`) from a line: gradient `s·v/|v|`,
-/// Hessian `(s/|v|)(I − uuᵀ)`, minus `eeᵀ` along the line. At `|v| ≤ SINGULAR_EPS`: flat, `fallback` normal.
-fn radial(
-    v: &Vector3<f64>,
-    s: f64,
-    offset: f64,
-    fallback: Vector3<f64>,
-    axis: Option<&Vector3<f64>>,
-) -> Local {
-    let r = v.norm();
-    if r <= SINGULAR_EPS {
-        return flat(s * r - offset, fallback);
-    }
-    let inv = 1.0 / r;
-    let u = v * inv;
-    let k = s * inv;
-    let h = match axis {
-        None => Curvature::new(k, &[(-k, u)]),
-        Some(e) => Curvature::new(k, &[(-k, u), (-k, *e)]),
-    };
-    Local {
-        d: s * r - offset,
-        g: u * s,
-        h,
+        Some(SurfaceDistance {
+            distance: d,
+            gradient: u * s,
+            hessian,
+        })
     }
 }
 
@@ -299,26 +317,9 @@ fn sign_of(v: f64) -> f64 {
     }
 }
 
-fn eval_local(shape: &Shape, p: &Vector3<f64>, max_distance: f64) -> Option<Local> {
-    match shape {
-        Shape::Sphere { radius } => Some(about_point(p, 1.0, *radius, Vector3::z())),
-        Shape::Cuboid { half_extents } => Some(cuboid(p, half_extents)),
-        Shape::Cylinder {
-            half_height,
-            radius,
-        } => Some(cylinder(p, *half_height, *radius)),
-        Shape::Capsule {
-            half_height,
-            radius,
-        } => Some(capsule(p, *half_height, *radius)),
-        Shape::HalfSpace => Some(flat(p.z, Vector3::z())),
-        Shape::TriMesh(m) => trimesh(m, p, max_distance),
-        Shape::PointCloud(pc) => point_cloud(pc, p, max_distance),
-    }
-}
-
-/// Box of half extents `h`: face (Hessian 0), edge or corner outside; nearest face inside.
-fn cuboid(p: &Vector3<f64>, h: &Vector3<f64>) -> Local {
+/// Box of half extents `h`: face (Hessian 0), edge or corner outside; nearest face inside. The face
+/// normals and edge directions are the columns of the rotation.
+fn cuboid(f: &Frame, p: &Vector3<f64>, h: &Vector3<f64>) -> Option<SurfaceDistance> {
     let q = p.abs() - h;
     let outside = q.iter().filter(|&&v| v > 0.0).count();
     match outside {
@@ -330,27 +331,34 @@ fn cuboid(p: &Vector3<f64>, h: &Vector3<f64>) -> Local {
                     i = k;
                 }
             }
-            let mut g = Vector3::zeros();
-            g[i] = sign_of(p[i]);
-            flat(q[i], g)
+            f.flat(q[i], column(f.rot, i) * sign_of(p[i]))
         }
         2 => {
             let j = (0..3).find(|&k| q[k] <= 0.0).unwrap_or(0);
             let c = Vector3::from_fn(|k, _| p[k].clamp(-h[k], h[k]));
-            let mut e = Vector3::zeros();
-            e[j] = 1.0;
-            about_line(&(p - c), &e, 1.0, 0.0, Vector3::z())
+            f.about_line(&(p - c), column(f.rot, j), 1.0, 0.0, Vector3::z())
         }
         _ => {
             let c = Vector3::from_fn(|k, _| p[k].clamp(-h[k], h[k]));
-            about_point(&(p - c), 1.0, 0.0, Vector3::z())
+            f.about_point(&(p - c), 1.0, 0.0, Vector3::z())
         }
     }
 }
 
 /// Cylinder of half height `hh` and radius `radius` along z: side, cap, rim (circle) or inside.
-fn cylinder(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
+fn cylinder(f: &Frame, p: &Vector3<f64>, hh: f64, radius: f64) -> Option<SurfaceDistance> {
     let rho = (p.x * p.x + p.y * p.y).sqrt();
+    let a = rho - radius;
+    let b = p.z.abs() - hh;
+    // Rim (a, b > 0) or side (outside, or inside nearer to the side than to a cap); else a cap.
+    let rim = a > 0.0 && b > 0.0;
+    if !(a > 0.0 || (b <= 0.0 && a > b)) {
+        return f.flat(b, column(f.rot, 2) * sign_of(p.z));
+    }
+    let d = if rim { (a * a + b * b).sqrt() } else { a };
+    if beyond(d, f.max) {
+        return None;
+    }
     let on_axis = rho <= SINGULAR_EPS;
     let inv_rho = if on_axis { 0.0 } else { 1.0 / rho };
     let (er, eth) = if on_axis {
@@ -361,56 +369,53 @@ fn cylinder(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
             Vector3::new(-p.y * inv_rho, p.x * inv_rho, 0.0),
         )
     };
-    let a = rho - radius;
-    let sz = sign_of(p.z);
-    let b = p.z.abs() - hh;
-    let z = Vector3::z();
-    if a > 0.0 && b > 0.0 {
+    let eth = rotate(f.rot, &eth);
+    if rim {
         // Rim: distance to a circle. ∇²d = t tᵀ/d + (a/d) ∇²ρ with ∇²ρ = e_θ e_θᵀ/ρ.
-        let d = (a * a + b * b).sqrt();
+        let (z, sz) = (Vector3::z(), sign_of(p.z));
         let inv_d = 1.0 / d;
         let g = (er * a + z * (b * sz)) * inv_d;
         let t = (er * (-b) + z * (a * sz)) * inv_d;
-        Local {
-            d,
-            g,
-            h: Curvature::new(0.0, &[(inv_d, t), (a * inv_d * inv_rho, eth)]),
-        }
-    } else if a > 0.0 || (b <= 0.0 && a > b) {
-        // Side (outside, or inside nearer to the side than to a cap).
-        if on_axis {
-            flat(a, er)
-        } else {
-            Local {
-                d: a,
-                g: er,
-                h: Curvature::new(0.0, &[(inv_rho, eth)]),
-            }
-        }
+        Some(SurfaceDistance {
+            distance: d,
+            gradient: rotate(f.rot, &g),
+            hessian: curvature(
+                0.0,
+                &[(inv_d, rotate(f.rot, &t)), (a * inv_d * inv_rho, eth)],
+            ),
+        })
+    } else if on_axis {
+        // Side (outside, or inside nearer to the side than to a cap), on the axis.
+        f.flat(a, column(f.rot, 0))
     } else {
-        flat(b, z * sz)
+        // Side.
+        Some(SurfaceDistance {
+            distance: a,
+            gradient: rotate(f.rot, &er),
+            hessian: curvature(0.0, &[(inv_rho, eth)]),
+        })
     }
 }
 
 /// Capsule: distance to the core segment minus the radius.
-fn capsule(p: &Vector3<f64>, hh: f64, radius: f64) -> Local {
+fn capsule(f: &Frame, p: &Vector3<f64>, hh: f64, radius: f64) -> Option<SurfaceDistance> {
     let zc = p.z.clamp(-hh, hh);
     let v = Vector3::new(p.x, p.y, p.z - zc);
     if p.z.abs() < hh {
-        about_line(&v, &Vector3::z(), 1.0, radius, Vector3::x())
+        f.about_line(&v, column(f.rot, 2), 1.0, radius, Vector3::x())
     } else {
-        about_point(&v, 1.0, radius, Vector3::z() * sign_of(p.z))
+        f.about_point(&v, 1.0, radius, Vector3::z() * sign_of(p.z))
     }
 }
 
 /// Triangle mesh via parry's point projection with feature location; signed with pseudo-normals.
-fn trimesh(m: &TriMesh, p: &Vector3<f64>, max_distance: f64) -> Option<Local> {
+fn trimesh(f: &Frame, m: &TriMesh, p: &Vector3<f64>) -> Option<SurfaceDistance> {
     let solid = m.pseudo_normals_if_oriented().is_some();
     let pt = Point3::from(*p);
     let limit = if solid && m.local_aabb().contains_local_point(&pt) {
         f64::INFINITY
-    } else if max_distance >= 0.0 {
-        widen(max_distance)
+    } else if f.max >= 0.0 {
+        widen(f.max)
     } else {
         return None;
     };
@@ -424,24 +429,27 @@ fn trimesh(m: &TriMesh, p: &Vector3<f64>, max_distance: f64) -> Option<Local> {
         .map(|n| n.into_inner())
         .unwrap_or_else(Vector3::z);
     let r = v.norm();
+    if beyond(s * r, f.max) {
+        return None;
+    }
     if r <= SINGULAR_EPS {
-        return Some(flat(s * r, normal));
+        return f.flat(s * r, rotate(f.rot, &normal));
     }
     if matches!(
         loc,
         TrianglePointLocation::OnFace(..) | TrianglePointLocation::OnSolid
     ) {
-        return Some(flat(s * r, v * (s / r)));
+        return f.flat(s * r, rotate(f.rot, &(v * (s / r))));
     }
     // Nearest point on an edge or a vertex: the Hessian depends on the directions along which the
     // nearest point slides (face region: 2, edge region: 1, vertex region: 0), found from every triangle
     // touching it, so that edges between coplanar triangles and vertices on straight creases are exact.
     let u = v / r;
-    Some(match sliding_directions(m, &proj.point, &u) {
-        Slide::Plane => flat(s * r, u * s),
-        Slide::Line(e) => about_line(&v, &e, s, 0.0, normal),
-        Slide::None => about_point(&v, s, 0.0, normal),
-    })
+    match sliding_directions(m, &proj.point, &u) {
+        Slide::Plane => f.flat(s * r, rotate(f.rot, &(u * s))),
+        Slide::Line(e) => f.about_line(&v, rotate(f.rot, &e), s, 0.0, normal),
+        Slide::None => f.about_point(&v, s, 0.0, normal),
+    }
 }
 
 /// Directions (orthogonal to `u`) along which the nearest point `c` of a mesh slides as `p` moves.
@@ -504,8 +512,8 @@ fn sliding_directions(m: &TriMesh, c: &Point3<f64>, u: &Vector3<f64>) -> Slide {
 }
 
 /// Point cloud: nearest point (BVH) minus the cloud radius.
-fn point_cloud(pc: &PointCloud, p: &Vector3<f64>, max_distance: f64) -> Option<Local> {
-    let (i, _) = pc.nearest(&Point3::from(*p), widen(max_distance + pc.radius()))?;
+fn point_cloud(f: &Frame, pc: &PointCloud, p: &Vector3<f64>) -> Option<SurfaceDistance> {
+    let (i, _) = pc.nearest(&Point3::from(*p), widen(f.max + pc.radius()))?;
     let c = pc.points().get(i)?;
-    Some(about_point(&(p - c.coords), 1.0, pc.radius(), Vector3::z()))
+    f.about_point(&(p - c.coords), 1.0, pc.radius(), Vector3::z())
 }
