@@ -86,6 +86,15 @@ def test_sigma_schedule():
     assert sigma2(99) == pytest.approx(0.1)
 
 
+def test_sgld_config_with_noise_changes_only_the_noise():
+    base = SGLDConfig(iters=40, step_scale=2.0, max_step=None)
+    wide = base.with_noise(1.0)
+    assert wide == SGLDConfig(iters=40, step_scale=2.0, noise_scale=1.0, max_step=None)
+    assert base.noise_scale == SGLDConfig().noise_scale  # the original is not changed
+    with pytest.raises(ConfigError, match="noise_scale"):
+        base.with_noise(-0.5)
+
+
 class Quadratic:
     """E(x, y) = ‖y − μ(x)‖² / (2 w²) with μ(x) = x: an energy with a known minimum (no training)."""
 

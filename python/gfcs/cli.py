@@ -137,13 +137,11 @@ def _sampler(args: argparse.Namespace) -> Any:
         return None if args.sampler == "approach" else UniformSampler(args.commands)
     try:
         from gfcs.learning.sampler import EBMSampler
-        from gfcs.learning.sgld import SGLDConfig
     except ImportError as e:
         raise _MissingExtra(f"--sampler needs the 'learn' extra (pip install 'gfcs[learn]'): {e}") from e
     sampler = EBMSampler(args.sampler)
     if args.sgld_noise is not None:
-        sampler.sgld_config = SGLDConfig.from_dict({**sampler.sgld_config.to_dict(),
-                                                    "noise_scale": args.sgld_noise})
+        sampler.sgld_config = sampler.sgld_config.with_noise(args.sgld_noise)
     return sampler
 
 

@@ -38,7 +38,7 @@ Coordinates: everything runs in the unit box ``[-1, 1]^D`` of :func:`gfcs.learni
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any, Dict, Optional, Tuple
 
 import torch
@@ -78,6 +78,10 @@ class SGLDConfig:
         if self.max_step is not None:
             check_positive("sgld max_step", self.max_step)
         return self
+
+    def with_noise(self, noise_scale: float) -> "SGLDConfig":
+        """A copy with noise scale ``noise_scale`` (validated)."""
+        return replace(self, noise_scale=noise_scale).validate()
 
     def to_dict(self) -> Dict[str, Any]:
         """Plain dict for checkpoints."""

@@ -93,8 +93,8 @@ class TrainConfig:
             paper's eq. 10-11). The negatives keep ``sgld.noise_scale`` (0.3). On MotionBenchMaker table
             under 41-50 (models trained on problems 1-40 with generated ones), first batch, seeds 0-2:
             τ = 0.3 solved 19-24 of 30 against uniform's 29, τ = 1 29-30 with shorter paths; on held-out
-            generated problems τ = 0.3 gave the shortest hand paths (1.12 m against 1.27 m at τ = 1,
-            uniform 1.32 m).
+            generated problems τ = 0.3 gave the shortest hand paths (1.12 m against 1.19-1.27 m at τ = 1,
+            uniform 1.37-1.55 m).
         encoder: lattice settings (paper spacing 0.15 m).
         latent_dim: autoencoder code length, or ``None`` to feed ``d̂_E`` directly.
         ae_hidden, ae_epochs: autoencoder architecture and training length.
@@ -158,7 +158,7 @@ class TrainConfig:
 
     def sampler_sgld(self) -> SGLDConfig:
         """SGLD settings of the sampler: ``sgld`` with noise scale ``sample_noise``."""
-        return SGLDConfig.from_dict({**self.sgld.to_dict(), "noise_scale": self.sample_noise})
+        return self.sgld.with_noise(self.sample_noise)
 
     def to_dict(self) -> Dict[str, Any]:
         """Plain nested dict (lists instead of tuples) for checkpoints and JSON."""
