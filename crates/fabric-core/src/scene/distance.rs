@@ -109,7 +109,7 @@ pub(crate) fn eval_world(
         rot,
         max: max_distance,
     };
-    let s = match shape {
+    match shape {
         Shape::Sphere { radius } => f.about_point(&local, 1.0, *radius, Vector3::z()),
         Shape::Cuboid { half_extents } => cuboid(&f, &local, half_extents),
         Shape::Cylinder {
@@ -123,8 +123,7 @@ pub(crate) fn eval_world(
         Shape::HalfSpace => f.flat(local.z, column(rot, 2)),
         Shape::TriMesh(m) => trimesh(&f, m, &local),
         Shape::PointCloud(pc) => point_cloud(&f, pc, &local),
-    }?;
-    (!beyond(s.distance, max_distance)).then_some(s)
+    }
 }
 
 /// `Rᵀ (p - t)`: world point to obstacle frame, written out (the generic nalgebra product is several
@@ -193,7 +192,8 @@ pub(crate) fn distance_world(
     (d <= max_distance).then_some(d)
 }
 
-/// Whether a distance fails the limit `max` (NaN included), the final test of [`eval_world`].
+/// Whether a distance fails the limit `max` (NaN included): every closed form returns `None` then,
+/// before computing derivatives, so [`eval_world`] needs no test of its own.
 #[inline(always)]
 fn beyond(d: f64, max: f64) -> bool {
     d.is_nan() || d > max
