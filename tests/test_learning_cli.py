@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from gfcs.errors import ConfigError
-from gfcs.learning.cli import _config, register, run_train
+from gfcs.learning.cli import _config, _split_holdout, register, run_train
 
 
 def parse(argv):
@@ -48,6 +50,16 @@ def test_flags_reach_the_config():
         _config(parse(["train", "--problems", "D", "--out", "m.pt", "--n-train", "0"]))
 
 
+def test_holdout_takes_the_last_problems_of_each_class():
+    problems = [SimpleNamespace(name=f"{c}/{i}", cls=c) for c in ("box", "cage") for i in range(4)]
+    train_set, held = _split_holdout(problems, 1)
+    assert [p.name for p in held] == ["box/3", "cage/3"]
+    assert [p.name for p in train_set] == ["box/0", "box/1", "box/2", "cage/0", "cage/1", "cage/2"]
+    assert _split_holdout(problems, 0) == (problems, [])
+    with pytest.raises(ConfigError, match="'box' has only 4"):
+        _split_holdout(problems, 4)
+
+
 def test_resume_keeps_the_checkpoint_config(tmp_path):
     torch = pytest.importorskip("torch")
     from gfcs.learning.train import train
@@ -73,10 +85,16 @@ def test_gfcs_train_end_to_end_then_solve_with_the_sampler(tmp_path):
     from gfcs.learning.sampler import EBMSampler
 
     out = tmp_path / "model.pt"
-    code = main(["train", "--generate", "bookshelf_small", "--n-problems", "2", "--passes", "1", "--n-train", "2",
-                 "--batches", "1", "--population", "6", "--epochs", "2", "--hidden", "16", "16", "--n-neg", "4",
-                 "--out", str(out), "--no-progress", "--history", str(tmp_path / "h.json")])
+    code = main(["train", "--generate", "bookshelf_small", "--n-problems", "3", "--holdout", "1", "--passes", "1",
+                 "--n-train", "2", "--batches", "1", "--population", "6", "--epochs", "2", "--hidden", "16", "16",
+                 "--n-neg", "4", "--out", str(out), "--no-progress", "--history", str(tmp_path / "h.json")])
     assert code == 0 and out.exists() and (tmp_path / "model.ckpt.pt").exists()
+    # --holdout 1: the third problem validates the uniform sampler and the one trained model
+    history = json.loads((tmp_path / "h.json").read_text())
+    assert [h["trainings"] for h in history if h["event"] == "validate"] == [0, 1]
+    assert {h["problem"] for h in history if h["event"] == "solve"} == {"bookshelf_small/gen0_0000",
+                                                                          "bookshelf_small/gen0_0001"}
+    assert (tmp_path / "model.best.pt").exists()
     sampler = EBMSampler(out, device="cpu", sgld_config=None)
     robot = gfcs.Robot.panda()
     assert sampler.dof == robot.dof and sampler.robot["joint_names"] == list(robot.joint_names)

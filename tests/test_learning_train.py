@@ -238,3 +238,56 @@ def test_autoencoder_context_path(tmp_path):
     assert res.sampler.model.context_dim == 3 * 3 + 5
     loaded = EBMSampler(tmp_path / "ae.pt", device="cpu")
     np.testing.assert_allclose(loaded.context_of(problems[1]), res.sampler.context_of(problems[1]), atol=1e-6)
+
+
+class ScriptedValidator:
+    """validate_fn stand-in: every validation round costs ``round_costs[k]`` on every problem (round 0 is
+    the uniform sampler); records (problem, sampler, seed)."""
+
+    def __init__(self, round_costs, n_problems):
+        self.round_costs, self.n, self.calls = round_costs, n_problems, []
+
+    def __call__(self, problem, sampler, seed):
+        cost = self.round_costs[len(self.calls) // self.n]
+        self.calls.append((problem.name, sampler, seed))
+        return SimpleNamespace(top=[(solution_of(problem), cost)], success=cost < 4.5)
+
+
+def test_validation_keeps_the_best_trained_model_and_resumes(tmp_path):
+    problems, held = make_problems(6), make_problems(2, seed=9)
+    for i, p in enumerate(held):
+        p.name = f"held{i}"
+    costs = [1.0, 3.0, 2.0, 4.0]  # uniform (not selectable), then trainings 1-3: training 2 is best
+    val = ScriptedValidator(costs, 2)
+    out = tmp_path / "v.pt"
+    res = train(problems, out=out, config=small_config(), solve_fn=ToySolver(), progress=False,
+                validation=held, validate_fn=val)
+    events = [h for h in res.history if h["event"] == "validate"]
+    assert [e["trainings"] for e in events] == [0, 1, 2, 3]
+    assert [e["step"] for e in events] == [0, 4, 8, 12]
+    assert [e["mean_cost"] for e in events] == costs and [e["solved"] for e in events] == [2, 2, 2, 2]
+    assert val.calls[0][1] is None and all(isinstance(c[1], EBMSampler) for c in val.calls[2:])
+    seeds = [c[2] for c in val.calls]  # the same seed per problem in every round (paired comparison)
+    assert seeds[0::2] == [seeds[0]] * 4 and seeds[1::2] == [seeds[1]] * 4 and seeds[0] != seeds[1]
+    assert res.best["trainings"] == 2 and res.best["mean_cost"] == 2.0
+    # the best sampler is the model right after training 2 (8 solves)
+    upto8 = train(problems, config=small_config(), solve_fn=ToySolver(), progress=False, stop_after=8)
+    assert_same_weights(weights(res.best_sampler), weights(upto8.sampler))
+    assert_same_weights(weights(EBMSampler(tmp_path / "v.best.pt", device="cpu")), weights(upto8.sampler))
+    assert_same_weights(weights(EBMSampler(out, device="cpu")), weights(res.sampler))  # --out: the final model
+
+    # interrupted after training 1, resumed: same best, same history
+    ck = tmp_path / "vc.pt"
+    train(problems, config=small_config(), solve_fn=ToySolver(), progress=False, checkpoint=ck, stop_after=6,
+          validation=held, validate_fn=ScriptedValidator(costs, 2))
+    with pytest.raises(ConfigError, match="validation"):
+        train(problems, solve_fn=ToySolver(), resume=ck, progress=False, validation=held[:1])
+    resumed = train(problems, solve_fn=ToySolver(), resume=ck, progress=False, validation=held,
+                    validate_fn=ScriptedValidator(costs[2:], 2))
+    assert resumed.best["trainings"] == 2
+    assert_same_weights(weights(resumed.best_sampler), weights(res.best_sampler))
+    strip = lambda hs: [{k: v for k, v in h.items() if k != "seconds"} for h in hs]  # noqa: E731
+    assert strip(resumed.history) == strip(res.history)
+    # without validation problems nothing is selected
+    plain = train(problems, config=small_config(passes=1), solve_fn=ToySolver(), progress=False)
+    assert plain.best is None and plain.best_sampler is None

@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, List
+from typing import Any, Dict, List, Tuple
 
 __all__ = ["register", "run_train"]
 
@@ -50,6 +50,9 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     src.add_argument("--limit", type=int, help="use at most this many problems per class of --problems")
     src.add_argument("--skip", type=int, default=0, help="leave out the first N problems of each class of "
                      "--problems")
+    src.add_argument("--holdout", type=int, default=0, metavar="N",
+                     help="hold the last N problems of each class out of training and score every trained "
+                          "model on them (mean first-batch cost); the best is written to <out stem>.best.pt")
     from gfcs.cli import _add_robot_options
 
     _add_robot_options(p)
@@ -87,8 +90,22 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     return p
 
 
+def _split_holdout(problems: List[Any], n: int) -> Tuple[List[Any], List[Any]]:
+    """(training, validation): the last ``n`` problems of each class (``Problem.cls``) are validation."""
+    from gfcs.errors import ConfigError
+
+    by_class: Dict[str, List[Any]] = {}
+    for p in problems:
+        by_class.setdefault(p.cls, []).append(p)
+    for cls, ps in by_class.items():
+        if n > 0 and len(ps) <= n:
+            raise ConfigError(f"gfcs train --holdout {n}: class {cls or '(none)'!r} has only {len(ps)} problems")
+    held = {id(p) for ps in by_class.values() for p in ps[len(ps) - n:]} if n > 0 else set()
+    return [p for p in problems if id(p) not in held], [p for p in problems if id(p) in held]
+
+
 def _load_problems(args: argparse.Namespace, seed: int) -> List[Any]:
-    """The training problems: a MotionBenchMaker folder, or generated ones (seeded by the training seed)."""
+    """The problems: a MotionBenchMaker folder, or generated ones (seeded by the training seed)."""
     from gfcs.errors import ConfigError
 
     if (args.problems is None) == (args.generate is None):
@@ -140,10 +157,14 @@ def run_train(args: argparse.Namespace) -> int:
         return 2
     from .train import train
 
+    from gfcs.errors import ConfigError
+
+    if args.holdout < 0:
+        raise ConfigError(f"gfcs train --holdout: expected >= 0, got {args.holdout}")
     config = _config(args)
-    problems = _load_problems(args, config.seed)
+    problems, validation = _split_holdout(_load_problems(args, config.seed), args.holdout)
     result = train(problems, out=args.out, config=config, resume=args.resume, checkpoint=args.checkpoint,
-                   progress=not args.no_progress)
+                   progress=not args.no_progress, validation=validation)
     if args.history:
         with open(args.history, "w", encoding="utf-8") as f:
             json.dump(result.history, f, indent=1)
@@ -152,4 +173,12 @@ def run_train(args: argparse.Namespace) -> int:
           f"buffer {len(result.buffer)}, model written to {args.out}")
     if solved:
         print(f"last solve best cost {solved[-1]['best_cost']:.3f} s")
+    for h in result.history:
+        if h["event"] == "validate":
+            who = "uniform" if h["trainings"] == 0 else f"after training {h['trainings']} ({h['step']} solves)"
+            print(f"validation {who}: mean first-batch cost {h['mean_cost']:.3f} s, solved {h['solved']}/{h['n']}")
+    if result.best is not None:
+        from .train import best_model_path
+
+        print(f"best validated model (training {result.best['trainings']}) written to {best_model_path(args.out)}")
     return 0
