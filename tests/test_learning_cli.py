@@ -87,14 +87,15 @@ def test_gfcs_train_end_to_end_then_solve_with_the_sampler(tmp_path):
     out = tmp_path / "model.pt"
     code = main(["train", "--generate", "bookshelf_small", "--n-problems", "3", "--holdout", "1", "--passes", "1",
                  "--n-train", "2", "--batches", "1", "--population", "6", "--epochs", "2", "--hidden", "16", "16",
-                 "--n-neg", "4", "--out", str(out), "--no-progress", "--history", str(tmp_path / "h.json")])
+                 "--n-neg", "4", "--out", str(out), "--no-progress", "--history", str(tmp_path / "h.json"),
+                 "--plot", str(tmp_path / "curve.png")])
     assert code == 0 and out.exists() and (tmp_path / "model.ckpt.pt").exists()
     # --holdout 1: the third problem validates the uniform sampler and the one trained model
     history = json.loads((tmp_path / "h.json").read_text())
     assert [h["trainings"] for h in history if h["event"] == "validate"] == [0, 1]
     assert {h["problem"] for h in history if h["event"] == "solve"} == {"bookshelf_small/gen0_0000",
                                                                           "bookshelf_small/gen0_0001"}
-    assert (tmp_path / "model.best.pt").exists()
+    assert (tmp_path / "model.best.pt").exists() and (tmp_path / "curve.png").stat().st_size > 1000
     sampler = EBMSampler(out, device="cpu", sgld_config=None)
     robot = gfcs.Robot.panda()
     assert sampler.dof == robot.dof and sampler.robot["joint_names"] == list(robot.joint_names)

@@ -89,3 +89,43 @@ def test_cli_registration(tmp_path):
     args = parser.parse_args(["plot", str(jsonl), "--out", str(tmp_path / "c.png")])
     assert args.func(args) == 0
     assert (tmp_path / "c.png").stat().st_size > 1000
+
+
+def make_history():
+    """A training history as ``gfcs train --history`` writes it: 8 solves, 2 trainings, 3 validations."""
+    history = [{"event": "validate", "step": 0, "trainings": 0, "mean_cost": 6.0, "solved": 3, "n": 4}]
+    for step in range(8):
+        history.append({"event": "solve", "step": step, "problem": f"p{step % 4}", "best_cost": 5.0 - 0.1 * step,
+                        "inserted": 4})
+        if step in (3, 7):
+            k = 1 + step // 4
+            history.append({"event": "train", "step": step, "losses": [3.0 / k, 2.0 / k, 1.5 / k], "seconds": 1.0})
+            history.append({"event": "validate", "step": step + 1, "trainings": k, "mean_cost": 5.0 + 0.5 * (k - 1),
+                            "solved": 4, "n": 4})
+    return history
+
+
+def test_training_figure_draws_the_history(tmp_path):
+    history = make_history()
+    fig = plots.training_figure(history)
+    ax_cost, ax_loss, ax_val = fig.axes
+    x, y = ax_cost.lines[0].get_data()
+    np.testing.assert_array_equal(x, np.arange(1, 9))
+    np.testing.assert_allclose(y, [h["best_cost"] for h in history if h["event"] == "solve"])
+    assert [line.get_xdata()[0] for line in ax_cost.lines[1:]] == [4, 8]  # the trainings
+    assert [len(line.get_xdata()) for line in ax_loss.lines] == [3, 3]
+    np.testing.assert_array_equal(ax_loss.lines[1].get_xdata(), [4, 5, 6])  # the second training follows
+    learned, star, uniform = ax_val.lines
+    np.testing.assert_array_equal(learned.get_ydata(), [5.0, 5.5])
+    assert list(star.get_xdata()) == [1] and list(uniform.get_ydata()) == [6.0, 6.0]
+    # without validation the panel says so; a history without solves is an error
+    plain = plots.training_figure([h for h in history if h["event"] != "validate"])
+    assert "--holdout" in plain.axes[2].texts[0].get_text()
+    with pytest.raises(ValueError, match="no solve events"):
+        plots.training_figure([h for h in history if h["event"] != "solve"])
+    # gfcs plot tells a history file from benchmark rows
+    path = tmp_path / "hist.json"
+    path.write_text(json.dumps(history, indent=1))
+    out = plots.plot_file(path, tmp_path / "t.png")
+    img = mpimg.imread(out)
+    assert img.ndim == 3 and img[..., :3].std() > 0.05

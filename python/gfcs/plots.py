@@ -7,12 +7,18 @@ see :mod:`gfcs.results` for the keys: ``class``, ``label``, ``success``, ``ee_le
 statistics are those of :func:`gfcs.results.summarize`, the function behind the GFCS Table I layout
 printed by ``gfcs bench``.
 
-``gfcs plot RESULTS.jsonl --out FIG.png`` (:func:`register_cli`) writes the figure from a row file.
+:func:`training_figure` draws a training run of ``gfcs train`` (Algorithm 2 of GFCS) from its history
+(``gfcs train --history``, :attr:`gfcs.learning.train.TrainResult.history`): the best cost of every
+solve, the InfoNCE loss of every epoch, and the validation score of every trained model.
+
+``gfcs plot FILE --out FIG.png`` (:func:`register_cli`) writes the bench figure from a row file
+(``gfcs bench --json``) or the training figure from a history file (``gfcs train --history``).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 from pathlib import Path
 from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
@@ -21,7 +27,8 @@ import numpy as np
 
 from gfcs.results import read_rows, summarize
 
-__all__ = ["new_figure", "bench_summary_figure", "save_bench_summary", "plot_bench_file", "register_cli"]
+__all__ = ["new_figure", "bench_summary_figure", "save_bench_summary", "plot_bench_file", "training_figure",
+           "plot_file", "register_cli"]
 
 PathLike = Union[str, "Path"]
 
@@ -105,14 +112,18 @@ def bench_summary_figure(rows: Iterable[Dict[str, Any]], title: Optional[str] = 
     return fig
 
 
-def save_bench_summary(rows: Iterable[Dict[str, Any]], out: PathLike, title: Optional[str] = None,
-                       dpi: int = 120) -> Path:
-    """Draw :func:`bench_summary_figure` and save it as a PNG at ``out`` (parent folders created)."""
-    fig = bench_summary_figure(rows, title)
+def _save(fig: Any, out: PathLike, dpi: int = 120) -> Path:
+    """Save ``fig`` as a PNG at ``out`` (parent folders created)."""
     target = Path(out)
     target.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(target, dpi=dpi, format="png")
     return target
+
+
+def save_bench_summary(rows: Iterable[Dict[str, Any]], out: PathLike, title: Optional[str] = None,
+                       dpi: int = 120) -> Path:
+    """Draw :func:`bench_summary_figure` and save it as a PNG at ``out`` (parent folders created)."""
+    return _save(bench_summary_figure(rows, title), out, dpi)
 
 
 def plot_bench_file(jsonl: PathLike, out: PathLike, title: Optional[str] = None) -> Path:
@@ -121,8 +132,77 @@ def plot_bench_file(jsonl: PathLike, out: PathLike, title: Optional[str] = None)
     return save_bench_summary(rows, out, title)
 
 
+def training_figure(history: Sequence[Dict[str, Any]], title: Optional[str] = None) -> Any:
+    """A three-panel figure of a ``gfcs train`` history (events ``solve``, ``train``, ``validate``).
+
+    Panels: the best cost [s] of every solve against the solve number, with the trainings as vertical
+    lines; the mean InfoNCE loss (eq. 9) of every epoch, the trainings one after the other; the validation
+    score [s] (mean first-batch cost on the held-out problems) after every training, with the uniform
+    sampler's as a dashed line and the best training marked (this panel says "no validation" when the
+    run had no held-out problems).
+
+    Raises:
+        ValueError: no ``solve`` event in ``history``.
+    """
+    solves = [h for h in history if h.get("event") == "solve"]
+    if not solves:
+        raise ValueError("training_figure: the history has no solve events")
+    trains = [h for h in history if h.get("event") == "train"]
+    checks = [h for h in history if h.get("event") == "validate"]
+    fig = new_figure((8.0, 8.0))
+    ax_c, ax_l, ax_v = fig.subplots(3, 1)
+    steps = np.array([h["step"] + 1 for h in solves], dtype=np.float64)
+    ax_c.plot(steps, [h["best_cost"] for h in solves], ".", ms=3, color="C0")
+    for h in trains:
+        ax_c.axvline(h["step"] + 1, color="0.7", lw=0.6)
+    ax_c.set_xlabel("solve")
+    ax_c.set_ylabel("best cost [s]")
+    start = 0
+    for k, h in enumerate(trains):
+        losses = np.asarray(h["losses"], dtype=np.float64)
+        ax_l.plot(start + np.arange(1, len(losses) + 1), losses, color=f"C{k % 10}", lw=1.0)
+        start += len(losses)
+    ax_l.set_xlabel("epoch (trainings in turn)")
+    ax_l.set_ylabel("InfoNCE loss")
+    trained = [h for h in checks if h["trainings"] > 0]
+    if trained:
+        x = [h["trainings"] for h in trained]
+        y = [h["mean_cost"] for h in trained]
+        ax_v.plot(x, y, "o-", color="C1", label="learned")
+        best = min(trained, key=lambda h: h["mean_cost"])
+        ax_v.plot([best["trainings"]], [best["mean_cost"]], "*", ms=14, color="C3",
+                  label=f"best (training {best['trainings']})")
+        for h in checks:
+            if h["trainings"] == 0:
+                ax_v.axhline(h["mean_cost"], color="0.4", ls="--", lw=1.0, label="uniform")
+        ax_v.legend(fontsize=8)
+    else:
+        ax_v.text(0.5, 0.5, "no validation (gfcs train --holdout)", ha="center", va="center",
+                  transform=ax_v.transAxes)
+    ax_v.set_xlabel("training")
+    ax_v.set_ylabel("validation cost [s]")
+    for ax in (ax_c, ax_l, ax_v):
+        ax.grid(alpha=0.3)
+    fig.suptitle(title or f"gfcs train: {len(solves)} solves, {len(trains)} trainings")
+    fig.tight_layout()
+    return fig
+
+
+def plot_file(path: PathLike, out: PathLike, title: Optional[str] = None) -> Path:
+    """PNG at ``out`` of a ``gfcs bench --json`` row file or of a ``gfcs train --history`` file (a JSON
+    list of events), told apart by content."""
+    text = Path(path).read_text()
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError:
+        data = None  # several JSON lines: benchmark rows
+    if isinstance(data, list) and all(isinstance(h, dict) and "event" in h for h in data):
+        return _save(training_figure(data, title), out)
+    return save_bench_summary(read_rows(text.splitlines()), out, title)
+
+
 def _cmd_plot(args: argparse.Namespace) -> int:
-    path = plot_bench_file(args.rows, args.out, args.title)
+    path = plot_file(args.rows, args.out, args.title)
     print(f"wrote {path}")
     return 0
 
@@ -130,11 +210,12 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 def register_cli(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``gfcs plot RESULTS.jsonl --out FIG.png`` to ``subparsers``."""
     p = subparsers.add_parser(
-        "plot", help="plot benchmark rows (success rate, EE path length)",
-        description="Draw the success rate and the end-effector path length per class and method from "
-                    "the rows written by `gfcs bench --json`, as a PNG.",
+        "plot", help="plot benchmark rows or a training history",
+        description="Draw, as a PNG, the success rate and the end-effector path length per class and "
+                    "method from the rows written by `gfcs bench --json`, or the solve costs, losses and "
+                    "validation scores of a `gfcs train --history` file.",
     )
-    p.add_argument("rows", metavar="RESULTS.jsonl", help="benchmark rows")
+    p.add_argument("rows", metavar="FILE", help="benchmark rows (.jsonl) or training history (.json)")
     p.add_argument("--out", required=True, metavar="FIG.png", help="PNG to write")
     p.add_argument("--title", help="figure title")
     p.set_defaults(func=_cmd_plot)

@@ -85,6 +85,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     opt.add_argument("--population", type=int, help="candidates per batch (default 32)")
     opt.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON) of the solves")
     p.add_argument("--history", metavar="JSON", help="write the training history (solves, losses) as JSON")
+    p.add_argument("--plot", metavar="FIG.png", help="draw the solve costs, losses and validation scores "
+                   "(as `gfcs plot HISTORY.json`)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run_train)
     return p
@@ -168,6 +170,10 @@ def run_train(args: argparse.Namespace) -> int:
     if args.history:
         with open(args.history, "w", encoding="utf-8") as f:
             json.dump(result.history, f, indent=1)
+    if args.plot:
+        from gfcs.plots import _save, training_figure
+
+        print(f"wrote {_save(training_figure(result.history), args.plot)}")
     solved = [h for h in result.history if h["event"] == "solve"]
     print(f"trained on {len(problems)} problems x {config.passes} passes: {result.trainings} trainings, "
           f"buffer {len(result.buffer)}, model written to {args.out}")
