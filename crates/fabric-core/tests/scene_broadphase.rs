@@ -193,6 +193,55 @@ fn small_scenes_and_mode_switches_match_brute_force() {
     assert_eq!(scene.len(), 1);
 }
 
+/// In a scene small enough for the linear scan, built by adds only (storage order = id order), `query`
+/// returns exactly (values and order) the `point_distance` samples of every obstacle within the limit,
+/// for limits negative, positive and infinite: the vectorised box test drops nothing the exact test
+/// keeps.
+#[test]
+fn linear_scan_query_equals_exact_samples_in_storage_order() {
+    let cube = cube_mesh();
+    let mut r = rng(300);
+    let mut scene = Scene::new();
+    scene
+        .add(Obstacle::new(
+            "floor",
+            Shape::HalfSpace,
+            Isometry3::translation(0.0, 0.0, -1.0),
+        ))
+        .unwrap();
+    for i in 1..LINEAR_SCAN_MAX {
+        scene.add(random_obstacle(&mut r, &cube, i)).unwrap();
+    }
+    let mut out: Vec<DistanceSample> = Vec::new();
+    let mut hits = 0;
+    for t in 0..600 {
+        let p = vec_in(&mut r, -1.3, 1.3);
+        let max = match t % 10 {
+            0 => f64::INFINITY,
+            1 => r.gen_range(-0.1..0.0),
+            _ => r.gen_range(0.0..0.4),
+        };
+        let expected: Vec<DistanceSample> = scene
+            .iter()
+            .filter_map(|(id, o)| {
+                let s = point_distance(&o.shape, &o.pose, &p, max)?;
+                Some(DistanceSample {
+                    obstacle: id,
+                    distance: s.distance,
+                    gradient: s.gradient,
+                    hessian: s.hessian,
+                    velocity: o.velocity,
+                })
+            })
+            .collect();
+        out.clear();
+        scene.query(&p, max, &mut out);
+        assert_eq!(out, expected, "at {p:?}, max {max}");
+        hits += expected.len();
+    }
+    assert!(hits > 600, "{hits} samples");
+}
+
 #[test]
 fn add_get_move_remove() {
     let mut scene = Scene::new();

@@ -96,7 +96,9 @@ pub fn point_distance(
 
 /// [`point_distance`] with the rotation matrix `rot` (obstacle to world) precomputed. Each closed form
 /// tests its distance against `max_distance` before computing derivatives, so obstacles that the
-/// broadphase bound could not exclude cost little more than their distance.
+/// broadphase bound could not exclude cost little more than their distance. Inlined into the scene's
+/// query loops (meshes and point clouds stay out of line).
+#[inline(always)]
 pub(crate) fn eval_world(
     shape: &Shape,
     rot: &Matrix3<f64>,
@@ -409,6 +411,7 @@ fn capsule(f: &Frame, p: &Vector3<f64>, hh: f64, radius: f64) -> Option<SurfaceD
 }
 
 /// Triangle mesh via parry's point projection with feature location; signed with pseudo-normals.
+#[inline(never)]
 fn trimesh(f: &Frame, m: &TriMesh, p: &Vector3<f64>) -> Option<SurfaceDistance> {
     let solid = m.pseudo_normals_if_oriented().is_some();
     let pt = Point3::from(*p);
@@ -512,6 +515,7 @@ fn sliding_directions(m: &TriMesh, c: &Point3<f64>, u: &Vector3<f64>) -> Slide {
 }
 
 /// Point cloud: nearest point (BVH) minus the cloud radius.
+#[inline(never)]
 fn point_cloud(f: &Frame, pc: &PointCloud, p: &Vector3<f64>) -> Option<SurfaceDistance> {
     let (i, _) = pc.nearest(&Point3::from(*p), widen(f.max + pc.radius()))?;
     let c = pc.points().get(i)?;

@@ -404,16 +404,6 @@ pub(crate) fn fmax(a: f64, b: f64) -> f64 {
     }
 }
 
-/// `min(a, b)` for non-NaN inputs, as a single comparison.
-#[inline(always)]
-pub(crate) fn fmin(a: f64, b: f64) -> f64 {
-    if a < b {
-        a
-    } else {
-        b
-    }
-}
-
 /// Whether anything inside the box `[mins, maxs]` may be within signed distance `max` of `p`
 /// (squared outside distance when `max >= 0`, signed box distance otherwise).
 #[inline]
