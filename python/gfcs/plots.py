@@ -149,6 +149,8 @@ def training_figure(history: Sequence[Dict[str, Any]], title: Optional[str] = No
         raise ValueError("training_figure: the history has no solve events")
     trains = [h for h in history if h.get("event") == "train"]
     checks = [h for h in history if h.get("event") == "validate"]
+    from matplotlib.ticker import MaxNLocator
+
     fig = new_figure((8.0, 8.0))
     ax_c, ax_l, ax_v = fig.subplots(3, 1)
     steps = np.array([h["step"] + 1 for h in solves], dtype=np.float64)
@@ -157,6 +159,7 @@ def training_figure(history: Sequence[Dict[str, Any]], title: Optional[str] = No
         ax_c.axvline(h["step"] + 1, color="0.7", lw=0.6)
     ax_c.set_xlabel("solve")
     ax_c.set_ylabel("best cost [s]")
+    ax_c.set_yscale("log")  # a failed solve costs its penalty (eq. 8), far above the motion times
     start = 0
     for k, h in enumerate(trains):
         losses = np.asarray(h["losses"], dtype=np.float64)
@@ -180,6 +183,7 @@ def training_figure(history: Sequence[Dict[str, Any]], title: Optional[str] = No
         ax_v.text(0.5, 0.5, "no validation (gfcs train --holdout)", ha="center", va="center",
                   transform=ax_v.transAxes)
     ax_v.set_xlabel("training")
+    ax_v.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax_v.set_ylabel("validation cost [s]")
     for ax in (ax_c, ax_l, ax_v):
         ax.grid(alpha=0.3)
