@@ -50,6 +50,19 @@ fn random_obstacle(
     Obstacle::new(format!("o{i}"), shape, random_pose(r, 1.0))
 }
 
+/// A scene holding only the half-space z ≤ −1 m ("floor").
+fn scene_with_floor() -> Scene {
+    let mut scene = Scene::new();
+    scene
+        .add(Obstacle::new(
+            "floor",
+            Shape::HalfSpace,
+            Isometry3::translation(0.0, 0.0, -1.0),
+        ))
+        .unwrap();
+    scene
+}
+
 fn cube_mesh() -> Arc<parry3d_f64::shape::TriMesh> {
     let (v, t) = parse_obj(UNIT_CUBE_OBJ, "cube.obj").unwrap();
     Arc::new(build_mesh(v, t, "cube.obj").unwrap())
@@ -161,15 +174,8 @@ fn small_scenes_and_mode_switches_match_brute_force() {
     // switches between the scan and the BVH.
     let cube = cube_mesh();
     let mut r = rng(200);
-    let mut scene = Scene::new();
+    let mut scene = scene_with_floor();
     let mut ids = Vec::new();
-    scene
-        .add(Obstacle::new(
-            "floor",
-            Shape::HalfSpace,
-            Isometry3::translation(0.0, 0.0, -1.0),
-        ))
-        .unwrap();
     for i in 0..LINEAR_SCAN_MAX + 6 {
         ids.push(scene.add(random_obstacle(&mut r, &cube, i)).unwrap());
         check_against_brute_force(&scene, &mut r, 40, false);
@@ -201,14 +207,7 @@ fn small_scenes_and_mode_switches_match_brute_force() {
 fn linear_scan_query_equals_exact_samples_in_storage_order() {
     let cube = cube_mesh();
     let mut r = rng(300);
-    let mut scene = Scene::new();
-    scene
-        .add(Obstacle::new(
-            "floor",
-            Shape::HalfSpace,
-            Isometry3::translation(0.0, 0.0, -1.0),
-        ))
-        .unwrap();
+    let mut scene = scene_with_floor();
     for i in 1..LINEAR_SCAN_MAX {
         scene.add(random_obstacle(&mut r, &cube, i)).unwrap();
     }
