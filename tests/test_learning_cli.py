@@ -58,6 +58,8 @@ def test_holdout_takes_the_last_problems_of_each_class():
     assert _split_holdout(problems, 0) == (problems, [])
     with pytest.raises(ConfigError, match="'box' has only 4"):
         _split_holdout(problems, 4)
+    with pytest.raises(ConfigError, match="expected >= 0"):
+        _split_holdout(problems, -1)
 
 
 def test_resume_keeps_the_checkpoint_config(tmp_path):

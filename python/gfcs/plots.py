@@ -28,7 +28,7 @@ import numpy as np
 from gfcs.results import read_rows, summarize
 
 __all__ = ["new_figure", "bench_summary_figure", "save_bench_summary", "plot_bench_file", "training_figure",
-           "plot_file", "register_cli"]
+           "save_training_figure", "plot_file", "register_cli"]
 
 PathLike = Union[str, "Path"]
 
@@ -192,6 +192,12 @@ def training_figure(history: Sequence[Dict[str, Any]], title: Optional[str] = No
     return fig
 
 
+def save_training_figure(history: Sequence[Dict[str, Any]], out: PathLike, title: Optional[str] = None,
+                         dpi: int = 120) -> Path:
+    """Draw :func:`training_figure` and save it as a PNG at ``out`` (parent folders created)."""
+    return _save(training_figure(history, title), out, dpi)
+
+
 def plot_file(path: PathLike, out: PathLike, title: Optional[str] = None) -> Path:
     """PNG at ``out`` of a ``gfcs bench --json`` row file or of a ``gfcs train --history`` file (a JSON
     list of events), told apart by content."""
@@ -201,7 +207,7 @@ def plot_file(path: PathLike, out: PathLike, title: Optional[str] = None) -> Pat
     except json.JSONDecodeError:
         data = None  # several JSON lines: benchmark rows
     if isinstance(data, list) and all(isinstance(h, dict) and "event" in h for h in data):
-        return _save(training_figure(data, title), out)
+        return save_training_figure(data, out, title)
     return save_bench_summary(read_rows(text.splitlines()), out, title)
 
 

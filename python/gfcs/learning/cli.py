@@ -96,6 +96,8 @@ def _split_holdout(problems: List[Any], n: int) -> Tuple[List[Any], List[Any]]:
     """(training, validation): the last ``n`` problems of each class (``Problem.cls``) are validation."""
     from gfcs.errors import ConfigError
 
+    if n < 0:
+        raise ConfigError(f"gfcs train --holdout: expected >= 0, got {n}")
     by_class: Dict[str, List[Any]] = {}
     for p in problems:
         by_class.setdefault(p.cls, []).append(p)
@@ -159,10 +161,6 @@ def run_train(args: argparse.Namespace) -> int:
         return 2
     from .train import train
 
-    from gfcs.errors import ConfigError
-
-    if args.holdout < 0:
-        raise ConfigError(f"gfcs train --holdout: expected >= 0, got {args.holdout}")
     config = _config(args)
     problems, validation = _split_holdout(_load_problems(args, config.seed), args.holdout)
     result = train(problems, out=args.out, config=config, resume=args.resume, checkpoint=args.checkpoint,
@@ -171,9 +169,9 @@ def run_train(args: argparse.Namespace) -> int:
         with open(args.history, "w", encoding="utf-8") as f:
             json.dump(result.history, f, indent=1)
     if args.plot:
-        from gfcs.plots import _save, training_figure
+        from gfcs.plots import save_training_figure
 
-        print(f"wrote {_save(training_figure(result.history), args.plot)}")
+        print(f"wrote {save_training_figure(result.history, args.plot)}")
     solved = [h for h in result.history if h["event"] == "solve"]
     print(f"trained on {len(problems)} problems x {config.passes} passes: {result.trainings} trainings, "
           f"buffer {len(result.buffer)}, model written to {args.out}")

@@ -49,10 +49,9 @@ training (see :class:`~gfcs.learning.ebm.EnergyModel`); the statistics are part 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import os
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
@@ -309,7 +308,7 @@ def default_validate_fn(config: TrainConfig) -> SolveFn:
     ``None``."""
     kwargs = dict(config.solve)
     kwargs["batches"] = 1
-    return default_solve_fn(dataclasses.replace(config, solve=kwargs))
+    return default_solve_fn(replace(config, solve=kwargs))
 
 
 def load_checkpoint(path: Union[str, Path]) -> Dict[str, Any]:
