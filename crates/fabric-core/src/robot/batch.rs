@@ -24,50 +24,46 @@ fn rows(robot: &Robot, qs: &[f64]) -> Result<usize> {
     Ok(qs.len() / dof)
 }
 
-/// Run `fill(robot, ws, out_row)` after forward kinematics of each configuration, in parallel.
-fn for_each_config<T: Send + Clone>(
+/// `value(ws, k)` for entry k of each configuration's output row after its forward kinematics, in
+/// parallel. The result is collected by rayon straight into its final buffer (no serial zero-filling
+/// first, which would keep one thread busy touching every page); a worker recomputes the kinematics
+/// only when it moves on to the next configuration.
+fn for_each_config<T: Send>(
     robot: &Robot,
     qs: &[f64],
     per_row: usize,
-    zero: T,
-    fill: impl Fn(&KinematicsWorkspace, &mut [T]) + Sync,
+    value: impl Fn(&KinematicsWorkspace, usize) -> T + Sync,
 ) -> Result<Vec<T>> {
     let n = rows(robot, qs)?;
-    let mut out = vec![zero; n * per_row];
-    if per_row == 0 {
-        return Ok(out);
-    }
-    out.par_chunks_mut(per_row)
-        .zip(qs.par_chunks(robot.dof()))
-        .try_for_each_init(
-            || KinematicsWorkspace::new(robot),
-            |ws, (row, q)| {
-                robot.update_positions(q, ws)?;
-                fill(ws, row);
-                Ok(())
+    let dof = robot.dof();
+    Ok((0..n * per_row)
+        .into_par_iter()
+        .with_min_len(per_row.max(1))
+        .map_init(
+            || (KinematicsWorkspace::new(robot), usize::MAX),
+            |(ws, current), k| {
+                let row = k / per_row;
+                if *current != row {
+                    // `rows` checked the lengths and finiteness of every configuration.
+                    robot.forward_positions(&qs[row * dof..(row + 1) * dof], ws);
+                    *current = row;
+                }
+                value(ws, k % per_row)
             },
-        )?;
-    Ok(out)
+        )
+        .collect())
 }
 
 /// World poses of every link for N configurations: `qs` is N × dof row-major (rad or m); the result is
 /// N × L row-major (L = number of links, in [`Robot::link_names`] order). Errors: `Shape`, `NonFinite`.
 pub fn link_poses(robot: &Robot, qs: &[f64]) -> Result<Vec<Isometry3<f64>>> {
     let l = robot.link_names().len();
-    for_each_config(robot, qs, l, Isometry3::identity(), |ws, row| {
-        for (k, pose) in row.iter_mut().enumerate() {
-            *pose = *robot.link_pose(ws, k);
-        }
-    })
+    for_each_config(robot, qs, l, |ws, k| *robot.link_pose(ws, k))
 }
 
 /// World centres (m) of every collision sphere for N configurations: `qs` is N × dof row-major; the
 /// result is N × S row-major (S = number of spheres). Errors: `Shape`, `NonFinite`.
 pub fn sphere_centers(robot: &Robot, qs: &[f64]) -> Result<Vec<Vector3<f64>>> {
     let s = robot.spheres().len();
-    for_each_config(robot, qs, s, Vector3::zeros(), |ws, row| {
-        for (i, c) in row.iter_mut().enumerate() {
-            *c = robot.sphere_center(ws, i);
-        }
-    })
+    for_each_config(robot, qs, s, |ws, i| robot.sphere_center(ws, i))
 }

@@ -152,6 +152,12 @@ impl Robot {
         Ok(())
     }
 
+    /// Forward kinematics only, without the checks of [`Robot::update_positions`], for callers that
+    /// checked q (length dof, finite) and sized `ws` for this robot themselves.
+    pub(super) fn forward_positions(&self, q: &[f64], ws: &mut KinematicsWorkspace) {
+        self.propagate::<false>(q, q, ws);
+    }
+
     fn propagate<const VEL: bool>(&self, q: &[f64], qd: &[f64], ws: &mut KinematicsWorkspace) {
         let dof = ws.dof;
         for (i, joint) in self.joints.iter().enumerate() {
