@@ -269,6 +269,12 @@ fn bad_states() {
         Err(FabricError::NonFinite { .. })
     ));
     assert_eq!(batch::sphere_centers(&panda, &[]).unwrap().len(), 0);
+    // A link index beyond the robot's links.
+    let links = panda.link_names().len();
+    assert!(matches!(
+        batch::link_origins(&panda, &[0.0; 7], links),
+        Err(FabricError::Value { .. })
+    ));
 }
 
 #[test]

@@ -293,13 +293,18 @@ fn batches_match_single_evaluations_for_any_thread_count() {
             .num_threads(threads)
             .build()
             .unwrap();
-        let (poses, centers) = pool.install(|| {
+        let ee = robot.ee_link();
+        let (poses, centers, origins) = pool.install(|| {
             (
                 batch::link_poses(&robot, &qs).unwrap(),
                 batch::sphere_centers(&robot, &qs).unwrap(),
+                batch::link_origins(&robot, &qs, ee).unwrap(),
             )
         });
-        assert_eq!((poses.len(), centers.len()), (n * l, n * s));
+        assert_eq!(
+            (poses.len(), centers.len(), origins.len()),
+            (n * l, n * s, n)
+        );
         for k in 0..n {
             robot
                 .update_positions(&qs[k * 7..(k + 1) * 7], &mut ws)
@@ -307,6 +312,7 @@ fn batches_match_single_evaluations_for_any_thread_count() {
             for li in 0..l {
                 assert_eq!(poses[k * l + li], *robot.link_pose(&ws, li));
             }
+            assert_eq!(origins[k], robot.link_pose(&ws, ee).translation.vector);
             for si in 0..s {
                 let sp = robot.spheres()[si];
                 let expect = robot.link_pose(&ws, sp.link) * Point3::from(sp.center);

@@ -373,17 +373,9 @@ impl PyRobot {
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.per_configuration(py, q, &[3], |robot, qs, n| {
-            let dof = robot.dof();
-            let mut ws = KinematicsWorkspace::new(robot);
-            let zeros = vec![0.0; dof];
-            let mut out = Vec::with_capacity(3 * n);
-            for i in 0..n {
-                robot.update(&qs[i * dof..(i + 1) * dof], &zeros, &mut ws)?;
-                let x = robot.link_pose(&ws, robot.ee_link()).translation.vector;
-                out.extend_from_slice(&[x.x, x.y, x.z]);
-            }
-            Ok(out)
+        self.per_configuration(py, q, &[3], |robot, qs, _| {
+            let origins = batch::link_origins(robot, qs, robot.ee_link())?;
+            Ok(origins.iter().flat_map(|x| [x.x, x.y, x.z]).collect())
         })
     }
 
