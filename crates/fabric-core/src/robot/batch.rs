@@ -71,13 +71,7 @@ pub fn sphere_centers(robot: &Robot, qs: &[f64]) -> Result<Vec<Vector3<f64>>> {
 /// World position (m) of the origin of `link` for N configurations: `qs` is N × dof row-major; the
 /// result has N rows. Errors: `Shape`, `NonFinite`, `Value` when `link` is not a link index.
 pub fn link_origins(robot: &Robot, qs: &[f64], link: usize) -> Result<Vec<Vector3<f64>>> {
-    let links = robot.link_names().len();
-    if link >= links {
-        return Err(FabricError::Value {
-            what: "link".into(),
-            message: format!("index {link} out of range ({links} links)"),
-        });
-    }
+    robot.check_link_index(link, "link")?;
     for_each_config(robot, qs, 1, |ws, _| {
         robot.link_pose(ws, link).translation.vector
     })

@@ -148,7 +148,7 @@ impl Robot {
     /// [`Robot::update`].
     pub fn update_positions(&self, q: &[f64], ws: &mut KinematicsWorkspace) -> Result<()> {
         self.check_state(q, None, ws)?;
-        self.propagate::<false>(q, q, ws);
+        self.forward_positions(q, ws);
         Ok(())
     }
 

@@ -202,6 +202,18 @@ impl Robot {
         &self.link_names
     }
 
+    /// `Err(Value)` naming `what` unless `link` is a link index of this robot.
+    pub(crate) fn check_link_index(&self, link: usize, what: &str) -> Result<()> {
+        let links = self.link_names.len();
+        if link < links {
+            return Ok(());
+        }
+        Err(FabricError::Value {
+            what: what.to_string(),
+            message: format!("link index {link} out of range (robot has {links} links)"),
+        })
+    }
+
     /// Index of a link by name. Errors with `MissingLink`.
     pub fn link_index(&self, name: &str) -> Result<usize> {
         self.link_names

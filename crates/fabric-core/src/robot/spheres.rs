@@ -33,16 +33,7 @@ impl Robot {
     pub fn set_spheres(&mut self, spheres: Vec<CollisionSphere>) -> Result<()> {
         for (i, s) in spheres.iter().enumerate() {
             let what = || format!("sphere {i}");
-            if s.link >= self.link_names.len() {
-                return Err(FabricError::Value {
-                    what: what(),
-                    message: format!(
-                        "link index {} out of range (robot has {} links)",
-                        s.link,
-                        self.link_names.len()
-                    ),
-                });
-            }
+            self.check_link_index(s.link, &what())?;
             if !s.center.iter().all(|v| v.is_finite()) {
                 return Err(FabricError::Value {
                     what: what(),
