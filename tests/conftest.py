@@ -48,3 +48,22 @@ def mbm_panda_dir() -> Path:
 def mbm_dir() -> Path:
     """``<shared>/mbm``: MotionBenchMaker problems (skip/fail rule of :func:`require_shared`)."""
     return require_shared("mbm")
+
+
+@pytest.fixture(scope="session")
+def fake_optimum():
+    """``fake_optimum(xs, costs)``: an ``OptimResult`` holding the candidates ``xs`` (K, dim) with ``costs``
+    (K,), as :func:`gfcs.optimize.solve_gfcop` returns them (for testing the candidate selection)."""
+    import numpy as np
+
+    from gfcs import optimize
+
+    def make(xs, costs):
+        xs, costs = np.asarray(xs, dtype=float), np.asarray(costs, dtype=float)
+        order = np.argsort(costs, kind="stable")
+        return optimize.OptimResult(best_x=xs[order[0]], best_cost=float(costs[order[0]]), top_x=xs[order],
+                                    top_costs=costs[order], all_x=xs, all_costs=costs,
+                                    all_batches=np.zeros(len(xs), int), batch_best_costs=costs[order[:1]],
+                                    batch_best_x=xs[order[:1]], batch_times=np.zeros(1))
+
+    return make

@@ -203,7 +203,8 @@ def shelf_problem():
 
 @pytest.fixture(scope="module")
 def solved(shelf_problem):
-    return opt.solve(shelf_problem, batches=3, population=16, seed=0)
+    # length_slack 0: the lowest-cost candidate (Alg. 1 as in the paper), so that cost and top-m line up
+    return opt.solve(shelf_problem, batches=3, population=16, seed=0, length_slack=0)
 
 
 def test_solve_end_to_end(shelf_problem, solved):
@@ -233,7 +234,7 @@ def test_solve_end_to_end(shelf_problem, solved):
 
 
 def test_solve_is_reproducible(shelf_problem, solved):
-    again = opt.solve(shelf_problem, batches=3, population=16, seed=0, threads=1)
+    again = opt.solve(shelf_problem, batches=3, population=16, seed=0, threads=1, length_slack=0)
     np.testing.assert_array_equal(again.commands, solved.commands)
     np.testing.assert_array_equal(again.batch_best_costs, solved.batch_best_costs)
     # Another seed draws other candidates (the goal-as-command candidate is in every first batch, so
@@ -241,6 +242,61 @@ def test_solve_is_reproducible(shelf_problem, solved):
     first = opt.solve(shelf_problem, batches=1, population=16, seed=0)
     other = opt.solve(shelf_problem, batches=1, population=16, seed=1)
     assert any(not np.array_equal(a, b) for (a, _), (b, _) in zip(other.top, first.top))
+
+
+@pytest.fixture(scope="module")
+def free_problem():
+    """The shipped Panda in an empty scene, moving joint 1 by 0.6 rad."""
+    import gfcs
+    from gfcs import generators
+    from gfcs.problems import Problem
+
+    goal = generators.READY + np.array([0.6, 0, 0, 0, 0, 0, 0])
+    return Problem("free", gfcs.Robot.panda(), gfcs.Scene(), q0=generators.READY, goal=goal)
+
+
+def test_length_slack_prefers_the_shorter_hand_path_among_near_optimal_candidates(free_problem, fake_optimum):
+    p = free_problem
+    fabric, settings = opt.make_fabric(p), opt.RolloutSettings()
+    detour = p.goal + np.array([0, -0.8, 0, 0.6, 0, 0, 0])  # shoulder back, elbow out: a longer hand path
+    direct = p.goal.copy()
+    hand = {}
+    for name, c in (("detour", detour), ("direct", direct)):
+        traj, _, reached, _ = opt.rollout_commands(fabric, p.q0, p.qd0, p.goal, c[None], settings)
+        assert reached
+        hand[name] = metrics.path_length(p.robot.ee_position(traj.q))
+    assert hand["direct"] < 0.8 * hand["detour"]
+    # the detour is cheapest, the direct one 8 % dearer, an unreached candidate (cost above the penalty)
+    # would be shorter still but is never preferred
+    result = fake_optimum([detour, direct, p.q0], [1.0, 1.08, 150.0])
+
+    def pick(slack, mesh_candidates=32):
+        commands, _, _, _, _, met = opt._select_candidate(fabric, p, result, 1, settings, None,
+                                                          mesh_candidates, slack)
+        assert "mesh_candidates_checked" not in met and met["ee_length"] == pytest.approx(
+            hand["direct" if np.array_equal(commands[0], direct) else "detour"])
+        return commands[0], met["selection_rank"]
+
+    np.testing.assert_array_equal(pick(0.1)[0], direct)
+    assert pick(0.1)[1] == 1
+    for slack in (0.0, 0.05):  # 1.08 is outside a 5 % slack
+        c, rank = pick(slack)
+        np.testing.assert_array_equal(c, detour)
+        assert rank == 0
+    np.testing.assert_array_equal(pick(1e6)[0], direct)  # the unreached one stays out at any slack
+    np.testing.assert_array_equal(pick(0.1, mesh_candidates=1)[0], detour)  # only the lowest cost considered
+
+
+def test_solve_records_the_slack_and_rejects_a_bad_one(shelf_problem):
+    r = opt.solve(shelf_problem, batches=1, population=8, seed=0, length_slack=0.2)
+    assert r.settings["length_slack"] == 0.2 and 0 <= r.metrics["selection_rank"] < 8
+    # within the slack of the best cost, and no longer a hand path than the lowest-cost candidate's
+    best = opt.solve(shelf_problem, batches=1, population=8, seed=0, length_slack=0)
+    assert best.metrics["selection_rank"] == 0 and r.cost <= 1.2 * best.cost + 1e-12
+    assert r.metrics["ee_length"] <= best.metrics["ee_length"] + 1e-12
+    for bad in (-0.1, math.nan, math.inf):
+        with pytest.raises(ValueError, match="length_slack"):
+            opt.solve(shelf_problem, batches=1, population=8, length_slack=bad)
 
 
 def test_gf_baseline(shelf_problem):

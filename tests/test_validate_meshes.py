@@ -222,18 +222,19 @@ def shelf():
 
 
 def test_solve_returns_the_best_mesh_free_candidate(shelf):
-    plain = opt.solve(shelf, batches=1, population=8, seed=0, top_m=3)
+    # length_slack 0: candidates in cost order (the slack's own order is tested in test_optimize.py)
+    plain = opt.solve(shelf, batches=1, population=8, seed=0, top_m=3, length_slack=0)
     flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=1))
-    r = opt.solve(flagged, batches=1, population=8, seed=0, top_m=3)
-    assert r.metrics["mesh_candidate_rank"] == 1 and r.metrics["mesh_candidates_checked"] == 2 and r.success
+    r = opt.solve(flagged, batches=1, population=8, seed=0, top_m=3, length_slack=0)
+    assert r.metrics["selection_rank"] == 1 and r.metrics["mesh_candidates_checked"] == 2 and r.success
     np.testing.assert_array_equal(r.commands.ravel(), plain.top[1][0])
     assert r.cost == pytest.approx(plain.top[1][1], abs=1e-12)
     assert [c for _, c in r.top] == [c for _, c in plain.top]  # the optimiser's top-m is unchanged
     # every candidate in contact: the lowest-cost one comes back, reported as failed
     hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=99))
-    r = opt.solve(hopeless, batches=1, population=8, seed=0, top_m=3, mesh_candidates=3)
+    r = opt.solve(hopeless, batches=1, population=8, seed=0, top_m=3, mesh_candidates=3, length_slack=0)
     np.testing.assert_array_equal(r.commands, plain.commands)
-    assert not r.success and r.metrics["mesh_candidate_rank"] == 0
+    assert not r.success and r.metrics["selection_rank"] == 0
     assert r.metrics["mesh_candidates_checked"] == 3 and r.metrics["mesh_clearance"] < 0
     gf = opt.solve(hopeless, method="gf")
     assert "mesh_clearance" in gf.metrics and not gf.success
@@ -325,16 +326,7 @@ def test_mbm_clearance_matches_dense_surface_samples(shared_dir):
                 assert got <= ref + 1e-9 and ref - got < 2e-3, (p.name, got, ref)
 
 
-def _fake_optimum(xs, costs):
-    """An OptimResult holding the candidates ``xs`` (K, 1) with ``costs`` (K,), as solve_gfcop returns."""
-    xs, costs = np.asarray(xs, dtype=float), np.asarray(costs, dtype=float)
-    order = np.argsort(costs, kind="stable")
-    return opt.OptimResult(best_x=xs[order[0]], best_cost=float(costs[order[0]]), top_x=xs[order],
-                           top_costs=costs[order], all_x=xs, all_costs=costs, all_batches=np.zeros(len(xs), int),
-                           batch_best_costs=costs[order[:1]], batch_best_x=xs[order[:1]], batch_times=np.zeros(1))
-
-
-def test_selection_skips_candidates_whose_meshes_collide(sphere_and_mesh_sliders):
+def test_selection_skips_candidates_whose_meshes_collide(sphere_and_mesh_sliders, fake_optimum):
     """The cheapest command (x = 0.25) keeps the 0.05 m sphere clear of the ball at x = 0.5 but drives the
     0.4 m box into it; the dearer one (x = −0.3) stays clear. An unreached candidate is never tried."""
     spheres, checker, scene = sphere_and_mesh_sliders
@@ -344,10 +336,10 @@ def test_selection_skips_candidates_whose_meshes_collide(sphere_and_mesh_sliders
     fabric = opt.make_fabric(p, {"speed": {"ee_weight": 0.0, "desired_speed": 1.2},
                                  "ee_position": {"enabled": False}})
     settings = opt.RolloutSettings(waypoint_tol=0.1)
-    result = _fake_optimum([[0.25], [-0.9], [-0.3]], [1.0, 150.0, 2.0])
+    result = fake_optimum([[0.25], [-0.9], [-0.3]], [1.0, 150.0, 2.0])
     commands, _, _, reached, _, met = opt._select_candidate(fabric, p, result, 1, settings, checker, 8)
     assert reached and met["success"] and met["mesh_clearance"] > 0
-    assert commands[0, 0] == -0.3 and met["mesh_candidate_rank"] == 1 and met["mesh_candidates_checked"] == 2
+    assert commands[0, 0] == -0.3 and met["selection_rank"] == 1 and met["mesh_candidates_checked"] == 2
     commands, _, _, _, _, met = opt._select_candidate(fabric, p, result, 1, settings, checker, 1)
     assert commands[0, 0] == 0.25 and not met["success"] and met["mesh_clearance"] < 0
     assert met["mesh_candidates_checked"] == 1

@@ -91,6 +91,9 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     g.add_argument("--sgld-noise", type=float, metavar="TAU",
                    help="with --sampler MODEL.pt: SGLD noise scale of the sampler (default: the model "
                         "file's; 1 is the paper's eq. 10-11)")
+    g.add_argument("--length-slack", type=float, metavar="EPS", default=None,
+                   help="prefer the shortest hand path among reached candidates within (1 + EPS) x the "
+                        "lowest cost (default 0.1; 0: the lowest-cost candidate, the paper's choice)")
     g.add_argument("--no-retry", action="store_true",
                    help="with the default sampler, do not retry a failed solve with one more command")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
@@ -110,6 +113,11 @@ def _settings(args: argparse.Namespace) -> Any:
     if args.waypoint_tol is not None:
         s.waypoint_tol = args.waypoint_tol
     return s
+
+
+def _solve_options(args: argparse.Namespace) -> Dict[str, Any]:
+    """Keyword arguments of :func:`gfcs.optimize.solve` given on the command line (others: its defaults)."""
+    return {} if args.length_slack is None else {"length_slack": args.length_slack}
 
 
 def _robot(args: argparse.Namespace) -> Any:
@@ -230,6 +238,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         n_commands=args.commands, seed=args.seed, sampler=_sampler(args), fabric_config=args.config,
         threads=args.threads, progress=args.progress, settings=_settings(args),
         max_commands=args.commands if args.no_retry and args.method == "gfcs" else None,
+        **_solve_options(args),
     )
     text = summary_text(result, problem)
     if args.json:
@@ -282,14 +291,16 @@ def load_problems(args: argparse.Namespace, robot: Any) -> List[Any]:
 def bench_problem(problem: Any, methods: Sequence[str], batches: int, population: int, seed: int,
                   n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
                   threads: Optional[int] = None, settings: Any = None,
-                  retry: bool = True) -> Tuple[List[Dict[str, Any]], List[Any]]:
+                  retry: bool = True, solve_options: Optional[Dict[str, Any]] = None,
+                  ) -> Tuple[List[Dict[str, Any]], List[Any]]:
     """Rows (:func:`gfcs.results.bench_row`) and results of the methods on one problem.
 
     GFCS yields the paper's Table I rows with n = ``n_commands`` free commands and no retry: "Ours (1 b)"
     (the best sequence after the first batch, replayed for its metrics, time = first batch) and
     "Ours (B b)" (after all B batches); with ``retry`` (and the default sampler) a third row, "Ours (B b,
     retry)", is what :func:`gfcs.optimize.solve` returns by default: the same unless that failed, then the
-    retry with n + 1 commands (time = both attempts). GF yields "GF".
+    retry with n + 1 commands (time = both attempts). GF yields "GF". ``solve_options``: further keyword
+    arguments of :func:`gfcs.optimize.solve` for GFCS (e.g. ``length_slack``).
     """
     from gfcs import optimize
     from gfcs.results import bench_row
@@ -297,7 +308,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     rows: List[Dict[str, Any]] = []
     results: List[Any] = []
     for method in methods:
-        once = {"max_commands": n_commands} if method == "gfcs" else {}
+        once = {"max_commands": n_commands, **(solve_options or {})} if method == "gfcs" else {}
         res = optimize.solve(problem, method=method, batches=batches, population=population,
                              n_commands=n_commands, seed=seed, sampler=sampler,
                              fabric_config=fabric_config, threads=threads, settings=settings, **once)
@@ -318,7 +329,8 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
             if not res.success:  # solve's default: the attempt above, then one with n + 1 commands
                 more = optimize.solve(problem, batches=batches, population=population,
                                       n_commands=n_commands + 1, seed=seed, fabric_config=fabric_config,
-                                      threads=threads, settings=settings, max_commands=n_commands + 1)
+                                      threads=threads, settings=settings, max_commands=n_commands + 1,
+                                      **(solve_options or {}))
                 res = optimize.combine_attempts([res, more])
                 results[-1] = res
             rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b, retry)", "gfcs", batches,
@@ -329,7 +341,8 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
 def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5, population: int = 32,
               seed: int = 0, n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
               threads: Optional[int] = None, settings: Any = None, jsonl: Optional[str] = None,
-              rrd_dir: Optional[str] = None, progress: bool = True, retry: bool = True) -> List[Dict[str, Any]]:
+              rrd_dir: Optional[str] = None, progress: bool = True, retry: bool = True,
+              solve_options: Optional[Dict[str, Any]] = None) -> List[Dict[str, Any]]:
     """Benchmark ``methods`` on ``problems``; rows are appended to ``jsonl`` as they are produced (rows:
     :func:`bench_problem`).
 
@@ -350,7 +363,7 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
         for problem in bar:
             bar.set_postfix_str(problem.name)
             new, results = bench_problem(problem, methods, batches, population, seed, n_commands, sampler,
-                                         fabric_config, threads, settings, retry)
+                                         fabric_config, threads, settings, retry, solve_options)
             rows.extend(new)
             if out is not None:
                 for r in new:
@@ -373,7 +386,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
                      n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
                      threads=args.threads, settings=_settings(args), jsonl=args.json, rrd_dir=args.rrd_dir,
-                     progress=not args.no_progress, retry=not args.no_retry)
+                     progress=not args.no_progress, retry=not args.no_retry,
+                     solve_options=_solve_options(args))
     summary = summarize(rows)
     print(format_table(summary, markdown=False))
     if args.markdown:

@@ -20,9 +20,16 @@ then those that reached the goal, at most ``mesh_candidates``) and returns the f
 itself (``metrics["success"]``, which then requires ``mesh_clearance > 0`` and ``mesh_self_clearance > 0``
 besides reaching the goal with the spheres clear); if none does, the lowest-cost candidate is returned (and
 reported as failed): a mesh-free candidate that misses the goal is no better. ``result.top`` and the per-batch data are the
-optimiser's, unchanged (anytime / top-m semantics of Alg. 1); ``metrics["mesh_candidate_rank"]`` is the rank
-in ``result.top`` of the returned candidate and ``metrics["mesh_candidates_checked"]`` how many were rolled
-out.
+optimiser's, unchanged (anytime / top-m semantics of Alg. 1).
+
+Near-optimal candidates (``length_slack``): eq. 4 scores time only, and on MotionBenchMaker candidates
+within a few per cent of the best time differ by up to 25 % in end-effector path length. :func:`solve`
+therefore rolls out the reached candidates whose cost is within ``(1 + length_slack)`` times the best (at
+most ``mesh_candidates`` of them) and tries them shortest hand path first, then the others in cost order
+(mesh validation, when on, takes that order). ``length_slack = 0`` returns the paper's choice, the
+lowest-cost candidate. ``metrics["selection_rank"]`` is the rank of the returned candidate in the
+optimiser's cost order (0: the lowest cost) and ``metrics["mesh_candidates_checked"]`` how many were
+rolled out.
 
 Warm start (Alg. 1, first line): CMA-ES runs in normalised coordinates u = (y − lower)/(upper − lower) ∈
 [0, 1]^dim with pycma's ``BoundTransform`` box handling. The sampler's candidates are passed to
@@ -293,6 +300,11 @@ def solve_gfcop(
         sigma0: initial CMA-ES step size as a fraction of each coordinate's range (0 < sigma0).
         seed: non-negative integer seed of the sampler and CMA-ES generators.
         top_m: number m of best candidates returned (≥ 1; fewer if fewer were evaluated).
+        length_slack: relative cost slack ε ≥ 0: among the reached candidates with cost ≤ (1 + ε) × the
+            lowest, the one with the shortest end-effector path is preferred (see the module docstring).
+            0.1: on all 350 MotionBenchMaker problems (5 batches) hand paths 2-5 % shorter per class,
+            C-space paths 2-6 % and motions 1-5 % longer (BENCHMARKS.md); 0 returns the lowest-cost
+            candidate (the paper's Alg. 1).
         callback: called after every batch with a :class:`BatchInfo`; returning True stops early
             (anytime use).
 
@@ -504,44 +516,55 @@ def _settings_dict(settings: RolloutSettings, **extra: Any) -> Dict[str, Any]:
 
 def _select_candidate(
     fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
-    mesh_checker: Any, mesh_candidates: int,
+    mesh_checker: Any, mesh_candidates: int, length_slack: float = 0.0,
 ) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray, Dict[str, Any]]:
     """The candidate :func:`solve` returns, rolled out: (commands (n, dof), trajectory, cost, reached,
     t_stars, metrics).
 
-    Without a mesh checker: the lowest-cost candidate. With one: the first, in cost order over every
-    evaluated candidate, whose trajectory succeeds with meshes included (see the module docstring); at most
-    ``mesh_candidates`` are rolled out, and after the lowest-cost one only those that reached the goal
-    (cost below the penalty). If none succeeds, the lowest-cost one.
+    The order of preference (see the module docstring): the reached candidates with cost ≤
+    (1 + ``length_slack``) × the lowest, shortest end-effector path first, then the others in cost order
+    (after the lowest-cost one only those that reached the goal); at most ``mesh_candidates`` are
+    considered. Without a mesh checker the first of that order is returned; with one, the first whose
+    trajectory succeeds with meshes included, or, if none does, the first of the order.
     """
     robot, scene = problem.robot, problem.scene
     dof = int(robot.dof)
     q0, qd0 = np.asarray(problem.q0, dtype=np.float64), np.asarray(problem.qd0, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
+    order = np.argsort(opt.all_costs, kind="stable")
+    keep = [int(order[0])] + [int(k) for k in order[1:] if opt.all_costs[k] < settings.penalty]
+    keep = keep[:max(1, int(mesh_candidates))]
+    rolled: Dict[int, Tuple[np.ndarray, Trajectory, float, bool, np.ndarray]] = {}
+
+    def roll(k: int) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray]:
+        if k not in rolled:
+            commands = np.asarray(opt.all_x[k], dtype=np.float64).reshape(n_commands, dof)
+            rolled[k] = (commands, *rollout_commands(fabric, q0, qd0, goal, commands, settings))
+        return rolled[k]
+
+    best = float(opt.all_costs[keep[0]])
+    if length_slack > 0 and best < settings.penalty:
+        near = [k for k in keep if opt.all_costs[k] <= (1.0 + length_slack) * best]
+        hand = {k: _metrics.path_length(robot.ee_position(roll(k)[1].q)) for k in near}
+        near.sort(key=lambda k: hand[k])  # stable: equal lengths stay in cost order
+        keep = near + [k for k in keep if k not in hand]
     if mesh_checker is None:
-        candidates = opt.best_x[None, :]
-    else:
-        order = np.argsort(opt.all_costs, kind="stable")
-        keep = [order[0]] + [k for k in order[1:] if opt.all_costs[k] < settings.penalty]
-        candidates = opt.all_x[keep[:max(1, int(mesh_candidates))]]
+        keep = keep[:1]
     first = None
-    for rank, x in enumerate(candidates):
-        commands = np.asarray(x, dtype=np.float64).reshape(n_commands, dof)
-        traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, commands, settings)
+    for checked, k in enumerate(keep, start=1):
+        commands, traj, cost, reached, t_stars = roll(k)
         met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker)
+        met["selection_rank"] = int(np.flatnonzero(order == k)[0])
+        if mesh_checker is not None:
+            met["mesh_candidates_checked"] = checked
         chosen = (commands, traj, cost, reached, t_stars, met)
-        if mesh_checker is None:
-            return chosen
-        met["mesh_candidates_checked"] = rank + 1
         if first is None:
             first = chosen
-        if met["success"]:
-            met["mesh_candidate_rank"] = rank
+        if mesh_checker is None or met["success"]:
             return chosen
-    if first is None:  # unreachable: `candidates` has at least one row
+    if first is None:  # unreachable: `keep` has at least one entry
         raise RuntimeError("no candidate to roll out")
-    first[5]["mesh_candidates_checked"] = int(candidates.shape[0])
-    first[5]["mesh_candidate_rank"] = 0
+    first[5]["mesh_candidates_checked"] = len(keep)
     return first
 
 
@@ -561,6 +584,7 @@ def solve(
     top_m: int = 4,
     sigma0: float = 0.25,
     mesh_candidates: int = 32,
+    length_slack: float = 0.1,
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
     max_commands: Optional[int] = None,
 ) -> SolveResult:
@@ -589,6 +613,11 @@ def solve(
             32: on MotionBenchMaker the 9th to 19th reaching candidate was the first mesh-clear one for 6
             problems (8 left them failed); each extra check costs one rollout and 0.05-0.3 s of mesh
             distances, after the solve.
+        length_slack: relative cost slack ε ≥ 0: among the reached candidates with cost ≤ (1 + ε) × the
+            lowest, the one with the shortest end-effector path is preferred (see the module docstring).
+            0.1: on all 350 MotionBenchMaker problems (5 batches) hand paths 2-5 % shorter per class,
+            C-space paths 2-6 % and motions 1-5 % longer (BENCHMARKS.md); 0 returns the lowest-cost
+            candidate (the paper's Alg. 1).
         callback: called after every batch with a :class:`BatchInfo`; True stops early.
         max_commands: when the returned candidate with n free commands does not succeed, solve again
             with n + 1, up to ``max_commands`` (default: ``n_commands + 1`` with the default sampler,
@@ -626,6 +655,9 @@ def solve(
     n_commands = int(n_commands)
     if n_commands < 1:
         raise ValueError(f"n_commands must be ≥ 1 for method 'gfcs', got {n_commands}")
+    length_slack = float(length_slack)
+    if not (math.isfinite(length_slack) and length_slack >= 0):
+        raise ValueError(f"length_slack must be a finite number ≥ 0, got {length_slack}")
     if max_commands is None:
         max_commands = n_commands + 1 if sampler is None else n_commands
     max_commands = int(max_commands)
@@ -636,6 +668,7 @@ def solve(
                          f"proposes {n_commands} command(s) per candidate")
     options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
+                   length_slack=length_slack,
                    callback=callback)
     attempts: List[SolveResult] = []
     for n in range(n_commands, max_commands + 1):
@@ -666,7 +699,7 @@ def combine_attempts(attempts: List[SolveResult]) -> SolveResult:
 def _solve_commands(
     problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, Any], n_commands: int, sampler: Sampler,
     *, batches: int, population: int, seed: int, threads: Optional[int], progress: bool,
-    settings: RolloutSettings, top_m: int, sigma0: float, mesh_candidates: int,
+    settings: RolloutSettings, top_m: int, sigma0: float, mesh_candidates: int, length_slack: float,
     callback: Optional[Callable[[BatchInfo], Optional[bool]]],
 ) -> SolveResult:
     """GFCS with exactly ``n_commands`` free commands (the body of :func:`solve`)."""
@@ -714,7 +747,7 @@ def _solve_commands(
             bar.close()
 
     commands, traj, cost, reached, t_stars, met = _select_candidate(
-        fabric, problem, opt, n_commands, settings, mesh_checker, mesh_candidates)
+        fabric, problem, opt, n_commands, settings, mesh_checker, mesh_candidates, length_slack)
     return SolveResult(
         method="gfcs",
         commands=commands,
@@ -732,6 +765,7 @@ def _solve_commands(
         solve_time=float(np.sum(opt.batch_times)),
         settings=_settings_dict(settings, batches=int(batches), population=int(population),
                                 n_commands=n_commands, sigma0=float(sigma0), top_m=int(top_m),
+                                length_slack=float(length_slack),
                                 sampler=type(sampler).__name__),
         **common,
     )
