@@ -52,6 +52,27 @@ def test_solve_length_slack_option():
     assert r.returncode == 2 and "length_slack" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_solve_validates_with_the_mesh_model_beside_a_spherized_robot(tmp_path):
+    import gfcs
+
+    def panda_with(collision):
+        return gfcs.panda_urdf().replace('<link name="panda_hand"/>',
+                                         f'<link name="panda_hand"><collision><geometry>{collision}'
+                                         '</geometry></collision></link>')
+
+    spherized = tmp_path / "arm_spherized.urdf"
+    spherized.write_text(panda_with('<sphere radius="0.05"/>'))
+    r = run("solve", "--method", "gf", "--class", "box", "--robot", str(spherized))
+    assert r.returncode in (0, 1), r.stderr
+    assert "collision spheres only" in r.stdout
+    (tmp_path / "arm.urdf").write_text(panda_with('<box size="0.1 0.2 0.1"/>'))
+    r = run("solve", "--method", "gf", "--class", "box", "--robot", str(spherized))
+    assert r.returncode in (0, 1), r.stderr
+    assert "checked   collision meshes" in r.stdout
+    r = run("solve", "--method", "gf", "--class", "box", "--mesh-urdf", str(tmp_path / "missing.urdf"))
+    assert r.returncode == 2 and "missing.urdf" in r.stderr and "Traceback" not in r.stderr
+
+
 def test_solve_gf_summary(tmp_path):
     out = tmp_path / "r.json"
     r = run("solve", "--method", "gf", "--class", "box", "--json", str(out))

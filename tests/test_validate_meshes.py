@@ -189,6 +189,37 @@ def test_problem_carries_a_matching_checker(sphere_and_mesh_sliders):
         Problem("p", gfcs.Robot.panda(), gfcs.Scene(), generators.READY, generators.READY, mesh_checker=checker)
 
 
+def test_mesh_urdf_for_finds_the_solid_model(tmp_path):
+    spherized = tmp_path / "slider_spherized.urdf"
+    spherized.write_text(slider_urdf('<geometry><sphere radius="0.05"/></geometry>'))
+    assert problems.mesh_urdf_for(spherized) is None  # no neighbour yet
+    plain = tmp_path / "slider.urdf"
+    plain.write_text(slider_urdf('<geometry><sphere radius="0.05"/></geometry>'))
+    assert problems.mesh_urdf_for(spherized) is None  # the neighbour has spheres only
+    plain.write_text(slider_urdf('<geometry><box size="0.4 0.4 0.4"/></geometry>'))
+    assert problems.mesh_urdf_for(spherized) == plain
+    assert problems.mesh_urdf_for(plain) == plain  # a solid model validates itself
+    other = tmp_path / "other.urdf"  # sphere-only, no _spherized suffix: nothing to guess
+    other.write_text(slider_urdf('<geometry><sphere radius="0.05"/></geometry>'))
+    assert problems.mesh_urdf_for(other) is None
+    broken = tmp_path / "broken.urdf"
+    broken.write_text("<robot><link")
+    with pytest.raises(ValueError, match="broken.urdf"):
+        problems.mesh_urdf_for(broken)
+
+
+def test_urdf_mesh_checker_matches_joints(tmp_path):
+    plain = tmp_path / "slider.urdf"
+    plain.write_text(slider_urdf('<geometry><box size="0.4 0.4 0.4"/></geometry>'))
+    spheres = gfcs.Robot.from_urdf(slider_urdf('<geometry><sphere radius="0.05"/></geometry>'))
+    checker = problems.urdf_mesh_checker(plain, spheres)
+    scene = gfcs.Scene()
+    scene.add_sphere([0.5, 0.0, 0.0], 0.1)
+    assert checker.clearance(scene, [0.0]) == pytest.approx(0.5 - 0.1 - 0.2, abs=1e-7)
+    with pytest.raises(ValueError, match="joints"):
+        problems.urdf_mesh_checker(plain, gfcs.Robot.panda())
+
+
 def test_mbm_mesh_checker_is_none_without_panda_urdf(tmp_path):
     assert problems.mbm_mesh_checker(tmp_path) is None
     assert problems.mesh_checker_for(gfcs.Robot.panda()) is None

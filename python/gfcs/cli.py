@@ -23,6 +23,7 @@ Errors: a :class:`gfcs.GfcsError` (or a missing file / invalid value from user i
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib
 import json
 import math
@@ -68,6 +69,10 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--spheres", metavar="JSON", help="collision sphere file (replaces URDF spheres)")
     g.add_argument("--ee-link", metavar="LINK", help="end-effector link (default: deepest active link)")
     g.add_argument("--mesh-dir", metavar="DIR", help="directory resolving package:// mesh paths")
+    g.add_argument("--mesh-urdf", metavar="URDF",
+                   help="URDF whose collision meshes validate the returned trajectories (default with "
+                        "--robot URDF: that URDF when it has mesh or primitive collisions, else X.urdf beside "
+                        "a spherized X_spherized.urdf, MotionBenchMaker's layout; --robot mbm: its panda.urdf)")
 
 
 def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str] = None) -> None:
@@ -135,6 +140,21 @@ def _robot(args: argparse.Namespace) -> Any:
                                 srdf=args.srdf, spheres=args.spheres)
 
 
+def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:
+    """The problems with the mesh checker of ``--mesh-urdf`` (or the one found for ``--robot URDF``, see
+    :func:`gfcs.problems.mesh_urdf_for`); unchanged when there is none (the shipped Panda, whose spheres
+    cover its meshes, or a sphere-only robot file)."""
+    from gfcs import problems
+
+    urdf = args.mesh_urdf
+    if urdf is None and args.robot not in (None, "mbm"):
+        urdf = problems.mesh_urdf_for(args.robot)
+    if urdf is None or not suite:
+        return suite
+    checker = problems.urdf_mesh_checker(urdf, suite[0].robot, mesh_dir=args.mesh_dir, srdf=args.srdf)
+    return [dataclasses.replace(p, mesh_checker=checker) for p in suite]
+
+
 def _sampler(args: argparse.Namespace) -> Any:
     from gfcs.optimize import UniformSampler
 
@@ -179,7 +199,10 @@ def summary_text(result: Any, problem: Any) -> str:
     why = [text for bad, text in ((not result.reached, "goal not reached"),
                                   (m["min_clearance"] < 0, "collision with obstacles"),
                                   (m["min_self_clearance"] < 0, "self-collision"),
-                                  (not m["within_limits"], "joint limits violated")) if bad]
+                                  (not m["within_limits"], "joint limits violated"),
+                                  (m.get("mesh_clearance", math.inf) <= 0, "mesh collision with obstacles"),
+                                  (m.get("mesh_self_clearance", math.inf) <= 0, "mesh self-collision"))
+           if bad]
     verdict = "SUCCESS" if result.success else f"FAILURE ({', '.join(why) or 'goal tolerance'})"
     lines.append(f"result    {verdict}: cost {_fmt(result.cost, ' s')} "
                  f"(t* = {t_stars} s), goal error {_fmt(m['final_error'], ' rad')}, "
@@ -187,6 +210,11 @@ def summary_text(result: Any, problem: Any) -> str:
     lines.append(f"quality   EE length {_fmt(m['ee_length'], ' m')}, C-space length "
                  f"{_fmt(m['cspace_length'], ' rad')}, EE-LDJ {_fmt(m['ee_ldj'])}, C-space-LDJ "
                  f"{_fmt(m['cspace_ldj'])}, min clearance {_fmt(m['min_clearance'], ' m')}")
+    if "mesh_clearance" in m:
+        lines.append(f"checked   collision meshes: min clearance {_fmt(m['mesh_clearance'], ' m')} to obstacles, "
+                     f"{_fmt(m['mesh_self_clearance'], ' m')} between links")
+    else:
+        lines.append("checked   collision spheres only (no mesh model; see --mesh-urdf)")
     timing = f"time      {result.solve_time:.2f} s"
     if result.method == "gfcs" and len(result.batch_times):
         costs = " ".join(f"{c:.3g}" for c in result.batch_best_costs)
@@ -202,8 +230,10 @@ def _solve_problem(args: argparse.Namespace) -> Any:
     if args.scene or args.request:
         if not (args.scene and args.request):
             raise ValueError("--scene and --request go together")
-        return problems.load_mbm(args.scene, args.request, robot=robot)
-    return generators.generate(args.problem_class, 1, seed=args.problem_seed, robot=robot)[0]
+        suite = [problems.load_mbm(args.scene, args.request, robot=robot)]
+    else:
+        suite = generators.generate(args.problem_class, 1, seed=args.problem_seed, robot=robot)[:1]
+    return _with_mesh_checker(args, suite)[0]
 
 
 def _write_json(text: str, target: str) -> None:
@@ -278,13 +308,14 @@ def load_problems(args: argparse.Namespace, robot: Any) -> List[Any]:
     from gfcs import generators, problems
 
     if args.problems:
-        return problems.load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot,
-                                     skip=args.skip)
-    classes = args.classes or list(problems.CLASSES)
-    n = args.limit if args.limit is not None else 10
-    suite: List[Any] = []
-    for c in classes:
-        suite.extend(generators.generate(c, n, seed=args.problem_seed, robot=robot))
+        suite = problems.load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot,
+                                      skip=args.skip)
+    else:
+        classes = args.classes or list(problems.CLASSES)
+        n = args.limit if args.limit is not None else 10
+        suite = []
+        for c in classes:
+            suite.extend(generators.generate(c, n, seed=args.problem_seed, robot=robot))
     return suite
 
 
@@ -382,7 +413,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from gfcs.results import format_table, summarize
 
     robot = _robot(args)
-    suite = load_problems(args, robot)
+    suite = _with_mesh_checker(args, load_problems(args, robot))
     rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
                      n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
                      threads=args.threads, settings=_settings(args), jsonl=args.json, rrd_dir=args.rrd_dir,

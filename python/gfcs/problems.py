@@ -8,7 +8,9 @@ A :class:`Problem` is one GFCOP instance: robot, scene E, start q₀ (and q̇₀
 A problem may carry a ``mesh_checker`` (:class:`gfcs.MeshChecker`): the robot's collision meshes, against which
 :mod:`gfcs.metrics` and :mod:`gfcs.optimize` validate trajectories the way independent benchmarks judge them
 (the fabric itself avoids obstacles with collision spheres). :func:`mbm_panda` builds one from the MBM Panda's
-``panda.urdf`` and :func:`load_mbm` / :func:`load_mbm_dir` attach it to problems solved with that robot.
+``panda.urdf`` and :func:`load_mbm` / :func:`load_mbm_dir` attach it to problems solved with that robot. For
+a robot of your own, :func:`urdf_mesh_checker` builds one from a URDF with collision meshes and
+:func:`mesh_urdf_for` finds that URDF for a robot file (``gfcs solve/bench --robot`` do both).
 
 Problem classes use the MotionBenchMaker folder names (:data:`CLASSES`); :func:`canonical_class`
 also accepts the names used in the GFCS paper's Table I (e.g. ``"table_under"``, ``"single_shelf"``).
@@ -36,6 +38,8 @@ __all__ = [
     "mbm_panda",
     "mbm_mesh_checker",
     "mesh_checker_for",
+    "mesh_urdf_for",
+    "urdf_mesh_checker",
     "shared_dir",
 ]
 
@@ -322,7 +326,7 @@ def mbm_mesh_checker(path: Optional[PathLike] = None) -> Any:
     """A :class:`gfcs.MeshChecker` of the MBM Panda's collision meshes, or None without ``panda.urdf``.
 
     Built from ``panda.urdf`` (collision meshes under ``meshes/collision``, resolved with ``mesh_dir`` = the
-    folder) with the same end effector and SRDF as :func:`mbm_panda`, so its joints match that robot's.
+    folder) with the same SRDF as :func:`mbm_panda`; its joints match that robot's.
 
     Args:
         path: the ``mbm_panda`` folder; default ``shared_dir()/robots/mbm_panda``.
@@ -331,15 +335,77 @@ def mbm_mesh_checker(path: Optional[PathLike] = None) -> Any:
         FileNotFoundError: no folder given and the shared data folder is missing.
         gfcs.MeshError: ``panda.urdf`` names a mesh file that is missing or malformed.
     """
-    import gfcs
-
     root = _mbm_folder(path)
     urdf, srdf = root / "panda.urdf", root / "panda.srdf"
     if not urdf.is_file():
         return None
-    robot = gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", mesh_dir=str(root),
-                                 srdf=str(srdf) if srdf.is_file() else None)
+    return _mesh_checker(urdf, root, srdf if srdf.is_file() else None)
+
+
+def _mesh_checker(urdf: Path, mesh_dir: Optional[PathLike], srdf: Optional[PathLike]) -> Any:
+    import gfcs
+
+    robot = gfcs.Robot.from_urdf(str(urdf), mesh_dir=str(mesh_dir or urdf.parent),
+                                 srdf=None if srdf is None else str(srdf))
     return gfcs.MeshChecker(robot)
+
+
+def urdf_mesh_checker(urdf: PathLike, robot: Any, mesh_dir: Optional[PathLike] = None,
+                      srdf: Optional[PathLike] = None) -> Any:
+    """A :class:`gfcs.MeshChecker` of the collision geometry (meshes and primitives) in ``urdf``, for
+    validating trajectories of ``robot`` (e.g. ``robot`` from a spherized model, ``urdf`` the mesh model).
+
+    Args:
+        urdf: URDF file with the collision geometry.
+        robot: the robot that moves (its joints must be the URDF's active joints, in the same order).
+        mesh_dir: directory resolving ``package://`` mesh paths (default: the URDF's folder).
+        srdf: SRDF whose disabled collisions prune the self-collision pairs (as for ``robot``).
+
+    Raises:
+        ValueError: the URDF's joints differ from ``robot``'s (the message names both).
+        gfcs.IoError / gfcs.FormatError / gfcs.MeshError: unreadable URDF, missing or malformed mesh file.
+    """
+    checker = _mesh_checker(Path(urdf), mesh_dir, srdf)
+    if list(checker.joint_names) != list(robot.joint_names):
+        raise ValueError(f"{urdf}: joints {list(checker.joint_names)} differ from robot '{robot.name}''s "
+                         f"{list(robot.joint_names)}")
+    return checker
+
+
+#: Collision geometry of a URDF other than spheres: what a mesh checker validates against.
+_SOLID_GEOMETRY = ("mesh", "box", "cylinder", "capsule")
+
+
+def _has_solid_collisions(urdf: Path) -> bool:
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(urdf).getroot()
+    except (ET.ParseError, OSError) as e:
+        raise ValueError(f"{urdf}: cannot read URDF XML: {e}") from e
+    return any(shape.tag in _SOLID_GEOMETRY for collision in root.iter("collision")
+               for geometry in collision.iter("geometry") for shape in geometry)
+
+
+def mesh_urdf_for(urdf: PathLike) -> Optional[Path]:
+    """The URDF whose collision geometry validates trajectories of a robot loaded from ``urdf``.
+
+    ``urdf`` itself when one of its ``<collision>`` elements is a mesh, box, cylinder or capsule (the robot's
+    spheres are then fitted or given separately); for a spherized model (sphere collisions only) the URDF
+    beside it named without the ``_spherized`` suffix, MotionBenchMaker's layout (``panda_spherized.urdf``
+    next to ``panda.urdf``), when that one has such geometry; otherwise None.
+
+    Raises:
+        ValueError: ``urdf`` or that neighbour is not readable URDF XML (the message names the file).
+    """
+    path = Path(urdf)
+    if _has_solid_collisions(path):
+        return path
+    if path.stem.endswith("_spherized"):
+        plain = path.with_name(path.stem[: -len("_spherized")] + path.suffix)
+        if plain.is_file() and _has_solid_collisions(plain):
+            return plain
+    return None
 
 
 def mesh_checker_for(robot: Any) -> Any:

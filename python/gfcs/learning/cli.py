@@ -114,7 +114,7 @@ def _load_problems(args: argparse.Namespace, seed: int) -> List[Any]:
 
     if (args.problems is None) == (args.generate is None):
         raise ConfigError("gfcs train: give exactly one of --problems DIR or --generate CLASS ...")
-    from gfcs.cli import _robot
+    from gfcs.cli import _robot, _with_mesh_checker
 
     robot = _robot(args)
     if args.generate is not None:
@@ -123,10 +123,11 @@ def _load_problems(args: argparse.Namespace, seed: int) -> List[Any]:
         problems: List[Any] = []
         for cls in args.generate:
             problems += generate(cls, args.n_problems, seed=seed, robot=robot)
-        return problems
+        return _with_mesh_checker(args, problems)
     from gfcs.problems import load_mbm_dir
 
-    return list(load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot, skip=args.skip))
+    return _with_mesh_checker(args, list(load_mbm_dir(args.problems, classes=args.classes, limit=args.limit,
+                                                      robot=robot, skip=args.skip)))
 
 
 def _config(args: argparse.Namespace):
