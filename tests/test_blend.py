@@ -1,6 +1,8 @@
 import numpy as np
+import pytest
 
-from gfcs.blend import append_goal_blend, quintic_to_rest
+from gfcs.blend import (PANDA_ACCELERATION_LIMITS, acceleration_limits, append_goal_blend, limit_acceleration,
+                        quintic_to_rest)
 
 
 def test_quintic_meets_its_boundary_conditions():
@@ -83,3 +85,67 @@ def test_retime_start_leaves_other_trajectories_alone():
     still = np.zeros_like(q)
     out = retime_start(t, still, np.zeros_like(qd), np.zeros_like(qdd), dt)  # no motion
     assert out[0] is t and out[1] is still
+
+
+def _fd_acceleration(t, q):
+    return np.gradient(np.gradient(q, t, axis=0), t, axis=0)
+
+
+def test_limit_acceleration_slows_a_fast_circle_down_along_the_same_path():
+    """A unit circle in a 2-joint space at ω = 4 rad/s: centripetal 16 rad/s² against limits of 4 and 8.
+    Entered from rest and left to rest over 0.5 s ramps, so both ends are at rest."""
+    dt = 0.01
+    t = np.arange(0.0, 3.0 + dt / 2, dt)
+    phase = 4.0 * np.where(t < 0.5, t**2, np.where(t > 2.5, 2.25 + (t - 2.5) - (t - 2.5)**2, t - 0.25))
+    q = np.stack([np.cos(phase), np.sin(phase)], axis=1)
+    qd = np.gradient(q, t, axis=0)
+    limits = np.array([4.0, 8.0])
+    assert np.max(np.abs(_fd_acceleration(t, q)) / limits) > 3.5
+    t2, q2, qd2 = limit_acceleration(t, q, qd, limits, dt)
+    assert np.max(np.abs(_fd_acceleration(t2, q2)) / limits) <= 1.0
+    assert t2[0] == t[0] and t2[-1] > 4.0  # the 2 s at full speed take at least sqrt(16 / 4) = 2 times longer
+    assert np.allclose(np.diff(t2), dt, rtol=0.01)
+    np.testing.assert_array_equal(q2[[0, -1]], q[[0, -1]])
+    np.testing.assert_allclose(np.linalg.norm(q2, axis=1), 1.0, atol=2e-4)  # still on the circle
+    angle = np.unwrap(np.arctan2(q2[:, 1], q2[:, 0]))
+    assert np.all(np.diff(angle) >= -1e-9) and angle[-1] == pytest.approx(phase[-1], abs=1e-9)  # same order
+    np.testing.assert_allclose(qd2[1:-1], np.gradient(q2, t2, axis=0)[1:-1], atol=0.02)
+
+
+def test_limit_acceleration_leaves_a_slow_trajectory_alone_and_checks_its_limits():
+    t = np.linspace(0.0, 1.0, 101)
+    q = np.stack([0.1 * t**2, -0.2 * t], axis=1)
+    qd = np.gradient(q, t, axis=0)
+    out = limit_acceleration(t, q, qd, [1.0, 1.0], 0.01)
+    assert out[0] is t and out[1] is q and out[2] is qd
+    for bad in ([1.0], [1.0, 0.0], [1.0, np.nan]):
+        with pytest.raises(ValueError, match="acceleration limits"):
+            limit_acceleration(t, q, qd, bad, 0.01)
+
+
+def test_panda_limits_are_known_for_panda_joints_only():
+    import gfcs
+
+    np.testing.assert_array_equal(acceleration_limits(gfcs.Robot.panda()), PANDA_ACCELERATION_LIMITS)
+    other = gfcs.Robot.from_urdf("""<robot name="r"><link name="a"/><link name="b"/>
+      <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+      <limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>""")
+    assert acceleration_limits(other) is None
+
+
+def test_solve_returns_trajectories_within_the_panda_limits():
+    """Generated table-under problem 0 (shipped Panda) turns at 1.38 times the limits when not re-timed."""
+    import gfcs
+    from gfcs import generators, optimize
+
+    p = generators.generate("table_under_pick", 1, seed=0, robot=gfcs.Robot.panda())[0]
+    limits = np.asarray(PANDA_ACCELERATION_LIMITS)
+    raw = optimize.solve(p, batches=1, population=8, seed=0,
+                         settings=optimize.RolloutSettings(limit_acceleration=False))
+    r = optimize.solve(p, batches=1, population=8, seed=0)
+    assert r.success and raw.success and np.array_equal(r.commands, raw.commands)
+    assert np.max(np.abs(_fd_acceleration(raw.trajectory.t, raw.trajectory.q)) / limits) > 1.2
+    assert np.max(np.abs(_fd_acceleration(r.trajectory.t, r.trajectory.q)) / limits) <= 1.0
+    assert raw.trajectory.t[-1] < r.trajectory.t[-1] < 1.1 * raw.trajectory.t[-1]
+    np.testing.assert_array_equal(r.trajectory.q[[0, -1]], raw.trajectory.q[[0, -1]])
+    assert r.metrics["ee_length"] == pytest.approx(raw.metrics["ee_length"], rel=2e-3)
