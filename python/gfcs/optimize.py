@@ -300,11 +300,6 @@ def solve_gfcop(
         sigma0: initial CMA-ES step size as a fraction of each coordinate's range (0 < sigma0).
         seed: non-negative integer seed of the sampler and CMA-ES generators.
         top_m: number m of best candidates returned (≥ 1; fewer if fewer were evaluated).
-        length_slack: relative cost slack ε ≥ 0: among the reached candidates with cost ≤ (1 + ε) × the
-            lowest, the one with the shortest end-effector path is preferred (see the module docstring).
-            0.1: on all 350 MotionBenchMaker problems (5 batches) hand paths 2-5 % shorter per class,
-            C-space paths 2-6 % and motions 1-5 % longer (BENCHMARKS.md); 0 returns the lowest-cost
-            candidate (the paper's Alg. 1).
         callback: called after every batch with a :class:`BatchInfo`; returning True stops early
             (anytime use).
 
@@ -432,9 +427,9 @@ class RolloutSettings:
             (0 = off): it saves the steps of candidates stuck at a local minimum.
         limit_acceleration: slow the recorded trajectory down locally until every joint is within its
             acceleration limit (:func:`gfcs.blend.limit_acceleration`: the same path, re-timed; not part of
-            the cost, which is the fabric's own time). On MotionBenchMaker (the first 6 problems of each
-            class, 5 batches) 13 of 42 trajectories exceeded the Panda's limits, by up to 2.3 times, at
-            their command handovers; re-timed they last 3-4 % longer and their LDJ rises by 0.3-0.6.
+            the cost, which is the fabric's own time). On MotionBenchMaker (350 problems, 5 batches) 101
+            trajectories exceeded the Panda's limits, by up to 3.4 times, mostly at their command
+            handovers; re-timed, the motions of a class last 0-2 % longer and their LDJ rises by up to 0.35.
         acceleration_limits: (dof,) limits [rad/s²]; None: the robot's known ones
             (:func:`gfcs.blend.acceleration_limits`, the Panda's), and no re-timing for other robots.
 
