@@ -44,10 +44,13 @@ def test_solve_json_to_stdout():
     assert r.returncode == (0 if result.success else 1)
 
 
-def test_solve_length_slack_option():
+def test_solve_selection_and_timing_options_reach_the_result():
     r = run("solve", "--json", "-", "--length-slack", "0.3", *SMALL)
     assert r.returncode in (0, 1), r.stderr
     assert SolveResult.from_json(r.stdout).settings["length_slack"] == 0.3
+    r = run("solve", "--json", "-", "--no-acceleration-limits", *SMALL)
+    assert r.returncode in (0, 1), r.stderr
+    assert SolveResult.from_json(r.stdout).settings["limit_acceleration"] is False
     r = run("solve", "--length-slack", "-1", *SMALL)
     assert r.returncode == 2 and "length_slack" in r.stderr and "Traceback" not in r.stderr
 

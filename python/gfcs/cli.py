@@ -107,12 +107,16 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     r.add_argument("--tol", type=float, default=None, help="goal tolerance, rad (default: see gfcs.optimize)")
     r.add_argument("--waypoint-tol", type=float, default=None, help="tolerance of intermediate commands, rad")
     r.add_argument("--integrator", choices=["euler", "rk4"], default="euler", help="integrator (default euler)")
+    r.add_argument("--no-acceleration-limits", action="store_true",
+                   help="return the fabric's own timing (default: re-timed along the same path within the "
+                        "robot's known joint acceleration limits, the Panda's)")
 
 
 def _settings(args: argparse.Namespace) -> Any:
     from gfcs.optimize import RolloutSettings
 
-    s = RolloutSettings(dt=args.dt, t_max=args.t_max, integrator=args.integrator)
+    s = RolloutSettings(dt=args.dt, t_max=args.t_max, integrator=args.integrator,
+                        limit_acceleration=not args.no_acceleration_limits)
     if args.tol is not None:
         s.tol = args.tol
     if args.waypoint_tol is not None:
