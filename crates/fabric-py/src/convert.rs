@@ -15,6 +15,7 @@ use numpy::ndarray::{ArrayD, IxDyn};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLike, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
+use rayon::prelude::*;
 
 use crate::errors::{error, internal, make};
 
@@ -224,14 +225,31 @@ pub fn pose_from_matrix(what: &str, m: &[f64]) -> fabric_core::Result<Isometry3<
     ))
 }
 
-/// Row-major 4 × 4 homogeneous matrix of a pose, appended to `out` (16 values).
-pub fn push_pose(out: &mut Vec<f64>, pose: &Isometry3<f64>) {
+/// Row-major 4 × 4 homogeneous matrix of a pose, written to `out` (16 values).
+pub fn write_pose(out: &mut [f64], pose: &Isometry3<f64>) {
     let h = pose.to_homogeneous();
     for i in 0..4 {
         for j in 0..4 {
-            out.push(h[(i, j)]);
+            out[4 * i + j] = h[(i, j)];
         }
     }
+}
+
+/// `items` flattened into one row-major buffer of `width` values per item, `write` filling each item's
+/// chunk, in parallel (rayon). The buffer starts zeroed, which for a large one costs no pass over its pages
+/// (they are mapped on first write, by the worker that fills them).
+pub fn flatten_parallel<T: Sync>(
+    items: &[T],
+    width: usize,
+    write: impl Fn(&T, &mut [f64]) + Sync,
+) -> Vec<f64> {
+    let mut data = vec![0.0; items.len() * width];
+    if width > 0 {
+        data.par_chunks_mut(width)
+            .zip(items.par_iter())
+            .for_each(|(out, item)| write(item, out));
+    }
+    data
 }
 
 /// A new float64 numpy array of shape `shape` holding `data` (row-major).
@@ -287,7 +305,7 @@ pub fn output_pose<'py>(
     py: Python<'py>,
     pose: &Isometry3<f64>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    let mut data = Vec::with_capacity(16);
-    push_pose(&mut data, pose);
+    let mut data = vec![0.0; 16];
+    write_pose(&mut data, pose);
     output(py, data, &[4, 4])
 }

@@ -346,11 +346,9 @@ impl PyRobot {
         let links = self.inner.link_names().len();
         self.per_configuration(py, q, &[links, 4, 4], |robot, qs, _| {
             let poses = batch::link_poses(robot, qs)?;
-            let mut data = Vec::with_capacity(poses.len() * 16);
-            for p in &poses {
-                convert::push_pose(&mut data, p);
-            }
-            Ok(data)
+            Ok(convert::flatten_parallel(&poses, 16, |p, out| {
+                convert::write_pose(out, p)
+            }))
         })
     }
 
@@ -363,7 +361,9 @@ impl PyRobot {
         let s = self.inner.spheres().len();
         self.per_configuration(py, q, &[s, 3], |robot, qs, _| {
             let centers = batch::sphere_centers(robot, qs)?;
-            Ok(centers.iter().flat_map(|c| [c.x, c.y, c.z]).collect())
+            Ok(convert::flatten_parallel(&centers, 3, |c, out| {
+                out.copy_from_slice(c.as_slice())
+            }))
         })
     }
 
@@ -375,7 +375,9 @@ impl PyRobot {
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         self.per_configuration(py, q, &[3], |robot, qs, _| {
             let origins = batch::link_origins(robot, qs, robot.ee_link())?;
-            Ok(origins.iter().flat_map(|x| [x.x, x.y, x.z]).collect())
+            Ok(convert::flatten_parallel(&origins, 3, |x, out| {
+                out.copy_from_slice(x.as_slice())
+            }))
         })
     }
 
