@@ -18,6 +18,20 @@ def sphere_cost(center):
 
 
 # ------------------------------------------------------------------------------ synthetic problems
+def test_cma_import_skips_its_optional_modules_and_leaves_them_importable():
+    import subprocess
+    import sys
+
+    code = ("import sys; from gfcs import optimize; cma = optimize._import_cma()\n"
+            "print(cma.CMAEvolutionStrategy is not None, 'scipy.stats' in sys.modules, "
+            "'matplotlib.pyplot' in sys.modules)\n"
+            "import scipy.stats, matplotlib.pyplot\n"
+            "print(scipy.stats.kendalltau([1, 2, 3], [1, 3, 2])[0] > 0)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["True", "False", "False", "True"]
+
+
 def test_finds_known_minimum_of_shifted_sphere():
     center = np.array([0.3, -1.2, 2.0, 0.7, -0.4])
     res = opt.solve_gfcop(sphere_cost(center), 5, -3.0, 3.0, batches=80, population=16, seed=3)
