@@ -123,6 +123,19 @@ def test_generate_then_bench(tmp_path):
     assert {row["label"] for row in read_rows(rows_file.read_text().splitlines())} == {"Ours (1 b)"}
 
 
+def test_one_batch_row_is_a_one_batch_solve_sharing_the_first_batch():
+    import gfcs
+    from gfcs import generators, optimize
+
+    p = generators.generate("box", 1, seed=0, robot=gfcs.Robot.panda())[0]
+    rows, results = cli.bench_problem(p, ["gfcs"], batches=2, population=6, seed=0, retry=False)
+    one = optimize.solve(p, batches=1, population=6, seed=0, max_commands=1)
+    row = [r for r in rows if r["label"] == "Ours (1 b)"][0]
+    assert row["cost"] == one.cost and row["success"] == one.success
+    assert row["ee_length"] == one.metrics["ee_length"]
+    assert results[0].batch_best_costs[0] == one.batch_best_costs[0]  # the same first batch
+
+
 def test_missing_external_command_is_one_line(monkeypatch, capsys):
     # a missing optional dependency: the message names it and the extra to install
     monkeypatch.setitem(cli.EXTERNAL_COMMANDS, "ghost", (("no_such_dependency_xyz",), "register", "a ghost", "ghost"))
