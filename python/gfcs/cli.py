@@ -218,7 +218,7 @@ def summary_text(result: Any, problem: Any) -> str:
         lines.append(f"checked   collision meshes: min clearance {_fmt(m['mesh_clearance'], ' m')} to obstacles, "
                      f"{_fmt(m['mesh_self_clearance'], ' m')} between links")
     else:
-        lines.append("checked   collision spheres only (no mesh model; see --mesh-urdf)")
+        lines.append("checked   collision spheres only (no collision-mesh model of this robot; --mesh-urdf adds one)")
     timing = f"time      {result.solve_time:.2f} s"
     if result.method == "gfcs" and len(result.batch_times):
         costs = " ".join(f"{c:.3g}" for c in result.batch_best_costs)
