@@ -220,6 +220,16 @@ def test_urdf_mesh_checker_matches_joints(tmp_path):
         problems.urdf_mesh_checker(plain, gfcs.Robot.panda())
 
 
+def test_solve_refuses_a_robot_without_spheres_among_obstacles(sphere_and_mesh_sliders):
+    spheres, checker, scene = sphere_and_mesh_sliders
+    boxes = checker.robot  # box collision geometry only: no spheres for the fabric
+    assert len(boxes.sphere_radii) == 0
+    with pytest.raises(ValueError, match="no collision spheres.*1 obstacles"):
+        opt.solve(Problem("blind", boxes, scene, q0=[0.0], goal=[0.2]), batches=1, population=4)
+    free = opt.solve(Problem("free", boxes, gfcs.Scene(), q0=[0.0], goal=[0.2]), method="gf")
+    assert free.reached  # nothing to avoid: fine
+
+
 def test_mbm_mesh_checker_is_none_without_panda_urdf(tmp_path):
     assert problems.mbm_mesh_checker(tmp_path) is None
     assert problems.mesh_checker_for(gfcs.Robot.panda()) is None
