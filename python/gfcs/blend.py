@@ -17,9 +17,8 @@ acceleration. Only the timing changes, so clearances and path lengths do not.
 Acceleration limits: where a command sequence hands over from one command to the next, the fabric turns
 the arm onto the new command within about 0.1 s, up to 25 rad/s² (on MotionBenchMaker up to 3.4 times
 the Panda's limits; 47 of the 50 table-under trajectories exceeded them), and that turn was most of the
-trajectory's ∫‖q⃛‖².
-:func:`limit_acceleration` slows the trajectory down locally (a smooth time dilation, the same
-configurations in the same order) until every joint is within its limit.
+trajectory's ∫‖q⃛‖². :func:`limit_acceleration` slows the trajectory down locally (a smooth time dilation,
+the same configurations in the same order) until every joint is within its limit.
 """
 
 from __future__ import annotations
@@ -190,12 +189,12 @@ def limit_acceleration(t: np.ndarray, q: np.ndarray, qd: np.ndarray, limits: Any
     """Slow a trajectory down where it exceeds the joint acceleration limits (see the module docstring).
 
     Each pass estimates q̈ by finite differences of q (as a validator would), takes the slow-down factor
-    λ_k = max(1, max_j sqrt(|q̈_kj| / (0.95 a_j))) that would bring sample k within the limits (accelerations scale
-    as 1/λ² under a time dilation), widens and smooths it over ±``window`` seconds (so that λ varies slowly
-    and adds little acceleration of its own), re-times the samples by dτ = λ dt, and resamples at ``dt``
-    along the C¹ cubic Hermite curve through the samples with velocities q̇/λ (λ aims at 95 % of the
-    limits). Passes repeat until every |q̈_j| ≤ a_j or ``max_iterations`` passes were made. The first and last samples are kept
-    exactly (a trajectory at rest at its ends stays so).
+    λ_k = max(1, max_j sqrt(|q̈_kj| / (0.95 a_j))) that would bring sample k to 95 % of the limits
+    (accelerations scale as 1/λ² under a time dilation), widens and smooths it over ±``window`` seconds
+    (so that λ varies slowly and adds little acceleration of its own), re-times the samples by dτ = λ dt,
+    and resamples at ``dt`` along the C¹ cubic Hermite curve through the samples with velocities q̇/λ.
+    Passes repeat until every |q̈_j| ≤ a_j or ``max_iterations`` passes were made. The first and last
+    samples are kept exactly (a trajectory at rest at its ends stays so).
 
     Args:
         t: (T,) increasing times [s]; q, qd: (T, dof) positions [rad] and velocities [rad/s].
