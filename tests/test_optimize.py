@@ -280,11 +280,10 @@ def test_length_slack_prefers_the_shorter_hand_path_among_near_optimal_candidate
         assert reached
         hand[name] = metrics.path_length(p.robot.ee_position(traj.q))
     assert hand["direct"] < 0.8 * hand["detour"]
-    # the detour is cheapest, the direct one 8 % dearer, an unreached candidate (cost above the penalty)
-    # would be shorter still but is never preferred
-    result = fake_optimum([detour, direct, p.q0], [1.0, 1.08, 150.0])
+    # the detour is cheapest, the direct one 8 % dearer
+    result = fake_optimum([detour, direct], [1.0, 1.08])
 
-    def pick(slack, mesh_candidates=32):
+    def pick(slack, mesh_candidates=32, result=result):
         commands, _, _, _, _, met = opt._select_candidate(fabric, p, result, 1, settings, None,
                                                           mesh_candidates, slack)
         assert "mesh_candidates_checked" not in met and met["ee_length"] == pytest.approx(
@@ -297,7 +296,10 @@ def test_length_slack_prefers_the_shorter_hand_path_among_near_optimal_candidate
         c, rank = pick(slack)
         np.testing.assert_array_equal(c, detour)
         assert rank == 0
-    np.testing.assert_array_equal(pick(1e6)[0], direct)  # the unreached one stays out at any slack
+    # a candidate whose cost says it missed the goal (above the penalty) stays out at any slack, however
+    # short its hand path
+    unreached = fake_optimum([detour, direct], [1.0, 150.0])
+    np.testing.assert_array_equal(pick(1e6, result=unreached)[0], detour)
     np.testing.assert_array_equal(pick(0.1, mesh_candidates=1)[0], detour)  # only the lowest cost considered
 
 
