@@ -312,14 +312,13 @@ def load_problems(args: argparse.Namespace, robot: Any) -> List[Any]:
     from gfcs import generators, problems
 
     if args.problems:
-        suite = problems.load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot,
-                                      skip=args.skip)
-    else:
-        classes = args.classes or list(problems.CLASSES)
-        n = args.limit if args.limit is not None else 10
-        suite = []
-        for c in classes:
-            suite.extend(generators.generate(c, n, seed=args.problem_seed, robot=robot))
+        return problems.load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot,
+                                     skip=args.skip)
+    classes = args.classes or list(problems.CLASSES)
+    n = args.limit if args.limit is not None else 10
+    suite: List[Any] = []
+    for c in classes:
+        suite.extend(generators.generate(c, n, seed=args.problem_seed, robot=robot))
     return suite
 
 
@@ -332,9 +331,10 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
 
     GFCS yields the paper's Table I rows with n = ``n_commands`` free commands and no retry: "Ours (1 b)"
     (what :func:`gfcs.optimize.solve` returns after one batch: a solve with ``batches=1`` and the same
-    seed, whose batch is the first batch of the longer solve) and "Ours (B b)" (after all B batches); with ``retry`` (and the default sampler) a third row, "Ours (B b,
-    retry)", is what :func:`gfcs.optimize.solve` returns by default: the same unless that failed, then the
-    retry with n + 1 commands (time = both attempts). GF yields "GF". ``solve_options``: further keyword
+    seed, whose batch is the first batch of the longer solve) and "Ours (B b)" (after all B batches);
+    with ``retry`` (and the default sampler) a third row, "Ours (B b, retry)", is what
+    :func:`gfcs.optimize.solve` returns by default: the same unless that failed, then the retry with
+    n + 1 commands (time = both attempts). GF yields "GF". ``solve_options``: further keyword
     arguments of :func:`gfcs.optimize.solve` for GFCS (e.g. ``length_slack``).
     """
     from gfcs import optimize
