@@ -228,6 +228,15 @@ def test_solve_refuses_a_robot_without_spheres_among_obstacles(sphere_and_mesh_s
         opt.solve(Problem("blind", boxes, scene, q0=[0.0], goal=[0.2]), batches=1, population=4)
     free = opt.solve(Problem("free", boxes, gfcs.Scene(), q0=[0.0], goal=[0.2]), method="gf")
     assert free.reached  # nothing to avoid: fine
+    # the check sits in the fabric itself, so replay, set_scene and user code get it too
+    with pytest.raises(ValueError, match="robot 'slider' has no collision spheres"):
+        opt.replay(free, scene, robot=boxes)
+    fabric = gfcs.Fabric(boxes)
+    with pytest.raises(ValueError, match="no collision spheres"):
+        fabric.set_scene(scene)
+    assert len(fabric.scene) == 0  # the refused scene was not taken
+    blind = gfcs.Fabric(boxes, scene, {"obstacles": {"enabled": False}})  # avoidance off: allowed
+    assert len(blind.scene) == 1
 
 
 def test_mbm_mesh_checker_is_none_without_panda_urdf(tmp_path):

@@ -338,7 +338,9 @@ class SequenceRollout:
     def __len__(self) -> int: ...
 
 class Fabric:
-    """Geometric fabric of a robot in a scene (held by value)."""
+    """Geometric fabric of a robot in a scene (held by value). Construction and ``set_scene`` raise
+    ``InvalidValueError`` (a ``ValueError``) for a robot without collision spheres in a scene with
+    obstacles while the obstacle barrier is enabled: the barrier acts on the spheres only."""
 
     def __init__(
         self, robot: Robot, scene: Optional[Scene] = None,
@@ -353,7 +355,8 @@ class Fabric:
     @property
     def scene(self) -> Scene:
         """A copy of the fabric's scene."""
-    def set_scene(self, scene: Scene) -> None: ...
+    def set_scene(self, scene: Scene) -> None:
+        """Replace the scene (copied); the same check as the constructor."""
     def update_obstacle(self, id: int, pose: Optional[Pose] = None, velocity: Optional[ArrayLike] = None) -> None:
         """Move / set the velocity of an obstacle of the fabric's scene."""
     def acceleration(

@@ -673,12 +673,6 @@ def solve(
     if method not in ("gfcs", "gf"):
         raise ValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
     robot, scene = problem.robot, problem.scene
-    if len(robot.sphere_radii) == 0 and len(scene) > 0:
-        raise ValueError(
-            f"robot '{robot.name}' has no collision spheres, so the fabric cannot avoid the scene's "
-            f"{len(scene)} obstacles (its URDF collision elements are meshes or boxes, or none): load it "
-            "with spheres (a spherized URDF; Robot.from_urdf(..., spheres=FILE) or --spheres FILE, which "
-            "tools/fit_spheres.py fits to the collision meshes)")
     dof = int(robot.dof)
     q0 = np.asarray(problem.q0, dtype=np.float64)
     qd0 = np.asarray(problem.qd0, dtype=np.float64)
@@ -845,6 +839,10 @@ def replay(
     Returns:
         A copy of ``result`` whose trajectory, cost, reached flag, t_stars, metrics and success are those
         of the replay (optimisation data unchanged).
+
+    Raises:
+        ValueError: no robot, or a robot without collision spheres in a scene with obstacles (the fabric
+            would not see them).
     """
     robot = robot if robot is not None else result.robot
     if robot is None:

@@ -103,6 +103,24 @@ fn input_errors_are_reported_never_nan() {
         )
         .unwrap();
     assert!(a2.iter().all(|v| v.is_finite()) && norm(&a2) > 0.0);
+    // ... but it cannot see obstacles: check_scene refuses a scene with any, unless avoidance is off
+    let mut ball = Scene::new();
+    ball.add(Obstacle {
+        name: "ball".into(),
+        shape: Shape::Sphere { radius: 0.05 },
+        pose: Isometry3::translation(0.3, 0.0, 0.0),
+        velocity: Vector3::zeros(),
+    })
+    .unwrap();
+    assert!(other.check_scene(&scene).is_ok());
+    assert!(
+        matches!(other.check_scene(&ball), Err(FabricError::Value { ref message, .. }) if message.contains("robot 'two' has no collision spheres"))
+    );
+    assert!(fabric.check_scene(&ball).is_ok());
+    let mut blind = FabricConfig::default();
+    blind.obstacles.enabled = false;
+    let blind = Fabric::new(other.robot().clone(), blind).unwrap();
+    assert!(blind.check_scene(&ball).is_ok());
 }
 
 #[test]

@@ -157,6 +157,7 @@ impl PyFabric {
         let model = robot.get().inner.clone();
         let fabric = guarded(py, || Fabric::new(model, config))?;
         let scene = scene.map(|s| s.inner.clone()).unwrap_or_default();
+        fabric.check_scene(&scene).map_err(error)?;
         Ok(PyFabric {
             fabric: Arc::new(fabric),
             robot: robot.unbind(),
@@ -194,10 +195,13 @@ impl PyFabric {
         }
     }
 
-    /// Replace the scene (copied).
-    fn set_scene(&self, scene: PyRef<'_, PyScene>) {
+    /// Replace the scene (copied). Raises `InvalidValueError` for a robot without collision spheres in
+    /// a scene with obstacles (see `Fabric(...)`).
+    fn set_scene(&self, scene: PyRef<'_, PyScene>) -> PyResult<()> {
+        self.fabric.check_scene(&scene.inner).map_err(error)?;
         let new = Arc::new(scene.inner.clone());
         *self.scene.write().unwrap_or_else(PoisonError::into_inner) = new;
+        Ok(())
     }
 
     /// Move the obstacle `id` of the fabric's scene to `pose` and/or set its `velocity` (3,) m/s.

@@ -413,6 +413,28 @@ impl Fabric {
         &self.config
     }
 
+    /// Checks that the fabric can see `scene`'s obstacles: the obstacle barrier (GF Sec. VII-A) acts on
+    /// the robot's collision spheres only, so an enabled barrier on a robot without spheres would ignore
+    /// every obstacle. Errors (`FabricError::Value`) for such a robot in a non-empty scene; the engine's
+    /// per-step calls do not repeat this check.
+    pub fn check_scene(&self, scene: &Scene) -> Result<()> {
+        if self.config.obstacles.enabled && !scene.is_empty() && self.robot.spheres().is_empty() {
+            return Err(FabricError::Value {
+                what: "scene".into(),
+                message: format!(
+                    "robot '{}' has no collision spheres, so the fabric cannot avoid the scene's {} \
+                     obstacles (its URDF collision elements are meshes or boxes, or none): load it with \
+                     spheres (a spherized URDF; Robot.from_urdf(..., spheres=FILE) or --spheres FILE, \
+                     which tools/fit_spheres.py fits to the collision meshes), or disable \
+                     obstacles in the fabric config",
+                    self.robot.name(),
+                    scene.len()
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// The end-effector targets implied by a joint command: the pose of the end-effector link at
     /// `command` (dof,). Errors on wrong length / non-finite values.
     pub fn ee_targets(&self, command: &[f64], ws: &mut FabricWorkspace) -> Result<EeTargets> {
