@@ -66,6 +66,17 @@ def test_top_m_sorted_and_anytime_best_non_increasing():
     assert res.best_cost == res.top_costs[0]
 
 
+def test_warm_start_sampling_counts_in_the_first_batch_time():
+    import time
+
+    def slow_sampler(n, rng):
+        time.sleep(0.05)
+        return rng.uniform(-1, 1, size=(n, 2))
+
+    res = opt.solve_gfcop(sphere_cost(np.zeros(2)), 2, -1, 1, sampler=slow_sampler, batches=3, population=4)
+    assert res.batch_times[0] >= 0.05 and np.all(res.batch_times[1:] < 0.05)
+
+
 def test_reproducible_with_seed_and_isolated_from_global_rng():
     f = sphere_cost(np.full(4, 0.5))
     np.random.seed(123)

@@ -158,7 +158,8 @@ class SolveResult:
         success: goal reached within tolerance, no collision (obstacles and self), limits respected.
         metrics: :func:`gfcs.metrics.trajectory_metrics` of ``trajectory``.
         top: the best m candidates of the optimisation as (candidate (n·dof,), cost), lowest cost first.
-        batch_times: (B,) wall time of each CMA-ES batch [s] (sampling, evaluation, update).
+        batch_times: (B,) wall time of each CMA-ES batch [s] (sampling, evaluation, update; the first
+            batch's sampling is the warm-start sampler's).
         batch_best_costs: (B,) best cost found so far after each batch (non-increasing; anytime).
         batch_best_commands: (B, n·dof) the best candidate so far after each batch.
         n_evaluations: number of candidate sequences evaluated.
