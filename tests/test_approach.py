@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import gfcs
-from gfcs.approach import approach_configurations
+from gfcs.approach import RETRACT_HEIGHT_SIGMA, RETRACT_SCALE, approach_configurations, retract_configurations
 
 GOAL = np.array([0.3, 0.4, -0.2, -1.9, 0.1, 2.2, 0.6])
 
@@ -50,3 +50,28 @@ def test_bad_input(robot, kwargs, match):
     args = {"q_goal": GOAL, "distances": (0.1,), **kwargs}
     with pytest.raises(ValueError, match=match):
         approach_configurations(robot, **args)
+
+
+def test_retract_configurations_pull_the_hand_in_at_the_goal_height(robot):
+    q0 = np.array([0.0, 0.6, 0.0, -1.2, 0.0, 1.8, 0.8])
+    qs = retract_configurations(robot, q0, GOAL, 50, np.random.default_rng(0))
+    assert qs.shape == (50, 7)
+    assert np.all(qs >= np.asarray(robot.lower)) and np.all(qs <= np.asarray(robot.upper))
+    ends = [ee_pose(robot, q)[:3, 3] for q in (q0, GOAL)]
+    hands = np.array([ee_pose(robot, q)[:3, 3] for q in qs])
+    radius = np.linalg.norm(hands[:, :2], axis=1)
+    # the targets keep 25-65 % of a blend of the ends' horizontal offsets: every hand is pulled in
+    assert radius.max() < RETRACT_SCALE[1] * max(np.linalg.norm(p[:2]) for p in ends) + 0.01
+    # heights scatter about the goal hand's by RETRACT_HEIGHT_SIGMA
+    assert abs(np.mean(hands[:, 2]) - ends[1][2]) < 3 * RETRACT_HEIGHT_SIGMA / np.sqrt(50) + 0.01
+    assert 0.5 * RETRACT_HEIGHT_SIGMA < np.std(hands[:, 2]) < 1.5 * RETRACT_HEIGHT_SIGMA
+    # reproducible from the generator; none for n = 0
+    np.testing.assert_array_equal(qs, retract_configurations(robot, q0, GOAL, 50, np.random.default_rng(0)))
+    assert retract_configurations(robot, q0, GOAL, 0, np.random.default_rng(0)).shape == (0, 7)
+
+
+@pytest.mark.parametrize("args, match", [((np.zeros(6), GOAL, 3), "q_start"), ((np.zeros(7), [np.nan] * 7, 3), "q_goal"),
+                                         ((np.zeros(7), GOAL, -1), "n must be")])
+def test_retract_configurations_reject_bad_input(robot, args, match):
+    with pytest.raises(ValueError, match=match):
+        retract_configurations(robot, *args, np.random.default_rng(0))

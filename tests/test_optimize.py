@@ -185,7 +185,7 @@ def test_approach_sampler_mixes_approach_and_uniform_commands():
     problem = types.SimpleNamespace(robot=robot, goal=goal)
     lo, up = np.asarray(robot.lower), np.asarray(robot.upper)
     # one command: the last (only) command of the first quarter at the two approach distances in turn
-    one = opt.ApproachSampler(1, fraction=0.25, distances=(0.05, 0.1), sigma=0.01)
+    one = opt.ApproachSampler(1, fraction=0.25, retract=0.0, distances=(0.05, 0.1), sigma=0.01)
     y = one.sample(problem, 400, np.random.default_rng(0))
     assert y.shape == (400, 7) and np.all(y >= lo) and np.all(y <= up)
     near = approach_configurations(robot, goal, (0.05, 0.1))
@@ -196,19 +196,52 @@ def test_approach_sampler_mixes_approach_and_uniform_commands():
     assert np.all(np.abs(y[100:].mean(axis=0) - (lo + up) / 2) < 0.1 * (up - lo))
     assert np.mean(np.linalg.norm(y[100:] - goal, axis=1) < 0.5) < 0.05
     # two commands: the earlier one backs off one spacing (0.2 m) further along the corridor
-    two = opt.ApproachSampler(2, fraction=0.25, distances=(0.05, 0.1), spacings=(0.2,), sigma=0.01)
+    two = opt.ApproachSampler(2, fraction=0.25, retract=0.0, distances=(0.05, 0.1), spacings=(0.2,), sigma=0.01)
     y2 = two.sample(problem, 400, np.random.default_rng(0)).reshape(400, 2, 7)
     levels = approach_configurations(robot, goal, (0.05, 0.1, 0.25, 0.3))
     for i in range(2):
         np.testing.assert_allclose(np.median(y2[i:100:2, 1], axis=0), levels[i], atol=0.01 * (up - lo).max())
         np.testing.assert_allclose(np.median(y2[i:100:2, 0], axis=0), levels[i + 2],
                                    atol=0.01 * (up - lo).max())
-    # fraction 0 is the uniform sampler, draw for draw
-    u = opt.ApproachSampler(2, fraction=0.0).sample(problem, 50, np.random.default_rng(3))
+    # no approach and no retract candidates: the uniform sampler, draw for draw
+    u = opt.ApproachSampler(2, fraction=0.0, retract=0.0).sample(problem, 50, np.random.default_rng(3))
     np.testing.assert_array_equal(u, opt.UniformSampler(2).sample(problem, 50, np.random.default_rng(3)))
 
 
+def test_approach_sampler_retract_candidates_follow_the_approach_ones():
+    import types
+
+    import gfcs
+    from gfcs.approach import approach_configurations, retract_configurations
+
+    robot = gfcs.Robot.panda()
+    q0 = np.array([0.0, 0.6, 0.0, -1.2, 0.0, 1.8, 0.8])
+    goal = np.array([0.3, 0.4, -0.2, -1.9, 0.1, 2.2, 0.6])
+    problem = types.SimpleNamespace(robot=robot, q0=q0, goal=goal)
+    lo, up = np.asarray(robot.lower), np.asarray(robot.upper)
+    y = opt.ApproachSampler(1, fraction=0.25, retract=0.5, sigma=0.0).sample(problem, 40, np.random.default_rng(0))
+    assert y.shape == (40, 7) and np.all(y >= lo) and np.all(y <= up)
+    near = approach_configurations(robot, goal, (0.05, 0.1, 0.15, 0.2))
+    np.testing.assert_allclose(y[:10], near[np.arange(10) % 4])
+    # the next 20 are retract configurations: each one's hand nearer the base axis than both ends'
+    ee = robot.link_index(robot.ee_link)
+    radius = [np.linalg.norm(np.asarray(robot.link_poses(q))[ee][:2, 3]) for q in (q0, goal, *y[10:30])]
+    assert max(radius[2:]) < min(radius[:2])
+    # the last 10 are uniform: nowhere near either end
+    assert np.all(np.linalg.norm(y[30:] - goal, axis=1) > 0.5)
+    # with two commands the retract configuration comes first, then the approach corridor
+    y2 = opt.ApproachSampler(2, fraction=0.0, retract=1.0, distances=(0.1,), spacings=(0.2,), sigma=0.0).sample(
+        problem, 6, np.random.default_rng(1)).reshape(6, 2, 7)
+    np.testing.assert_allclose(y2[:, 1], np.tile(approach_configurations(robot, goal, (0.1,)), (6, 1)))
+    assert not np.allclose(y2[0, 0], y2[1, 0])
+    # shares adding up to more than 1: the retract share is capped
+    y3 = opt.ApproachSampler(1, fraction=0.75, retract=0.75, sigma=0.0).sample(problem, 8, np.random.default_rng(2))
+    np.testing.assert_allclose(y3[:6], near[np.arange(6) % 4])
+    assert not np.any(np.all(np.isclose(y3[6:, None, :], near[None]), axis=2))
+
+
 @pytest.mark.parametrize("kwargs, match", [({"fraction": 1.5}, "fraction"), ({"fraction": -0.1}, "fraction"),
+                                           ({"retract": 1.5}, "retract"), ({"retract": math.nan}, "retract"),
                                            ({"sigma": -0.1}, "sigma"), ({"sigma": math.nan}, "sigma"),
                                            ({"distances": ()}, "distances"), ({"distances": (0.1, -0.1)}, "distances"),
                                            ({"spacings": (math.inf,)}, "spacings"), ({"n_commands": 0}, "n_commands")])

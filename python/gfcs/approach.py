@@ -1,14 +1,20 @@
-"""Approach configurations: the goal's end-effector pose backed off along its approach axis, by inverse
-kinematics.
+"""Intermediate configurations for the GFCS warm start (:class:`gfcs.optimize.ApproachSampler`), by
+inverse kinematics.
 
-A grasp goal (MotionBenchMaker's shelves, boxes, cages, tables) sits in narrow free space that the arm can
-enter only along the gripper's approach direction. The configuration whose end effector has the goal's
-orientation but stands ``distance`` metres back along that axis (a pre-grasp) lies at the mouth of that
-corridor, and makes a good intermediate command for GFCS (:class:`gfcs.optimize.ApproachSampler`).
+* Approach configurations: the goal's end-effector pose backed off along its approach axis. A grasp goal
+  (MotionBenchMaker's shelves, boxes, cages, tables) sits in narrow free space that the arm can enter only
+  along the gripper's approach direction. The configuration whose end effector has the goal's orientation
+  but stands ``distance`` metres back along that axis (a pre-grasp) lies at the mouth of that corridor,
+  and makes a good intermediate command.
+* Retract configurations: the hand pulled in toward the robot's vertical base axis, at about the goal
+  hand's height. A start in confined space (under a table, deep in a shelf) is left by folding the arm
+  in before reaching out again; a uniform command almost never does that, and it is what the learned
+  sampler came to propose on MotionBenchMaker's table-under problems (BENCHMARKS.md).
 
-Inverse kinematics: damped least squares on the stacked task e = [p* − p; w (x* − x); w (z* − z)] (EE
-position and two EE axes, world frame; w = ``AXIS_WEIGHT`` m per unit of axis error), started at the goal
-configuration and continued from one distance to the next, each step clipped into the joint limits.
+Inverse kinematics (damped least squares, each step clipped into the joint limits):
+approach configurations on the stacked task e = [p* − p; w (x* − x); w (z* − z)] (EE position and two EE
+axes, world frame; w = ``AXIS_WEIGHT`` m per unit of axis error), started at the goal configuration and
+continued from one distance to the next; retract configurations on the EE position alone.
 """
 
 from __future__ import annotations
@@ -17,12 +23,22 @@ from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["approach_configurations", "AXIS_WEIGHT"]
+__all__ = ["approach_configurations", "retract_configurations", "AXIS_WEIGHT", "RETRACT_BLEND", "RETRACT_SCALE",
+           "RETRACT_HEIGHT_SIGMA"]
 
 #: Weight (m) of an EE-axis error relative to a position error of 1 m.
 AXIS_WEIGHT = 0.3
+#: Range of the start-to-goal blend a of a retract configuration (uniform).
+RETRACT_BLEND = (0.2, 0.8)
+#: Range of the share of its horizontal distance from the base axis that a retract target keeps (uniform).
+RETRACT_SCALE = (0.25, 0.65)
+#: Standard deviation (m) of a retract target's height about the goal hand's.
+RETRACT_HEIGHT_SIGMA = 0.1
 _DAMPING = 1e-3
 _TOL = 1e-5
+#: Damping (m²) and stopping tolerance (m) of the position-only steps of the retract configurations.
+_RETRACT_DAMPING = 1e-2
+_RETRACT_TOL = 1e-3
 
 
 def approach_configurations(
@@ -80,5 +96,68 @@ def approach_configurations(
                              AXIS_WEIGHT * np.asarray(robot.axis_jacobian(q, ee, [0.0, 0.0, 1.0]))])
             step = jac.T @ np.linalg.solve(jac @ jac.T + _DAMPING * np.eye(9), e)
             q = np.clip(q + step, lo, up)
+        out[row] = q
+    return out
+
+
+def retract_configurations(
+    robot: Any,
+    q_start: Any,
+    q_goal: Any,
+    n: int,
+    rng: np.random.Generator,
+    iterations: int = 15,
+) -> np.ndarray:
+    """``n`` configurations with the end effector pulled in toward the base axis at about the goal's height.
+
+    For each row: a ~ U(``RETRACT_BLEND``) blends start and goal, q_a = (1 − a) q_start + a q_goal and
+    p_a = (1 − a) p(q_start) + a p(q_goal) (EE positions, base = world frame); the target keeps a share
+    s ~ U(``RETRACT_SCALE``) of p_a's horizontal offset from the base's z axis, at the height
+    z(q_goal) + N(0, ``RETRACT_HEIGHT_SIGMA``²); position-only damped least squares from q_a reaches it.
+
+    Args:
+        robot: a ``gfcs.Robot`` (its ``ee_link`` is the end effector).
+        q_start, q_goal: (dof,) start and goal configurations, rad (or m for prismatic joints).
+        n: number of configurations (≥ 0).
+        rng: numpy Generator (the draws: a, s and the height per row, in that order).
+        iterations: damped least-squares steps per row (fewer when within 1 mm of the target).
+
+    Returns:
+        (n, dof) configurations inside the joint limits; where a target is out of reach, the closest
+        configuration the iteration found.
+
+    Raises:
+        ValueError: a configuration of the wrong shape or not finite, a negative ``n``.
+    """
+    lo = np.asarray(robot.lower, dtype=np.float64)
+    up = np.asarray(robot.upper, dtype=np.float64)
+    ends = []
+    for name, q in (("q_start", q_start), ("q_goal", q_goal)):
+        q = np.asarray(q, dtype=np.float64)
+        if q.shape != lo.shape or not np.all(np.isfinite(q)):
+            raise ValueError(f"{name}: expected {lo.shape[0]} finite values, got shape {q.shape}")
+        ends.append(q)
+    if int(n) < 0:
+        raise ValueError(f"n must be >= 0, got {n}")
+    ee = robot.link_index(robot.ee_link)
+
+    def hand(q: np.ndarray) -> np.ndarray:
+        return np.asarray(robot.link_poses(q))[ee][:3, 3]
+
+    (q0, q1), (p0, p1) = ends, (hand(ends[0]), hand(ends[1]))
+    out = np.empty((int(n), lo.shape[0]))
+    for row in range(int(n)):
+        a = rng.uniform(*RETRACT_BLEND)
+        scale = rng.uniform(*RETRACT_SCALE)
+        height = p1[2] + rng.normal(0.0, RETRACT_HEIGHT_SIGMA)
+        blend = (1.0 - a) * p0 + a * p1
+        target = np.array([scale * blend[0], scale * blend[1], height])
+        q = np.clip((1.0 - a) * q0 + a * q1, lo, up)
+        for _ in range(int(iterations)):
+            e = target - hand(q)
+            if np.linalg.norm(e) < _RETRACT_TOL:
+                break
+            jac = np.asarray(robot.point_jacobian(q, ee, np.zeros(3)))
+            q = np.clip(q + jac.T @ np.linalg.solve(jac @ jac.T + _RETRACT_DAMPING * np.eye(3), e), lo, up)
         out[row] = q
     return out

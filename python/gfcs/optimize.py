@@ -111,22 +111,31 @@ class UniformSampler:
 
 @dataclass
 class ApproachSampler:
-    """The default warm start: part of the candidates follow the goal's approach corridor, the rest are
-    uniform.
+    """The default warm start: half of the candidates follow the goal's approach corridor, the other half
+    leave the start by pulling the hand in toward the robot's base.
 
     A grasp goal (MotionBenchMaker's shelves, boxes, cages) sits in narrow free space that the fabric
-    enters only along the gripper's approach direction; a uniform waypoint almost never lies at the mouth
-    of that corridor. The first round(``fraction``·n) candidates are approach candidates: their last free
-    command is an approach configuration (the goal's end-effector pose backed off by one of ``distances``
-    along ``axis``, see :func:`gfcs.approach.approach_configurations`; the distances in turn) and each
-    earlier command backs off one ``spacing`` further (spacings in turn), so that a sequence enters the
-    corridor step by step; every command gets N(0, (sigma·(q_up − q_low))²) per joint, clipped into the
-    limits. The other candidates are those of :class:`UniformSampler`. ``fraction = 0`` is the uniform
-    sampler (the paper's "No learning").
+    enters only along the gripper's approach direction, and a start in confined space (under a table) is
+    left by folding the arm in; a uniform command almost never does either. Of n candidates:
+
+    * the first round(``fraction``·n) are approach candidates: their last free command is an approach
+      configuration (the goal's end-effector pose backed off by one of ``distances`` along ``axis``, see
+      :func:`gfcs.approach.approach_configurations`; the distances in turn) and each earlier command backs
+      off one ``spacing`` further (spacings in turn), so that a sequence enters the corridor step by step;
+      every command gets N(0, (sigma·(q_up − q_low))²) per joint, clipped into the limits;
+    * the next round(``retract``·n) (at most the rest) are retract candidates: their first command is a
+      retract configuration (:func:`gfcs.approach.retract_configurations`: the hand pulled in toward the
+      base axis at about the goal's height), their later commands (n ≥ 2) those of an approach candidate;
+    * the others are those of :class:`UniformSampler`.
+
+    ``fraction = retract = 0`` is the uniform sampler (the paper's "No learning"). The retract half
+    replaced uniform candidates in the ninth session: on all 350 MotionBenchMaker problems hand paths
+    fell in every class, by 8–12 % on table under and table_pick (BENCHMARKS.md).
 
     Attributes:
         n_commands: number n of free commands per candidate (output width n·dof).
         fraction: share of approach candidates, in [0, 1].
+        retract: share of retract candidates, in [0, 1] (capped at 1 − fraction).
         distances: back-off distances (m) of the last command, ≥ 0.
         spacings: extra back-off (m, ≥ 0) of each earlier command over the next one (n ≥ 2 only).
         sigma: joint noise around the approach configurations as a fraction of each joint range, ≥ 0.
@@ -135,6 +144,7 @@ class ApproachSampler:
 
     n_commands: int = 1
     fraction: float = 0.5
+    retract: float = 0.5
     distances: Tuple[float, ...] = (0.05, 0.10, 0.15, 0.20)
     spacings: Tuple[float, ...] = (0.10, 0.15, 0.20)
     sigma: float = 0.02
@@ -143,8 +153,9 @@ class ApproachSampler:
     def __post_init__(self) -> None:
         if int(self.n_commands) < 1:
             raise ValueError(f"ApproachSampler.n_commands must be >= 1, got {self.n_commands}")
-        if not 0.0 <= float(self.fraction) <= 1.0:
-            raise ValueError(f"ApproachSampler.fraction must be in [0, 1], got {self.fraction}")
+        for name in ("fraction", "retract"):
+            if not 0.0 <= float(getattr(self, name)) <= 1.0:
+                raise ValueError(f"ApproachSampler.{name} must be in [0, 1], got {getattr(self, name)}")
         if not (math.isfinite(self.sigma) and self.sigma >= 0):
             raise ValueError(f"ApproachSampler.sigma must be a finite number >= 0, got {self.sigma}")
         for name in ("distances", "spacings"):
@@ -153,28 +164,32 @@ class ApproachSampler:
                 raise ValueError(f"ApproachSampler.{name} must be finite numbers >= 0, got {values}")
 
     def sample(self, problem: Any, n: int, rng: np.random.Generator) -> np.ndarray:
-        """(n, n_commands·dof) candidates: the first round(fraction·n) along the approach corridor of
-        ``problem.goal`` (with noise), then uniform ones."""
-        from gfcs.approach import approach_configurations
+        """(n, n_commands·dof) candidates: approach ones for ``problem.goal``, retract ones from
+        ``problem.q0``, then uniform ones (see the class docstring)."""
+        from gfcs.approach import approach_configurations, retract_configurations
 
         y = UniformSampler(self.n_commands).sample(problem, n, rng)
         k = int(round(float(self.fraction) * int(n)))
-        if k == 0:
+        r = min(int(round(float(self.retract) * int(n))), int(n) - k)
+        if k + r == 0:
             return y
         robot = problem.robot
         lo = np.asarray(robot.lower, dtype=np.float64)
         up = np.asarray(robot.upper, dtype=np.float64)
         dof, m = lo.shape[0], int(self.n_commands)
-        i = np.arange(k)
+        i = np.arange(k + r)
         # back-off distance of command c of candidate i: the last one's plus (m-1-c) spacings
         last = np.asarray(self.distances, dtype=np.float64)[i % len(self.distances)]
         step = np.asarray(self.spacings, dtype=np.float64)[i % len(self.spacings)]
         back = last[:, None] + step[:, None] * np.arange(m - 1, -1, -1)[None, :]
         levels, index = np.unique(back, return_inverse=True)
         approach = approach_configurations(robot, problem.goal, levels, self.axis)
-        rows = approach[index.reshape(k, m)]  # (k, m, dof)
-        noise = rng.standard_normal((k, m, dof)) * (float(self.sigma) * (up - lo))
-        y[:k] = np.clip(rows + noise, lo, up).reshape(k, m * dof)
+        rows = approach[index.reshape(k + r, m)]  # (k + r, m, dof)
+        noise = rng.standard_normal((k + r, m, dof)) * (float(self.sigma) * (up - lo))
+        rows = np.clip(rows + noise, lo, up)
+        if r:
+            rows[k:, 0] = retract_configurations(robot, problem.q0, problem.goal, r, rng)
+        y[: k + r] = rows.reshape(k + r, m * dof)
         return y
 
 
