@@ -91,8 +91,8 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     g.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON)")
     g.add_argument("--sampler", metavar="approach|uniform|MODEL.pt", default="approach",
                    help="warm-start sampler: approach (default: half the first batch at the goal's approach "
-                        "corridor, the rest uniform), uniform (the paper's), or a model trained by "
-                        "`gfcs train` (needs torch)")
+                        "corridor, half with the hand pulled in toward the base), uniform (the paper's), or a "
+                        "model trained by `gfcs train` (needs torch)")
     g.add_argument("--sgld-noise", type=float, metavar="TAU",
                    help="with --sampler MODEL.pt: SGLD noise scale of the sampler (default: the model "
                         "file's; 1 is the paper's eq. 10-11)")
