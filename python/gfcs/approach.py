@@ -7,8 +7,8 @@ inverse kinematics.
   but stands ``distance`` metres back along that axis (a pre-grasp) lies at the mouth of that corridor,
   and makes a good intermediate command.
 * Retract configurations: the hand pulled in toward the robot's vertical base axis, at about the goal
-  hand's height. A start in confined space (under a table, deep in a shelf) is left by folding the arm
-  in before reaching out again; a uniform command almost never does that, and it is what the learned
+  hand's height. A start in confined space (MotionBenchMaker's table under: the hand below the table top)
+  is left by folding the arm in before reaching out again; a uniform command almost never does that, and it is what the learned
   sampler came to propose on MotionBenchMaker's table-under problems (BENCHMARKS.md).
 
 Inverse kinematics (damped least squares, each step clipped into the joint limits):
