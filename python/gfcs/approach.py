@@ -11,10 +11,11 @@ inverse kinematics.
   is left by folding the arm in before reaching out again; a uniform command almost never does that, and it is what the learned
   sampler came to propose on MotionBenchMaker's table-under problems (BENCHMARKS.md).
 
-Inverse kinematics (damped least squares, each step clipped into the joint limits):
-approach configurations on the stacked task e = [p* − p; w (x* − x); w (z* − z)] (EE position and two EE
-axes, world frame; w = ``AXIS_WEIGHT`` m per unit of axis error), started at the goal configuration and
-continued from one distance to the next; retract configurations on the EE position alone.
+Inverse kinematics (``Robot.inverse_kinematics``, in the core: damped least squares, each step clipped
+into the joint limits): approach configurations on the stacked task e = [p* − p; w (x* − x); w (z* − z)]
+(EE position and two EE axes, world frame; w = ``AXIS_WEIGHT`` m per unit of axis error), started at the
+goal configuration and continued from one distance to the next; retract configurations on the EE position
+alone, all rows in one parallel call.
 """
 
 from __future__ import annotations
@@ -68,7 +69,6 @@ def approach_configurations(
             or non-finite axis.
     """
     lo = np.asarray(robot.lower, dtype=np.float64)
-    up = np.asarray(robot.upper, dtype=np.float64)
     q = np.asarray(q_goal, dtype=np.float64).copy()
     if q.shape != lo.shape or not np.all(np.isfinite(q)):
         raise ValueError(f"q_goal: expected {lo.shape[0]} finite values, got shape {q.shape}")
@@ -79,23 +79,13 @@ def approach_configurations(
     if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
         raise ValueError(f"axis: expected a non-zero 3-vector, got {np.asarray(axis).tolist()}")
     a = a / np.linalg.norm(a)
-    ee = robot.link_index(robot.ee_link)
-    goal_pose = np.asarray(robot.link_poses(q))[ee]
-    x_t, z_t = goal_pose[:3, 0], goal_pose[:3, 2]
+    goal_pose = np.asarray(robot.link_poses(q))[robot.link_index(robot.ee_link)]
+    axes = np.stack([goal_pose[:3, 0], goal_pose[:3, 2]])
     out = np.empty((d.shape[0], q.shape[0]))
     for row, dist in enumerate(d):
-        p_t = goal_pose[:3, 3] - dist * (goal_pose[:3, :3] @ a)
-        for _ in range(int(iterations)):
-            pose = np.asarray(robot.link_poses(q))[ee]
-            e = np.concatenate([p_t - pose[:3, 3], AXIS_WEIGHT * (x_t - pose[:3, 0]),
-                                AXIS_WEIGHT * (z_t - pose[:3, 2])])
-            if np.linalg.norm(e) < _TOL:
-                break
-            jac = np.vstack([robot.point_jacobian(q, ee, np.zeros(3)),
-                             AXIS_WEIGHT * np.asarray(robot.axis_jacobian(q, ee, [1.0, 0.0, 0.0])),
-                             AXIS_WEIGHT * np.asarray(robot.axis_jacobian(q, ee, [0.0, 0.0, 1.0]))])
-            step = jac.T @ np.linalg.solve(jac @ jac.T + _DAMPING * np.eye(9), e)
-            q = np.clip(q + step, lo, up)
+        target = goal_pose[:3, 3] - dist * (goal_pose[:3, :3] @ a)
+        q = robot.inverse_kinematics(q, target, axes=axes, iterations=int(iterations), damping=_DAMPING,
+                                     tolerance=_TOL, axis_weight=AXIS_WEIGHT)
         out[row] = q
     return out
 
@@ -130,7 +120,6 @@ def retract_configurations(
         ValueError: a configuration of the wrong shape or not finite, a negative ``n``.
     """
     lo = np.asarray(robot.lower, dtype=np.float64)
-    up = np.asarray(robot.upper, dtype=np.float64)
     ends = []
     for name, q in (("q_start", q_start), ("q_goal", q_goal)):
         q = np.asarray(q, dtype=np.float64)
@@ -139,25 +128,16 @@ def retract_configurations(
         ends.append(q)
     if int(n) < 0:
         raise ValueError(f"n must be >= 0, got {n}")
-    ee = robot.link_index(robot.ee_link)
-
-    def hand(q: np.ndarray) -> np.ndarray:
-        return np.asarray(robot.link_poses(q))[ee][:3, 3]
-
-    (q0, q1), (p0, p1) = ends, (hand(ends[0]), hand(ends[1]))
-    out = np.empty((int(n), lo.shape[0]))
+    (q0, q1), (p0, p1) = ends, np.asarray(robot.ee_position(np.stack(ends)))
+    blends, targets = np.empty(int(n)), np.empty((int(n), 3))
     for row in range(int(n)):
-        a = rng.uniform(*RETRACT_BLEND)
+        blends[row] = rng.uniform(*RETRACT_BLEND)
         scale = rng.uniform(*RETRACT_SCALE)
         height = p1[2] + rng.normal(0.0, RETRACT_HEIGHT_SIGMA)
-        blend = (1.0 - a) * p0 + a * p1
-        target = np.array([scale * blend[0], scale * blend[1], height])
-        q = np.clip((1.0 - a) * q0 + a * q1, lo, up)
-        for _ in range(int(iterations)):
-            e = target - hand(q)
-            if np.linalg.norm(e) < _RETRACT_TOL:
-                break
-            jac = np.asarray(robot.point_jacobian(q, ee, np.zeros(3)))
-            q = np.clip(q + jac.T @ np.linalg.solve(jac @ jac.T + _RETRACT_DAMPING * np.eye(3), e), lo, up)
-        out[row] = q
-    return out
+        blend = (1.0 - blends[row]) * p0 + blends[row] * p1
+        targets[row] = [scale * blend[0], scale * blend[1], height]
+    if int(n) == 0:
+        return np.empty((0, lo.shape[0]))
+    starts = (1.0 - blends[:, None]) * q0 + blends[:, None] * q1
+    return np.asarray(robot.inverse_kinematics(starts, targets, iterations=int(iterations),
+                                               damping=_RETRACT_DAMPING, tolerance=_RETRACT_TOL))

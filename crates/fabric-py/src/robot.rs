@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use fabric_core::robot::{
-    batch, CollisionSphere, GeometryKind, KinematicsWorkspace, Robot, RobotOptions, TaskPoint,
+    batch, inverse_kinematics, CollisionSphere, GeometryKind, IkOptions, IkTarget,
+    KinematicsWorkspace, Robot, RobotOptions, TaskPoint,
 };
 use fabric_core::FabricError;
 use nalgebra::{Matrix3xX, Vector3};
@@ -379,6 +380,95 @@ impl PyRobot {
                 out.copy_from_slice(x.as_slice())
             }))
         })
+    }
+
+    /// Damped least-squares inverse kinematics of `link`'s origin (default the end-effector link), from
+    /// `q_init` (dof,) or (N, dof) to `positions` (3,) or (N, 3) m (world = base frame), optionally with
+    /// the link's x and z axes along `axes` (2, 3) or (N, 2, 3) (unit world directions, x first). Each
+    /// step is Δq = Jᵀ (J Jᵀ + `damping` I)⁻¹ e on e = [p* − p; w (x* − x); w (z* − z)] (w =
+    /// `axis_weight`, m), then q is clipped into the joint limits; at most `iterations` steps, fewer when
+    /// ‖e‖ < `tolerance`. Returns (dof,) or (N, dof) configurations inside the limits (a target out of
+    /// reach: the closest configuration found). Batches run in parallel with the GIL released.
+    #[pyo3(signature = (q_init, positions, link=None, axes=None, iterations=30, damping=1e-3,
+                        tolerance=1e-5, axis_weight=0.3))]
+    #[allow(clippy::too_many_arguments)]
+    fn inverse_kinematics<'py>(
+        &self,
+        py: Python<'py>,
+        q_init: &Bound<'py, PyAny>,
+        positions: &Bound<'py, PyAny>,
+        link: Option<LinkRef>,
+        axes: Option<&Bound<'py, PyAny>>,
+        iterations: usize,
+        damping: f64,
+        tolerance: f64,
+        axis_weight: f64,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let robot = self.inner.clone();
+        let dof = robot.dof();
+        let link = match link {
+            Some(l) => l.resolve(&robot)?,
+            None => robot.ee_link(),
+        };
+        let (qs, q_batch) = convert::vector_or_rows(q_init, "q_init", dof)?;
+        let (points, p_batch) = convert::vector_or_rows(positions, "positions", 3)?;
+        if q_batch != p_batch {
+            return Err(convert::shape_error(
+                "positions",
+                &match q_batch {
+                    Some(n) => format!("({n}, 3), one per row of q_init"),
+                    None => "(3,), as q_init is one configuration".into(),
+                },
+                &match p_batch {
+                    Some(n) => vec![n, 3],
+                    None => vec![3],
+                },
+            ));
+        }
+        let n = q_batch.unwrap_or(1);
+        let axes = match axes {
+            Some(a) if !a.is_none() => {
+                let a = convert::array(a, "axes")?;
+                let expected: &[usize] = match q_batch {
+                    Some(n) => &[n, 2, 3],
+                    None => &[2, 3],
+                };
+                if a.shape != expected {
+                    return Err(convert::shape_error(
+                        "axes",
+                        &convert::shape_text(expected),
+                        &a.shape,
+                    ));
+                }
+                convert::finite("axes", &a.data)?;
+                Some(a.data)
+            }
+            _ => None,
+        };
+        let targets: Vec<IkTarget> = (0..n)
+            .map(|i| IkTarget {
+                position: Vector3::from_column_slice(&points[3 * i..3 * i + 3]),
+                axes: axes.as_ref().map(|a| {
+                    [
+                        Vector3::from_column_slice(&a[6 * i..6 * i + 3]),
+                        Vector3::from_column_slice(&a[6 * i + 3..6 * i + 6]),
+                    ]
+                }),
+            })
+            .collect();
+        let options = IkOptions {
+            iterations,
+            damping,
+            tolerance,
+            axis_weight,
+        };
+        let data = detached(py, move || {
+            inverse_kinematics(&robot, link, &qs, &targets, &options)
+        })?;
+        match q_batch {
+            None => output(py, data, &[dof]),
+            Some(n) => output(py, data, &[n, dof]),
+        }
     }
 
     /// Jacobian ∂x/∂q (3, dof) of the point `point` (3,) m, fixed in the frame of `link` (name or index),

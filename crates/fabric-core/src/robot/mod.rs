@@ -7,9 +7,11 @@
 //! * [`CollisionSphere`] (spheres.rs) and the self-collision pairs (srdf.rs).
 //! * [`LinkGeometry`] (geometry.rs): URDF collision geometry for mesh-based validation.
 //! * [`Robot::panda`] (panda.rs): the shipped Franka Panda. [`batch`]: parallel forward kinematics.
+//! * [`inverse_kinematics`] (ik.rs): damped least-squares IK of one link for many targets in parallel.
 
 pub mod batch;
 mod geometry;
+mod ik;
 mod kinematics;
 mod model;
 mod panda;
@@ -19,6 +21,7 @@ mod tree;
 mod urdf;
 
 pub use geometry::{GeometryKind, LinkGeometry};
+pub use ik::{inverse_kinematics, IkOptions, IkTarget};
 pub use kinematics::{KinematicsWorkspace, TaskPoint};
 pub use model::{Robot, RobotOptions};
 pub use spheres::CollisionSphere;

@@ -1,0 +1,178 @@
+//! Damped least-squares inverse kinematics of one link, for many targets in parallel (rayon, in the
+//! current thread pool; results in input order whatever the thread count).
+//!
+//! Each target asks for the origin of the link at `position` (world = base frame, m) and, optionally,
+//! for the link's x and z axes along `axes` (unit world directions). The task error is
+//! e = [p* − p; w (x* − x); w (z* − z)] with w = [`IkOptions::axis_weight`] (m per unit of axis error),
+//! and each step is Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e (λ = [`IkOptions::damping`], m²), then q is clipped into the
+//! joint limits. The iteration stops after [`IkOptions::iterations`] steps or when ‖e‖ <
+//! [`IkOptions::tolerance`]; a target out of reach returns the closest configuration it found.
+
+use nalgebra::{DMatrix, DVector, Vector3};
+use rayon::prelude::*;
+
+use super::kinematics::{KinematicsWorkspace, TaskPoint};
+use super::model::Robot;
+use crate::error::{check_finite, FabricError, Result};
+
+/// One inverse-kinematics target of a link.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IkTarget {
+    /// Position (m, world frame) of the link origin.
+    pub position: Vector3<f64>,
+    /// World directions of the link's x and z axes (normalised here), or `None` for position only.
+    pub axes: Option<[Vector3<f64>; 2]>,
+}
+
+/// Settings of [`inverse_kinematics`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IkOptions {
+    /// Maximum number of damped least-squares steps.
+    pub iterations: usize,
+    /// λ (> 0, m²): damping of J Jᵀ.
+    pub damping: f64,
+    /// Stop when ‖e‖ is below this (m, > 0).
+    pub tolerance: f64,
+    /// w (≥ 0, m): weight of an axis error relative to a position error of 1 m.
+    pub axis_weight: f64,
+}
+
+impl Default for IkOptions {
+    fn default() -> Self {
+        IkOptions {
+            iterations: 30,
+            damping: 1e-3,
+            tolerance: 1e-5,
+            axis_weight: 0.3,
+        }
+    }
+}
+
+impl IkOptions {
+    fn check(&self) -> Result<()> {
+        let bad = |what: &str, message: String| {
+            Err(FabricError::Value {
+                what: what.into(),
+                message,
+            })
+        };
+        if !(self.damping.is_finite() && self.damping > 0.0) {
+            return bad("damping", format!("must be > 0, got {}", self.damping));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return bad("tolerance", format!("must be > 0, got {}", self.tolerance));
+        }
+        if !(self.axis_weight.is_finite() && self.axis_weight >= 0.0) {
+            return bad(
+                "axis_weight",
+                format!("must be >= 0, got {}", self.axis_weight),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Inverse kinematics of `link` for N targets: row i starts at `q_init` row i (N × dof, row-major, rad
+/// or m; clipped into the limits first) and goes to `targets[i]`. Returns N × dof row-major
+/// configurations inside the joint limits.
+///
+/// Errors: `Shape` (q_init not N × dof for N = targets.len()), `NonFinite` (q_init or a target),
+/// `Value` (link index out of range, a zero axis, bad options).
+pub fn inverse_kinematics(
+    robot: &Robot,
+    link: usize,
+    q_init: &[f64],
+    targets: &[IkTarget],
+    options: &IkOptions,
+) -> Result<Vec<f64>> {
+    robot.check_link_index(link, "link")?;
+    options.check()?;
+    let dof = robot.dof();
+    if q_init.len() != targets.len() * dof {
+        return Err(FabricError::Shape {
+            what: "q_init".into(),
+            expected: format!("({}, {dof})", targets.len()),
+            got: format!("{} values", q_init.len()),
+        });
+    }
+    check_finite("q_init", q_init)?;
+    let mut goals = Vec::with_capacity(targets.len());
+    for t in targets {
+        check_finite("target position", t.position.as_slice())?;
+        let axes = match t.axes {
+            None => None,
+            Some([x, z]) => {
+                check_finite("target axes", x.as_slice())?;
+                check_finite("target axes", z.as_slice())?;
+                if x.norm() == 0.0 || z.norm() == 0.0 {
+                    return Err(FabricError::Value {
+                        what: "target axes".into(),
+                        message: "an axis is zero".into(),
+                    });
+                }
+                Some([x.normalize(), z.normalize()])
+            }
+        };
+        goals.push((t.position, axes));
+    }
+    let mut out = q_init.to_vec();
+    out.par_chunks_mut(dof.max(1))
+        .zip(goals.par_iter())
+        .for_each_init(
+            || (KinematicsWorkspace::new(robot), TaskPoint::new(dof)),
+            |(ws, tp), (q, goal)| solve_one(robot, link, q, goal, options, ws, tp),
+        );
+    Ok(out)
+}
+
+/// The iteration of [`inverse_kinematics`] for one row, in place on `q` (checked: length dof, finite).
+fn solve_one(
+    robot: &Robot,
+    link: usize,
+    q: &mut [f64],
+    (position, axes): &(Vector3<f64>, Option<[Vector3<f64>; 2]>),
+    options: &IkOptions,
+    ws: &mut KinematicsWorkspace,
+    tp: &mut TaskPoint,
+) {
+    let (lo, up) = (robot.lower(), robot.upper());
+    let clip = |q: &mut [f64]| {
+        for ((v, l), u) in q.iter_mut().zip(lo).zip(up) {
+            *v = v.clamp(*l, *u);
+        }
+    };
+    clip(q);
+    let dof = q.len();
+    let rows = if axes.is_some() { 9 } else { 3 };
+    let w = options.axis_weight;
+    let mut jac = DMatrix::<f64>::zeros(rows, dof);
+    let mut err = DVector::<f64>::zeros(rows);
+    for _ in 0..options.iterations {
+        robot.forward_positions(q, ws);
+        robot.point(ws, link, &Vector3::zeros(), tp);
+        err.rows_mut(0, 3).copy_from(&(position - tp.x));
+        jac.rows_mut(0, 3).copy_from(&tp.jac);
+        if let Some(targets) = axes {
+            for (k, (local, target)) in [Vector3::x(), Vector3::z()].iter().zip(targets).enumerate()
+            {
+                robot.axis(ws, link, local, tp);
+                err.rows_mut(3 + 3 * k, 3).copy_from(&((target - tp.x) * w));
+                jac.rows_mut(3 + 3 * k, 3).copy_from(&(&tp.jac * w));
+            }
+        }
+        if err.norm() < options.tolerance {
+            return;
+        }
+        let mut gram = &jac * jac.transpose();
+        for i in 0..rows {
+            gram[(i, i)] += options.damping;
+        }
+        // J Jᵀ + λ I is symmetric positive definite for λ > 0.
+        let Some(chol) = gram.cholesky() else { return };
+        let step = jac.transpose() * chol.solve(&err);
+        for (v, s) in q.iter_mut().zip(step.iter()) {
+            *v += s;
+        }
+        clip(q);
+    }
+}
