@@ -1,11 +1,13 @@
 #!/usr/bin/env python
-"""Cost of one fabric step inside GFCS: ``Fabric.evaluate`` (the batched rollouts of Alg. 1) per step.
+"""Cost of one fabric step inside GFCS: ``Fabric.evaluate`` (the batched rollouts of Alg. 1) per step, and
+of the default warm start (``ApproachSampler.sample``, which the first batch adds).
 
 For the first ``--limit`` MotionBenchMaker problems of each class (``$GFCS_SHARED/mbm`` or
 ``<repo>/../shared/mbm``, the MBM Panda; ``--generated`` uses the generated suite and the shipped Panda),
 rolls out ``--population`` warm-start candidates (``ApproachSampler``, seed 0) once with trajectories to
 count the integration steps, then times the same batch on 1 and on 2 threads (best of ``--repeat``).
-Prints µs per step on one thread, wall µs per step on two, and the speed-up; ``--json`` writes them.
+Prints µs per step on one thread, wall µs per step on two, and the speed-up, then the median and largest
+warm-start time per problem (best of ``--repeat``, all cores); ``--json`` writes them.
 
     python benches/fabric_step.py                 # BENCHMARKS.md, "Per fabric step inside GFCS"
     python benches/fabric_step.py --generated --limit 2
@@ -56,18 +58,26 @@ def main() -> None:
     ap.add_argument("--json", metavar="OUT.json", help="write the figures as JSON")
     args = ap.parse_args()
     kwargs = optimize.RolloutSettings().as_kwargs()
-    steps, t1, t2 = 0, 0.0, 0.0
+    steps, t1, t2, warm = 0, 0.0, 0.0, []
     for p in load(args):
         fabric = optimize.make_fabric(p)
-        candidates = optimize.ApproachSampler().sample(p, args.population, np.random.default_rng(0))
+        sampling = []
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            candidates = optimize.ApproachSampler().sample(p, args.population, np.random.default_rng(0))
+            sampling.append(time.perf_counter() - start)
+        warm.append(min(sampling))
         *_, trajectories = fabric.evaluate(p.q0, p.qd0, p.goal, candidates, return_trajectories=True, **kwargs)
         steps += sum(len(tr.t) for tr in trajectories)
         t1 += best_time(fabric, p, candidates, kwargs, 1, args.repeat)
         t2 += best_time(fabric, p, candidates, kwargs, 2, args.repeat)
     out = {"steps": steps, "us_per_step_1_thread": t1 / steps * 1e6, "wall_us_per_step_2_threads": t2 / steps * 1e6,
-           "speedup": t1 / t2}
+           "speedup": t1 / t2, "warm_start_ms_median": float(np.median(warm)) * 1e3,
+           "warm_start_ms_max": max(warm) * 1e3}
     print(f"{steps} steps: {out['us_per_step_1_thread']:.2f} µs/step on 1 thread, "
           f"{out['wall_us_per_step_2_threads']:.2f} µs/step wall on 2 (speed-up {out['speedup']:.2f})")
+    print(f"warm start ({args.population} candidates): {out['warm_start_ms_median']:.2f} ms median, "
+          f"{out['warm_start_ms_max']:.2f} ms at most over {len(warm)} problems")
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2))
 

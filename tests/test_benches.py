@@ -33,6 +33,7 @@ def test_fabric_step_counts_steps_and_times_both_thread_counts(tmp_path):
     assert figures["steps"] > 7 * 4  # 7 classes × 4 candidates, each at least one step
     assert figures["us_per_step_1_thread"] > 0 and figures["wall_us_per_step_2_threads"] > 0
     assert figures["speedup"] > 0
+    assert 0 < figures["warm_start_ms_median"] <= figures["warm_start_ms_max"]
 
 
 def test_bench_suite_runs_on_motionbenchmaker_problems(tmp_path, shared_dir):

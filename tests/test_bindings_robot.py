@@ -115,6 +115,37 @@ def test_ee_position_is_ee_link_translation(panda):
 # -------------------------------------------------------------------------------- FK against yourdfpy
 
 
+def test_inverse_kinematics_reaches_fk_targets_single_and_batched(panda):
+    rng = np.random.default_rng(5)
+    lo, up = np.asarray(panda.lower), np.asarray(panda.upper)
+    truth = rng.uniform(lo + 0.3, up - 0.3, size=(6, 7))
+    start = np.clip(truth + rng.uniform(-0.2, 0.2, size=truth.shape), lo, up)
+    poses = np.asarray(panda.link_poses(truth))[:, panda.link_index(panda.ee_link)]
+    axes = np.stack([poses[:, :3, 0], poses[:, :3, 2]], axis=1)  # (6, 2, 3)
+    q = panda.inverse_kinematics(start, poses[:, :3, 3], axes=axes, iterations=200)
+    assert q.shape == (6, 7) and np.all(q >= lo) and np.all(q <= up)
+    reached = np.asarray(panda.link_poses(q))[:, panda.link_index(panda.ee_link)]
+    np.testing.assert_allclose(reached[:, :3, 3], poses[:, :3, 3], atol=1e-5)
+    np.testing.assert_allclose(reached[:, :3, [0, 2]], poses[:, :3, [0, 2]], atol=1e-4)
+    # one configuration, position only, another link by name: (dof,) out
+    one = panda.inverse_kinematics(start[0], [0.4, 0.1, 0.5], link="panda_link7", iterations=100)
+    assert one.shape == (7,)
+    np.testing.assert_allclose(panda.link_poses(one)[panda.link_index("panda_link7")][:3, 3], [0.4, 0.1, 0.5],
+                               atol=1e-4)
+
+
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"q_init": np.zeros((2, 7)), "positions": np.zeros(3)}, gfcs.ShapeError, "positions"),
+    ({"q_init": np.zeros(7), "positions": np.zeros(3), "axes": np.zeros((3, 3))}, gfcs.ShapeError, "axes"),
+    ({"q_init": np.zeros(7), "positions": [0.0, np.nan, 0.0]}, gfcs.NonFiniteError, "positions"),
+    ({"q_init": np.zeros(7), "positions": np.zeros(3), "damping": 0.0}, gfcs.InvalidValueError, "damping"),
+    ({"q_init": np.zeros(7), "positions": np.zeros(3), "link": "nope"}, gfcs.LinkError, "nope"),
+])
+def test_inverse_kinematics_rejects_bad_input(panda, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        panda.inverse_kinematics(**kwargs)
+
+
 def test_panda_fk_and_spheres_match_yourdfpy(panda, panda_urdf_path):
     urdf = load_yourdfpy(panda_urdf_path)
     # the shipped model locks the fingers open at 0.04 m (Robot.panda docs)
