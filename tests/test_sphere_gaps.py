@@ -1,0 +1,93 @@
+"""Inscribed gap spheres: ``tools/fill_sphere_gaps.py`` and the MBM Panda model that carries them.
+
+References are independent of the tool: the closed-form distance inside a box, the convex hulls of the
+MotionBenchMaker collision meshes (trimesh), and the MBM problems' own start and goal configurations.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import gfcs
+from gfcs import problems
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+TOOL = REPO_ROOT / "tools" / "fill_sphere_gaps.py"
+
+LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
+
+
+def write_robot(tmp_path: Path) -> tuple[Path, Path]:
+    """A slider whose link is a 0.2 × 0.1 × 0.1 m box mesh (offset by its URDF origin), and the same robot
+    with one 0.03 m sphere at the box's +x end."""
+    trimesh.creation.box(extents=[0.2, 0.1, 0.1]).export(tmp_path / "box.obj")
+    joint = f'<joint name="x" type="prismatic"><parent link="base"/><child link="link"/><axis xyz="1 0 0"/>{LIMIT}</joint>'
+    mesh = tmp_path / "mesh.urdf"
+    mesh.write_text(f"""<robot name="slider"><link name="base"/><link name="link"><collision>
+      <origin xyz="0.5 0 0"/><geometry><mesh filename="box.obj"/></geometry></collision></link>{joint}</robot>""")
+    spheres = tmp_path / "spheres.urdf"
+    spheres.write_text(f"""<robot name="slider"><link name="base"/><link name="link"><collision>
+      <origin xyz="0.57 0 0"/><geometry><sphere radius="0.03"/></geometry></collision></link>{joint}</robot>""")
+    return mesh, spheres
+
+
+def test_tool_fills_a_box_from_inside(tmp_path):
+    mesh, spheres = write_robot(tmp_path)
+    out = tmp_path / "gaps.json"
+    run = subprocess.run([sys.executable, str(TOOL), str(mesh), str(spheres), "--out", str(out), "--samples", "800",
+                          "--target", "0.03", "--per-link", "3"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    added = json.loads(out.read_text())["spheres"]
+    assert 1 <= len(added) <= 3 and all(s["link"] == "link" for s in added)
+    lo, hi = np.array([0.4, -0.05, -0.05]), np.array([0.6, 0.05, 0.05])
+    for s in added:
+        c, r = np.asarray(s["center"]), s["radius"]
+        # inscribed: the sphere stays inside the box by at least the 1 mm slack (closed form)
+        assert np.min(np.concatenate([c - lo, hi - c])) >= r + 0.001 - 1e-6
+    # the largest gap shrinks: the far (-x) end of the box is now within reach of a sphere
+    centers = np.array([[0.57, 0, 0]] + [s["center"] for s in added])
+    radii = np.array([0.03] + [s["radius"] for s in added])
+    corner = np.array([0.4, 0.05, 0.05])
+    assert np.min(np.linalg.norm(centers - corner, axis=1) - radii) < np.linalg.norm([0.57 - 0.4, 0.05, 0.05]) - 0.03
+    assert "largest gap" in run.stderr
+
+
+def test_mbm_panda_gap_spheres_lie_inside_the_meshes(mbm_panda_dir):
+    robot = problems.mbm_panda(mbm_panda_dir)
+    plain = problems.mbm_panda(mbm_panda_dir, fill_gaps=False)
+    assert len(plain.sphere_radii) == 59 and len(robot.sphere_radii) == 77
+    assert problems.mesh_checker_for(robot) is not None
+    meshes = gfcs.Robot.from_urdf(str(mbm_panda_dir / "panda.urdf"), mesh_dir=str(mbm_panda_dir))
+    geometry = {g["link"]: g for g in meshes.collision_geometry() if g["type"] == "mesh"}
+    added = json.loads(problems.MBM_GAP_SPHERES.read_text())["spheres"]
+    for s in added:
+        g = geometry[s["link"]]
+        m = trimesh.load(g["path"], force="mesh")
+        origin = np.asarray(g["origin"])
+        hull = trimesh.Trimesh(np.asarray(m.vertices) @ origin[:3, :3].T + origin[:3, 3]).convex_hull
+        # the signed distance from the centre to the hull surface exceeds the radius
+        depth = trimesh.proximity.signed_distance(hull, np.asarray([s["center"]]))[0]
+        assert depth > s["radius"], s
+    # the model's own spheres come first, the added ones after them, in the link frames
+    np.testing.assert_allclose(robot.sphere_centers_local[59:], [s["center"] for s in added])
+
+
+def test_mbm_gap_spheres_keep_every_start_and_goal_as_clear_as_before(mbm_dir, mbm_panda_dir):
+    from gfcs.metrics import obstacle_clearance
+
+    robot = problems.mbm_panda(mbm_panda_dir)
+    plain = problems.mbm_panda(mbm_panda_dir, fill_gaps=False)
+    worse = []
+    for p in problems.load_mbm_dir(mbm_dir, robot=robot, limit=10):
+        q = np.stack([p.q0, p.goal])
+        before = obstacle_clearance(plain, p.scene, q)
+        after = obstacle_clearance(robot, p.scene, q)
+        worse += [p.name for b, a in zip(before, after) if a < 0 <= b]
+    assert worse == []
