@@ -130,9 +130,8 @@ class ApproachSampler:
 
     ``fraction = retract = 0`` is the uniform sampler (the paper's "No learning"). The retract half
     replaced the uniform one in the ninth session: on the 350 MotionBenchMaker problems (5 batches, seed
-    0, with the retry) 349 solved against 348, hand paths 1-4 % shorter in five classes and 10 % on table
-    under (1.59 -> 1.43 m), box 1.03 -> 1.04 m; a first batch alone solves fewer table-under problems
-    (37 against 47 of 50): ``retract=0.25`` keeps 45 with 5-batch paths in between (BENCHMARKS.md).
+    0, with the retry, the spherized MBM Panda) 349 solved against 348, hand paths 1-4 % shorter in five
+    classes and 10 % on table under (1.59 -> 1.43 m), box 1.03 -> 1.04 m (BENCHMARKS.md).
 
     Attributes:
         n_commands: number n of free commands per candidate (output width n·dof).
