@@ -433,8 +433,9 @@ def mbm_panda(path: Optional[PathLike] = None, fill_gaps: bool = True) -> Any:
     ``fill_gaps`` (default) the model gets the 18 spheres of :data:`MBM_GAP_SPHERES`, inscribed in the
     convex meshes of links 1-5 and the fingers (``tools/fill_sphere_gaps.py``): they lie inside the
     meshes, so a configuration whose meshes are clear stays clear for them, and the largest gaps fall to
-    12-20 mm. On the 350 MotionBenchMaker problems this took table-under hand paths from 1.43 to 1.27 m
-    and made a first batch solve more (BENCHMARKS.md); solves take about a quarter longer.
+    12-20 mm. On the 350 MotionBenchMaker problems (5 batches, seed 0) this took table-under hand paths
+    from 1.43 to 1.29 m and first-batch successes from 331 to 340 (BENCHMARKS.md); solves take about 12 %
+    longer.
 
     The model is built once per folder and shared (robots are immutable). When the folder also holds the
     mesh model ``panda.urdf``, a :class:`gfcs.MeshChecker` of its collision meshes is attached: see
