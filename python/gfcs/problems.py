@@ -444,7 +444,9 @@ def mbm_panda(path: Optional[PathLike] = None, fill_gaps: bool = True) -> Any:
     Args:
         path: the ``mbm_panda`` folder (``panda_spherized.urdf``, ``panda.srdf``, optionally ``panda.urdf``
             and ``meshes/``); default ``shared_dir()/robots/mbm_panda``.
-        fill_gaps: add the inscribed gap spheres (False: the spherized URDF's spheres only).
+        fill_gaps: add the inscribed gap spheres (False: the spherized URDF's spheres only). They were
+            made for MotionBenchMaker's ``panda.urdf`` meshes and ``panda_spherized.urdf``; for another
+            model in that layout pass False, or make its own with ``tools/fill_sphere_gaps.py``.
 
     Raises:
         FileNotFoundError: the folder or its files are missing.
