@@ -42,6 +42,15 @@ _RETRACT_DAMPING = 1e-2
 _RETRACT_TOL = 1e-3
 
 
+def _configuration(robot: Any, name: str, q: Any) -> np.ndarray:
+    """``q`` as a new float64 (dof,) array; ValueError naming ``name`` unless it has dof finite values."""
+    dof = len(robot.lower)
+    out = np.array(q, dtype=np.float64)
+    if out.shape != (dof,) or not np.all(np.isfinite(out)):
+        raise ValueError(f"{name}: expected {dof} finite values, got shape {out.shape}")
+    return out
+
+
 def approach_configurations(
     robot: Any,
     q_goal: Any,
@@ -68,10 +77,7 @@ def approach_configurations(
         ValueError: ``q_goal`` of the wrong shape or not finite, a negative or non-finite distance, a zero
             or non-finite axis.
     """
-    lo = np.asarray(robot.lower, dtype=np.float64)
-    q = np.asarray(q_goal, dtype=np.float64).copy()
-    if q.shape != lo.shape or not np.all(np.isfinite(q)):
-        raise ValueError(f"q_goal: expected {lo.shape[0]} finite values, got shape {q.shape}")
+    q = _configuration(robot, "q_goal", q_goal)
     d = np.asarray(distances, dtype=np.float64).reshape(-1)
     if not (np.all(np.isfinite(d)) and np.all(d >= 0)):
         raise ValueError(f"distances must be finite and >= 0, got {d.tolist()}")
@@ -119,13 +125,7 @@ def retract_configurations(
     Raises:
         ValueError: a configuration of the wrong shape or not finite, a negative ``n``.
     """
-    lo = np.asarray(robot.lower, dtype=np.float64)
-    ends = []
-    for name, q in (("q_start", q_start), ("q_goal", q_goal)):
-        q = np.asarray(q, dtype=np.float64)
-        if q.shape != lo.shape or not np.all(np.isfinite(q)):
-            raise ValueError(f"{name}: expected {lo.shape[0]} finite values, got shape {q.shape}")
-        ends.append(q)
+    ends = [_configuration(robot, "q_start", q_start), _configuration(robot, "q_goal", q_goal)]
     if int(n) < 0:
         raise ValueError(f"n must be >= 0, got {n}")
     (q0, q1), (p0, p1) = ends, np.asarray(robot.ee_position(np.stack(ends)))
@@ -137,7 +137,7 @@ def retract_configurations(
         blend = (1.0 - blends[row]) * p0 + blends[row] * p1
         targets[row] = [scale * blend[0], scale * blend[1], height]
     if int(n) == 0:
-        return np.empty((0, lo.shape[0]))
+        return np.empty((0, ends[0].shape[0]))
     starts = (1.0 - blends[:, None]) * q0 + blends[:, None] * q1
     return np.asarray(robot.inverse_kinematics(starts, targets, iterations=int(iterations),
                                                damping=_RETRACT_DAMPING, tolerance=_RETRACT_TOL))
