@@ -145,14 +145,15 @@ class Robot:
         """End-effector link origin: (3,) for q (dof,), (N, 3) for q (N, dof), m."""
     def inverse_kinematics(
         self, q_init: ArrayLike, positions: ArrayLike, link: Optional[LinkRef] = None,
-        axes: Optional[ArrayLike] = None, iterations: int = 30, damping: float = 1e-3,
-        tolerance: float = 1e-5, axis_weight: float = 0.3,
+        axes: Optional[ArrayLike] = None, iterations: Optional[int] = None, damping: Optional[float] = None,
+        tolerance: Optional[float] = None, axis_weight: Optional[float] = None,
     ) -> FloatArray:
         """Damped least-squares IK of ``link``'s origin (default the end-effector link) from ``q_init``
         (dof,) or (N, dof) to ``positions`` (3,) or (N, 3) m, optionally with the link's x and z axes
         along ``axes`` (2, 3) or (N, 2, 3): e = [p* − p; w (x* − x); w (z* − z)], w = ``axis_weight`` m,
         Δq = Jᵀ (J Jᵀ + damping I)⁻¹ e, clipped into the limits; at most ``iterations`` steps, fewer when
-        ‖e‖ < ``tolerance``. Returns (dof,) or (N, dof); batches run in parallel."""
+        ‖e‖ < ``tolerance``; None: the core's defaults (30 steps, 1e-3 m², 1e-5, 0.3 m). Returns (dof,) or
+        (N, dof); batches run in parallel."""
     def point_jacobian(self, q: ArrayLike, link: LinkRef, point: Optional[ArrayLike] = None) -> FloatArray:
         """(3, dof) Jacobian ∂x/∂q of the point ``point`` (3,) (default origin) fixed in ``link``."""
     def point_jdot_qdot(

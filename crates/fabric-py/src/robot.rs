@@ -387,10 +387,11 @@ impl PyRobot {
     /// the link's x and z axes along `axes` (2, 3) or (N, 2, 3) (unit world directions, x first). Each
     /// step is Δq = Jᵀ (J Jᵀ + `damping` I)⁻¹ e on e = [p* − p; w (x* − x); w (z* − z)] (w =
     /// `axis_weight`, m), then q is clipped into the joint limits; at most `iterations` steps, fewer when
-    /// ‖e‖ < `tolerance`. Returns (dof,) or (N, dof) configurations inside the limits (a target out of
-    /// reach: the closest configuration found). Batches run in parallel with the GIL released.
-    #[pyo3(signature = (q_init, positions, link=None, axes=None, iterations=30, damping=1e-3,
-                        tolerance=1e-5, axis_weight=0.3))]
+    /// ‖e‖ < `tolerance`; None takes the core's `IkOptions::default()` (30 steps, 1e-3 m², 1e-5, 0.3 m).
+    /// Returns (dof,) or (N, dof) configurations inside the limits (a target out of reach: the closest
+    /// configuration found). Batches run in parallel with the GIL released.
+    #[pyo3(signature = (q_init, positions, link=None, axes=None, iterations=None, damping=None,
+                        tolerance=None, axis_weight=None))]
     #[allow(clippy::too_many_arguments)]
     fn inverse_kinematics<'py>(
         &self,
@@ -399,10 +400,10 @@ impl PyRobot {
         positions: &Bound<'py, PyAny>,
         link: Option<LinkRef>,
         axes: Option<&Bound<'py, PyAny>>,
-        iterations: usize,
-        damping: f64,
-        tolerance: f64,
-        axis_weight: f64,
+        iterations: Option<usize>,
+        damping: Option<f64>,
+        tolerance: Option<f64>,
+        axis_weight: Option<f64>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let robot = self.inner.clone();
         let dof = robot.dof();
@@ -456,11 +457,12 @@ impl PyRobot {
                 }),
             })
             .collect();
+        let default = IkOptions::default();
         let options = IkOptions {
-            iterations,
-            damping,
-            tolerance,
-            axis_weight,
+            iterations: iterations.unwrap_or(default.iterations),
+            damping: damping.unwrap_or(default.damping),
+            tolerance: tolerance.unwrap_or(default.tolerance),
+            axis_weight: axis_weight.unwrap_or(default.axis_weight),
         };
         let data = detached(py, move || {
             inverse_kinematics(&robot, link, &qs, &targets, &options)
