@@ -313,21 +313,24 @@ MBM_GAP_SPHERES = Path(__file__).with_name("data") / "mbm_panda_gap_spheres.json
 
 @functools.lru_cache(maxsize=None)
 def _mbm_models(folder: str, fill_gaps: bool = True) -> Tuple[Any, Any]:
-    """(spherized robot, mesh checker or None) of one ``mbm_panda`` folder, built once per folder."""
+    """(spherized robot, mesh checker or None) of one ``mbm_panda`` folder, built once per folder; the
+    model with gap spheres is derived from the one without, sharing its mesh checker."""
     import gfcs
 
-    root = Path(folder)
-    urdf, srdf = root / "panda_spherized.urdf", root / "panda.srdf"
-    for f in (urdf, srdf):
-        if not f.is_file():
-            raise FileNotFoundError(f"MBM Panda file not found: {f}")
-    robot = gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", srdf=str(srdf), mesh_dir=str(root))
     if fill_gaps:
+        plain, checker = _mbm_models(folder, False)
         own = [(link, [float(x) for x in c], float(r))
-               for link, c, r in zip(robot.sphere_links, robot.sphere_centers_local, robot.sphere_radii)]
+               for link, c, r in zip(plain.sphere_links, plain.sphere_centers_local, plain.sphere_radii)]
         extra = [(s["link"], s["center"], s["radius"]) for s in json.loads(MBM_GAP_SPHERES.read_text())["spheres"]]
-        robot = robot.with_spheres(own + extra)
-    checker = mbm_mesh_checker(root)
+        robot = plain.with_spheres(own + extra)
+    else:
+        root = Path(folder)
+        urdf, srdf = root / "panda_spherized.urdf", root / "panda.srdf"
+        for f in (urdf, srdf):
+            if not f.is_file():
+                raise FileNotFoundError(f"MBM Panda file not found: {f}")
+        robot = gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", srdf=str(srdf), mesh_dir=str(root))
+        checker = mbm_mesh_checker(root)
     if checker is not None:
         _MESH_CHECKERS[id(robot)] = (robot, checker)
     return robot, checker
