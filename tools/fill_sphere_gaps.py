@@ -42,13 +42,8 @@ from scipy.spatial import ConvexHull
 
 import gfcs
 
-
-def gaps(points: np.ndarray, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """Distance (m, ≥ 0) of each point outside the union of the spheres (inf when there are none)."""
-    if len(radii) == 0:
-        return np.full(len(points), np.inf)
-    d = np.linalg.norm(points[:, None, :] - centers[None], axis=2) - radii[None]
-    return np.maximum(d.min(axis=1), 0.0)
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fit_spheres import Sphere, excess  # noqa: E402  (the sibling tool's union distance)
 
 
 def link_mesh(geometry: dict) -> trimesh.Trimesh:
@@ -66,7 +61,7 @@ def fill(mesh: trimesh.Trimesh, centers: np.ndarray, radii: np.ndarray, args: ar
     hull = ConvexHull(mesh.vertices)
     points = np.vstack([trimesh.sample.sample_surface(mesh, args.samples, seed=int(rng.integers(2**31)))[0],
                         mesh.vertices])
-    gap = gaps(points, centers, radii)
+    gap = np.maximum(excess(points, [Sphere(c, r) for c, r in zip(centers, radii)]), 0.0)
     before = float(gap.max())
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     axes = [np.arange(a, b, args.grid) for a, b in zip(lo, hi)]
