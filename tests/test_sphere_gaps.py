@@ -1,7 +1,8 @@
 """Inscribed gap spheres: ``tools/fill_sphere_gaps.py`` and the MBM Panda model that carries them.
 
-References are independent of the tool: the closed-form distance inside a box, the convex hulls of the
-MotionBenchMaker collision meshes (trimesh), and the MBM problems' own start and goal configurations.
+References are independent of the tool: closed-form distances inside a box and an L-shaped prism, trimesh's
+signed distance to the MotionBenchMaker collision meshes, and the MBM problems' own start and goal
+configurations.
 """
 
 from __future__ import annotations
@@ -24,14 +25,15 @@ TOOL = REPO_ROOT / "tools" / "fill_sphere_gaps.py"
 LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
 
 
-def write_robot(tmp_path: Path) -> tuple[Path, Path]:
-    """A slider whose link is a 0.2 × 0.1 × 0.1 m box mesh (offset by its URDF origin), and the same robot
-    with one 0.03 m sphere at the box's +x end."""
-    trimesh.creation.box(extents=[0.2, 0.1, 0.1]).export(tmp_path / "box.obj")
+def write_robot(tmp_path: Path, mesh_file: str = "box.obj") -> tuple[Path, Path]:
+    """A slider whose link is a 0.2 × 0.1 × 0.1 m box mesh (offset by its URDF origin; or ``mesh_file``, written
+    by the caller), and the same robot with one 0.03 m sphere at the box's +x end."""
+    if mesh_file == "box.obj":
+        trimesh.creation.box(extents=[0.2, 0.1, 0.1]).export(tmp_path / "box.obj")
     joint = f'<joint name="x" type="prismatic"><parent link="base"/><child link="link"/><axis xyz="1 0 0"/>{LIMIT}</joint>'
     mesh = tmp_path / "mesh.urdf"
     mesh.write_text(f"""<robot name="slider"><link name="base"/><link name="link"><collision>
-      <origin xyz="0.5 0 0"/><geometry><mesh filename="box.obj"/></geometry></collision></link>{joint}</robot>""")
+      <origin xyz="0.5 0 0"/><geometry><mesh filename="{mesh_file}"/></geometry></collision></link>{joint}</robot>""")
     spheres = tmp_path / "spheres.urdf"
     spheres.write_text(f"""<robot name="slider"><link name="base"/><link name="link"><collision>
       <origin xyz="0.57 0 0"/><geometry><sphere radius="0.03"/></geometry></collision></link>{joint}</robot>""")
@@ -59,10 +61,46 @@ def test_tool_fills_a_box_from_inside(tmp_path):
     assert "largest gap" in run.stderr
 
 
+#: The L-shaped cross-section (x, y) in m of the non-convex test link (counter-clockwise), extruded 0.05 m in z.
+L_SHAPE = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 0.05], [0.05, 0.05], [0.05, 0.2], [0.0, 0.2]])
+
+
+def depth_in_l_prism(p: np.ndarray) -> float:
+    """Closed-form distance from a point inside the L prism (its frame: cross-section ``L_SHAPE``, z in
+    [0, 0.05]) to its surface: the nearest of the six side segments and the two end faces."""
+    a, b = L_SHAPE, np.roll(L_SHAPE, -1, axis=0)
+    t = np.clip(np.einsum("ij,ij->i", p[:2] - a, b - a) / np.einsum("ij,ij->i", b - a, b - a), 0.0, 1.0)
+    side = np.linalg.norm(a + t[:, None] * (b - a) - p[:2], axis=1).min()
+    return float(min(side, p[2], 0.05 - p[2]))
+
+
+def test_tool_fills_a_non_convex_mesh_without_leaving_it(tmp_path):
+    # the L prism's hull holds the notch x, y in (0.05, 0.2]: a hull-based filler would put spheres there
+    triangles = np.array([[3, 4, 5], [3, 5, 0], [3, 0, 1], [3, 1, 2]])
+    prism = trimesh.creation.extrude_triangulation(L_SHAPE, triangles, 0.05)
+    assert prism.is_watertight and prism.volume < 0.7 * prism.convex_hull.volume
+    # moved by the URDF origin (+0.5 m in x) like the box: the link frame is the prism's shifted by -0.07 m
+    prism.apply_translation([-0.07, 0.0, 0.0])
+    prism.export(tmp_path / "l.obj")
+    mesh, spheres = write_robot(tmp_path, "l.obj")
+    out = tmp_path / "gaps.json"
+    run = subprocess.run([sys.executable, str(TOOL), str(mesh), str(spheres), "--out", str(out), "--samples", "800",
+                          "--target", "0.02", "--per-link", "4"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    added = json.loads(out.read_text())["spheres"]
+    assert len(added) >= 2
+    for s in added:
+        c = np.asarray(s["center"]) - [0.5 - 0.07, 0.0, 0.0]
+        assert depth_in_l_prism(c) >= s["radius"] + 0.001 - 2e-6, s
+    # both arms get spheres: the far ends of the L are no longer uncovered by 0.15 m
+    centers = np.array([s["center"] for s in added]) - [0.5 - 0.07, 0.0, 0.0]
+    assert centers[:, 1].max() > 0.1 and centers[:, 0].max() > 0.1
+
+
 def test_mbm_panda_gap_spheres_lie_inside_the_meshes(mbm_panda_dir):
     robot = problems.mbm_panda(mbm_panda_dir)
     plain = problems.mbm_panda(mbm_panda_dir, fill_gaps=False)
-    assert len(plain.sphere_radii) == 59 and len(robot.sphere_radii) == 77
+    assert len(plain.sphere_radii) == 59 and len(robot.sphere_radii) == 81
     assert problems.mesh_checker_for(robot) is not None
     meshes = gfcs.Robot.from_urdf(str(mbm_panda_dir / "panda.urdf"), mesh_dir=str(mbm_panda_dir))
     geometry = {g["link"]: g for g in meshes.collision_geometry() if g["type"] == "mesh"}
@@ -71,10 +109,12 @@ def test_mbm_panda_gap_spheres_lie_inside_the_meshes(mbm_panda_dir):
         g = geometry[s["link"]]
         m = trimesh.load(g["path"], force="mesh")
         origin = np.asarray(g["origin"])
-        hull = trimesh.Trimesh(np.asarray(m.vertices) @ origin[:3, :3].T + origin[:3, 3]).convex_hull
-        # the signed distance from the centre to the hull surface exceeds the radius
-        depth = trimesh.proximity.signed_distance(hull, np.asarray([s["center"]]))[0]
-        assert depth > s["radius"], s
+        link = trimesh.Trimesh(np.asarray(m.vertices) @ origin[:3, :3].T + origin[:3, 3], m.faces)
+        # the signed distance from the centre to the mesh surface (positive inside) exceeds the radius by
+        # the tool's 1 mm slack, link6's non-convex mesh included
+        depth = trimesh.proximity.signed_distance(link, np.asarray([s["center"]]))[0]
+        assert depth >= s["radius"] + 0.001 - 2e-6, s
+    assert {s["link"] for s in added} >= {"panda_link5", "panda_link6"}
     # the model's own spheres come first, the added ones after them, in the link frames
     np.testing.assert_allclose(robot.sphere_centers_local[59:], [s["center"] for s in added])
 

@@ -7,13 +7,14 @@ those spheres can drive the mesh into them. Covering spheres (``tools/fit_sphere
 reach beyond the mesh and block goals placed close to obstacles. This tool adds spheres *inside* the meshes
 instead: a configuration whose meshes are clear stays clear for the added spheres, and every gap shrinks.
 
-Per link with a convex collision mesh (volume within 0.1 % of its convex hull's; other links are skipped
-with a message):
+Per link with a collision mesh (convex or not; an open or self-overlapping mesh is read through its
+generalised winding number):
 
 1. Gap: for a seeded area-uniform surface sample plus the vertices (link frame, URDF ``<origin>`` and
    ``scale`` applied), the distance outside the union of the link's existing spheres.
-2. Candidates: the points of a 4 mm grid at least 5 mm inside the hull, each with the radius of its largest
-   inscribed sphere (distance to the nearest hull plane) less ``--slack``.
+2. Candidates: the points of a 4 mm grid inside the mesh (winding number ≥ 1/2) and at least 5 mm from its
+   surface, each with the radius of its largest inscribed sphere (the exact distance to the surface)
+   less ``--slack``. The sphere lies inside the mesh, by ``--slack`` at its closest.
 3. Greedy: add the candidate that removes the most summed gap, recompute the gap, and repeat while the
    largest gap exceeds ``--target`` and the link has fewer than ``--per-link`` added spheres.
 
@@ -43,7 +44,7 @@ from scipy.spatial import ConvexHull
 import gfcs
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fit_spheres import Sphere, excess  # noqa: E402  (the sibling tool's union distance)
+from fit_spheres import Sphere, excess, inside, surface_distance  # noqa: E402  (the sibling tool's geometry)
 
 
 def link_mesh(geometry: dict) -> trimesh.Trimesh:
@@ -66,7 +67,11 @@ def fill(mesh: trimesh.Trimesh, centers: np.ndarray, radii: np.ndarray, args: ar
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     axes = [np.arange(a, b, args.grid) for a, b in zip(lo, hi)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    depth = -(grid @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1)
+    # The hull bounds the depth from above (cheap cull); the exact depth of a point inside the mesh is
+    # its distance to the surface (equal to the hull's for a convex mesh).
+    grid = grid[-(grid @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1) >= args.min_depth]
+    grid = grid[inside(mesh, grid)]
+    depth = surface_distance(mesh, grid)
     keep = depth >= args.min_depth
     grid, rho = grid[keep], depth[keep] - args.slack
     added: list = []
@@ -112,11 +117,6 @@ def main(argv=None) -> int:
         if name in args.exclude:
             continue
         mesh = link_mesh(geometry)
-        hull_volume = ConvexHull(mesh.vertices).volume
-        if not math.isclose(abs(mesh.volume), hull_volume, rel_tol=1e-3):
-            print(f"{name}: mesh not convex (volume {abs(mesh.volume):.3g} against hull {hull_volume:.3g} m³), "
-                  "skipped", file=sys.stderr)
-            continue
         own = [i for i, link in enumerate(links) if link == name]
         added, before, after = fill(mesh, centers[own], radii[own], args, rng)
         for c, r in added:
