@@ -4,6 +4,7 @@ optimize. Tests that read the MotionBenchMaker data skip without ``../shared`` (
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from pathlib import Path
 
@@ -393,3 +394,18 @@ def test_selection_skips_candidates_whose_meshes_collide(sphere_and_mesh_sliders
     commands, _, _, _, _, met = opt._select_candidate(fabric, p, result, 1, settings, checker, 1)
     assert commands[0, 0] == 0.25 and not met["success"] and met["mesh_clearance"] < 0
     assert met["mesh_candidates_checked"] == 1
+
+
+def test_bench_rows_carry_the_mesh_clearances_and_stay_strict_json(sphere_and_mesh_sliders):
+    from gfcs.results import _enc, bench_row
+
+    spheres, checker, scene = sphere_and_mesh_sliders
+    t = np.linspace(0.0, 1.0, 51)
+    q = (0.25 * t)[:, None]
+    plain = bench_row("p", "c", "GF", "gf", 0, 0, 0.1, 1.0, metrics.trajectory_metrics(spheres, scene, t, q, [0.25]))
+    assert "mesh_clearance" not in plain and "mesh_self_clearance" not in plain
+    met = metrics.trajectory_metrics(spheres, scene, t, q, [0.25], mesh_checker=checker)
+    row = bench_row("p", "c", "GF", "gf", 0, 0, 0.1, 1.0, met)
+    assert row["mesh_clearance"] == pytest.approx(0.4 - 0.45, abs=1e-7) and not row["success"]
+    # one link: no self pair, clearance inf, written as the string "Infinity" in strict JSON
+    assert json.loads(json.dumps(_enc(row), allow_nan=False))["mesh_self_clearance"] == "Infinity"

@@ -13,7 +13,10 @@ Row format (keys of :func:`bench_row`), one JSON object per line:
 ``method`` (``"gf"`` | ``"gfcs"``), ``batches`` (int, CMA-ES batches behind the row; 0 for GF),
 ``seed`` (int), ``success`` (bool), ``time`` [s] (optimisation wall time up to that batch, or the GF
 rollout time), ``cost`` (GFCS eq. 4), ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``,
-``cspace_ldj``, ``min_clearance`` [m], ``final_error`` [rad].
+``cspace_ldj``, ``min_clearance`` [m] (collision spheres), ``final_error`` [rad]; when the trajectory was
+validated against collision meshes also ``mesh_clearance`` and ``mesh_self_clearance`` [m] (the smallest
+mesh distance to the obstacles and between non-adjacent links; ``inf``: none within the checker's
+``max_distance``).
 """
 
 from __future__ import annotations
@@ -302,6 +305,7 @@ def bench_row(
     metrics: Dict[str, Any],
 ) -> Dict[str, Any]:
     """One benchmark row (see the module docstring for the keys) from trajectory metrics."""
+    mesh = {key: float(metrics[key]) for key in ("mesh_clearance", "mesh_self_clearance") if key in metrics}
     return {
         "problem": problem,
         "class": cls,
@@ -318,6 +322,7 @@ def bench_row(
         "cspace_ldj": float(metrics["cspace_ldj"]),
         "min_clearance": float(metrics["min_clearance"]),
         "final_error": float(metrics["final_error"]),
+        **mesh,
     }
 
 
