@@ -283,7 +283,8 @@ def test_solve_returns_the_best_mesh_free_candidate(shelf):
     assert [c for _, c in r.top] == [c for _, c in plain.top]  # the optimiser's top-m is unchanged
     # every candidate in contact: the lowest-cost one comes back, reported as failed
     hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=99))
-    r = opt.solve(hopeless, batches=1, population=8, seed=0, top_m=3, mesh_candidates=3, length_slack=0)
+    r = opt.solve(hopeless, batches=1, population=8, seed=0, top_m=3, mesh_candidates=3, length_slack=0,
+                  mesh_retry_margin=0)
     np.testing.assert_array_equal(r.commands, plain.commands)
     assert not r.success and r.metrics["selection_rank"] == 0
     assert r.metrics["mesh_candidates_checked"] == 3 and r.metrics["mesh_clearance"] < 0
@@ -301,17 +302,36 @@ def test_failed_solve_retries_with_one_more_command(shelf):
     assert r.n_evaluations == 16
     # without a retry the one-command attempt is returned, failed
     once = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
-    r1 = opt.solve(once, batches=1, population=8, seed=0, mesh_candidates=2, max_commands=1)
+    r1 = opt.solve(once, batches=1, population=8, seed=0, mesh_candidates=2, max_commands=1, mesh_retry_margin=0)
     assert not r1.success and r1.commands.shape == (1, 7) and "commands_tried" not in r1.settings
     # a sampler of your own proposes a fixed width: no retry by default, an error when asked for one
     mine = opt.UniformSampler(1)
     again = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
-    r2 = opt.solve(again, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine)
+    r2 = opt.solve(again, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine, mesh_retry_margin=0)
     assert not r2.success and r2.commands.shape == (1, 7)
     with pytest.raises(ValueError, match="max_commands"):
         opt.solve(shelf, batches=1, population=8, sampler=mine, max_commands=2)
     with pytest.raises(ValueError, match="max_commands"):
         opt.solve(shelf, batches=1, population=8, n_commands=2, max_commands=1)
+
+
+def test_mesh_only_failure_retries_with_a_wider_obstacle_margin(shelf):
+    mine = opt.UniformSampler(1)
+    # the first two trajectories touch a mesh: the one-command attempt fails on meshes alone, and the
+    # same solve with the obstacle margin 2 mm wider comes back, succeeded, with that margin
+    flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
+    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine)
+    base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
+    assert r.success and r.commands.shape == (1, 7) and r.settings["commands_tried"] == [1, 1]
+    assert r.settings["obstacle_margins_tried"] == pytest.approx([base, base + 0.002])
+    assert r.fabric_config["obstacles"]["margin"] == pytest.approx(base + 0.002)
+    assert r.n_evaluations == 16
+    # a failure of the sphere model itself (no time to reach the goal) is not retried that way
+    short = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=0))
+    r = opt.solve(short, batches=1, population=8, seed=0, sampler=mine, settings=opt.RolloutSettings(t_max=0.05))
+    assert not r.success and "commands_tried" not in r.settings and r.n_evaluations == 8
+    with pytest.raises(ValueError, match="mesh_retry_margin"):
+        opt.solve(shelf, batches=1, population=8, mesh_retry_margin=-0.001)
 
 
 # ------------------------------------------------------------------------------ MotionBenchMaker Panda
