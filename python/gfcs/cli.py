@@ -261,6 +261,11 @@ def _record(problem: Any, results: Any, path: str) -> None:
     _viz().record(problem, results, path)
 
 
+def _no_retry(n_commands: int) -> Dict[str, Any]:
+    """Keyword arguments of :func:`gfcs.optimize.solve` that turn both of its retries off."""
+    return {"max_commands": n_commands, "mesh_retry_margin": 0.0}
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     """`gfcs solve`: exit 0 when the problem is solved, 1 when not."""
     from gfcs import optimize
@@ -272,8 +277,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         problem, method=args.method, batches=args.batches, population=args.population,
         n_commands=args.commands, seed=args.seed, sampler=_sampler(args), fabric_config=args.config,
         threads=args.threads, progress=args.progress, settings=_settings(args),
-        **({"max_commands": args.commands, "mesh_retry_margin": 0.0} if args.no_retry and args.method == "gfcs"
-           else {}),
+        **(_no_retry(args.commands) if args.no_retry and args.method == "gfcs" else {}),
         **_solve_options(args),
     )
     text = summary_text(result, problem)
@@ -346,8 +350,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     rows: List[Dict[str, Any]] = []
     results: List[Any] = []
     for method in methods:
-        once = ({"max_commands": n_commands, "mesh_retry_margin": 0.0, **(solve_options or {})}
-                if method == "gfcs" else {})
+        once = {**_no_retry(n_commands), **(solve_options or {})} if method == "gfcs" else {}
 
         def run(n_batches: int) -> Any:
             return optimize.solve(problem, method=method, batches=n_batches, population=population,

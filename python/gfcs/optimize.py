@@ -740,19 +740,19 @@ def solve(
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
                    length_slack=length_slack,
                    callback=callback)
+    def attempt(n: int, fab: Any = fabric, info: Dict[str, Any] = common) -> SolveResult:
+        return _solve_commands(problem, fab, mesh_checker, info, n,
+                               sampler if sampler is not None else ApproachSampler(n), **options)
+
     attempts: List[SolveResult] = []
     for n in range(n_commands, max_commands + 1):
-        attempts.append(_solve_commands(problem, fabric, mesh_checker, common, n,
-                                        sampler if sampler is not None else ApproachSampler(n), **options))
+        attempts.append(attempt(n))
         if attempts[-1].success:
             break
     if not attempts[-1].success and mesh_retry_margin > 0 and any(map(_mesh_collision_only, attempts)):
-        margin = float(fabric.config.to_dict()["obstacles"]["margin"]) + mesh_retry_margin
+        margin = float(common["fabric_config"]["obstacles"]["margin"]) + mesh_retry_margin
         wider = make_fabric(problem, fabric.config.replace({"obstacles": {"margin": margin}}))
-        attempts.append(_solve_commands(problem, wider, mesh_checker,
-                                        {**common, "fabric_config": wider.config.to_dict()}, n_commands,
-                                        sampler if sampler is not None else ApproachSampler(n_commands),
-                                        **options))
+        attempts.append(attempt(n_commands, wider, {**common, "fabric_config": wider.config.to_dict()}))
     return combine_attempts(attempts)
 
 
