@@ -50,11 +50,16 @@ def test_generated_problems_are_valid(generated, panda, cls):
         for q in (p.q0, p.goal):
             assert metrics.within_limits(q, panda.lower, panda.upper)
             assert metrics.obstacle_clearance(panda, p.scene, q[None])[0] >= 0.01
-            assert metrics.self_clearance(panda, q[None])[0] >= 0.0
+            assert metrics.self_clearance(panda, q[None])[0] >= generators.SELF_MARGIN
         assert np.linalg.norm(p.goal - p.q0) >= 0.5
     # distinct scenes
     a, b = generated[cls]
     assert a.meta["primitives"] != b.meta["primitives"]
+
+
+def test_self_margin_is_the_fabrics():
+    # generated goals keep the clearance the default fabric's self-collision barrier keeps
+    assert generators.SELF_MARGIN == gfcs.FabricConfig().to_dict()["self_collision"]["margin"]
 
 
 def test_goal_targets_are_met(panda):

@@ -288,6 +288,7 @@ def test_solve_returns_the_best_mesh_free_candidate(shelf):
     np.testing.assert_array_equal(r.commands, plain.commands)
     assert not r.success and r.metrics["selection_rank"] == 0
     assert r.metrics["mesh_candidates_checked"] == 3 and r.metrics["mesh_clearance"] < 0
+    assert r.metrics["sphere_success"]  # the spheres alone would have passed it
     gf = opt.solve(hopeless, method="gf")
     assert "mesh_clearance" in gf.metrics and not gf.success
 

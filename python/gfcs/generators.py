@@ -4,7 +4,7 @@
 (tables, shelves, an open box, a cage, cans and blocks), a start and a goal configuration found by
 inverse kinematics to sampled end-effector targets. Every start and goal is inside the joint limits
 (with a small inset) and collision-free under the robot's sphere model: for every collision sphere,
-signed distance − radius ≥ ``margin`` against the scene, and ≥ 0 between self-collision pairs.
+signed distance − radius ≥ ``margin`` against the scene, and ≥ :data:`SELF_MARGIN` between self-collision pairs.
 
 Frames: the robot base is the world origin, z up. Each structure (shelf, table, ...) has a local frame
 whose x axis points away from the robot (depth), y is lateral and z up; its front face is at local x = 0.
@@ -404,16 +404,24 @@ def write_problems(problems: Sequence[Problem], directory: Any) -> List[Path]:
 
 
 # ------------------------------------------------------------------------------- inverse kinematics
-def is_collision_free(robot: Any, scene: Any, q: Any, margin: float = 0.01) -> bool:
-    """Sphere-model check: every sphere ≥ ``margin`` from the obstacles, self pairs ≥ 0 apart.
+#: Self-collision clearance [m] required of generated starts and goals: the default fabric's
+#: ``self_collision.margin``, which its barrier keeps between sphere pairs (a goal closer than that
+#: would sit inside the barrier and be hard to reach).
+SELF_MARGIN = 0.002
+
+
+def is_collision_free(robot: Any, scene: Any, q: Any, margin: float = 0.01,
+                      self_margin: float = SELF_MARGIN) -> bool:
+    """Sphere-model check: every sphere ≥ ``margin`` from the obstacles, self pairs ≥ ``self_margin`` apart.
 
     Args:
         q: (dof,) configuration.
         margin: required obstacle clearance [m].
+        self_margin: required clearance between self-collision sphere pairs [m].
     """
     qa = np.asarray(q, dtype=np.float64)[None, :]
     return bool(_metrics.obstacle_clearance(robot, scene, qa)[0] >= margin
-                and _metrics.self_clearance(robot, qa)[0] >= 0.0)
+                and _metrics.self_clearance(robot, qa)[0] >= self_margin)
 
 
 def inverse_kinematics(

@@ -281,8 +281,9 @@ def trajectory_metrics(
             ``problem.mesh_checker``); when given, every sample is checked against the meshes too.
 
     Returns:
-        dict with keys ``success`` (bool: final error ≤ tol, min clearance ≥ 0 against obstacles and self,
-        limits respected, and with a checker mesh clearances > 0), ``final_error`` [rad], ``min_clearance``
+        dict with keys ``success`` (bool: ``sphere_success`` and, with a checker, mesh clearances > 0),
+        ``sphere_success`` (bool: final error ≤ tol, min sphere clearance ≥ 0 against obstacles and self,
+        limits respected: the verdict of the sphere model alone), ``final_error`` [rad], ``min_clearance``
         [m] (obstacles, spheres), ``min_self_clearance`` [m], ``within_limits`` (bool), ``duration`` [s],
         ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``, ``cspace_ldj`` (NaN when undefined),
         ``n_samples``, and with a checker ``mesh_clearance`` [m] (min over the samples, see
@@ -318,8 +319,10 @@ def trajectory_metrics(
         mesh_ok = mesh_clear > 0.0 and mesh_self > 0.0
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
+    sphere_ok = bool(final_error <= tol and clear >= 0.0 and self_clear >= 0.0 and limits_ok)
     return {
-        "success": bool(final_error <= tol and clear >= 0.0 and self_clear >= 0.0 and limits_ok and mesh_ok),
+        "success": sphere_ok and mesh_ok,
+        "sphere_success": sphere_ok,
         "final_error": final_error,
         "min_clearance": clear,
         "min_self_clearance": self_clear,

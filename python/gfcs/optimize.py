@@ -757,11 +757,10 @@ def solve(
 
 
 def _mesh_collision_only(result: SolveResult) -> bool:
-    """``result`` failed only because a collision mesh touched: validated against meshes, the goal
-    reached, the spheres clear of the obstacles and of each other, the joint limits kept."""
+    """``result`` failed only because a collision mesh touched: validated against meshes, and a success
+    under the sphere model (goal reached, spheres clear, joint limits kept)."""
     m = result.metrics
-    return ("mesh_clearance" in m and not result.success and m["final_error"] <= _metrics.DEFAULT_SUCCESS_TOL
-            and m["min_clearance"] >= 0 and m["min_self_clearance"] >= 0 and bool(m["within_limits"]))
+    return "mesh_clearance" in m and not result.success and bool(m["sphere_success"])
 
 
 def combine_attempts(attempts: List[SolveResult]) -> SolveResult:
