@@ -59,6 +59,22 @@ def test_tool_fills_a_box_from_inside(tmp_path):
     corner = np.array([0.4, 0.05, 0.05])
     assert np.min(np.linalg.norm(centers - corner, axis=1) - radii) < np.linalg.norm([0.57 - 0.4, 0.05, 0.05]) - 0.03
     assert "largest gap" in run.stderr
+    # the file names the sphere model it was made for: only that model gets the spheres
+    slider = gfcs.Robot.from_urdf(str(spheres))
+    filled = problems.with_gap_spheres(slider, out)
+    assert len(filled.sphere_radii) == 1 + len(added)
+    np.testing.assert_allclose(filled.sphere_centers_local[1:], [s["center"] for s in added])
+    other = slider.with_spheres([("link", [0.57, 0.0, 0.0], 0.031)])
+    assert problems.with_gap_spheres(other, out) is other
+
+
+def test_with_gap_spheres_rejects_a_file_of_another_kind(tmp_path):
+    bad = tmp_path / "gaps.json"
+    bad.write_text('{"spheres": []}')
+    with pytest.raises(ValueError, match="gaps.json: not a gap-sphere file"):
+        problems.with_gap_spheres(gfcs.Robot.panda(), bad)
+    panda = gfcs.Robot.panda()
+    assert problems.with_gap_spheres(panda) is panda  # not the model the shipped file was made for
 
 
 #: The L-shaped cross-section (x, y) in m of the non-convex test link (counter-clockwise), extruded 0.05 m in z.
@@ -117,6 +133,19 @@ def test_mbm_panda_gap_spheres_lie_inside_the_meshes(mbm_panda_dir):
     assert {s["link"] for s in added} >= {"panda_link5", "panda_link6"}
     # the model's own spheres come first, the added ones after them, in the link frames
     np.testing.assert_allclose(robot.sphere_centers_local[59:], [s["center"] for s in added])
+
+
+def test_mbm_gap_spheres_reach_the_spherized_urdf_however_it_is_loaded(mbm_panda_dir):
+    # `gfcs solve --robot .../panda_spherized.urdf` loads it with Robot.from_urdf: same 81 spheres as `--robot mbm`
+    from gfcs import cli
+
+    args = cli.build_parser().parse_args(["solve", "--robot", str(mbm_panda_dir / "panda_spherized.urdf"),
+                                          "--srdf", str(mbm_panda_dir / "panda.srdf")])
+    loaded = cli._robot(args)
+    reference = problems.mbm_panda(mbm_panda_dir)
+    assert list(loaded.sphere_links) == list(reference.sphere_links)
+    np.testing.assert_array_equal(loaded.sphere_centers_local, reference.sphere_centers_local)
+    np.testing.assert_array_equal(loaded.sphere_radii, reference.sphere_radii)
 
 
 def test_mbm_gap_spheres_keep_every_start_and_goal_as_clear_as_before(mbm_dir, mbm_panda_dir):

@@ -18,8 +18,10 @@ generalised winding number):
 3. Greedy: add the candidate that removes the most summed gap, recompute the gap, and repeat while the
    largest gap exceeds ``--target`` and the link has fewer than ``--per-link`` added spheres.
 
-Output (``--out``, JSON, the form of ``Robot.from_urdf(spheres=...)`` files): ``{"spheres": [{"link", "center",
-"radius"}, ...]}``, centres in metres in the link frame, radii in metres, rounded inwards to 1 micrometre.
+Output (``--out``, JSON, the form of ``Robot.from_urdf(spheres=...)`` files): ``{"for_spheres", "spheres": [{"link",
+"center", "radius"}, ...]}``, centres in metres in the link frame, radii in metres, rounded inwards to 1
+micrometre; ``for_spheres`` is the ``gfcs.problems.sphere_fingerprint`` of the existing spheres, so that
+``gfcs.problems.with_gap_spheres`` adds these to that model only.
 The per-link gap before and after goes to stderr. Seeded (``--seed``): the same input gives the same output.
 
 Example (the spheres :func:`gfcs.problems.mbm_panda` adds)::
@@ -42,6 +44,7 @@ import trimesh
 from scipy.spatial import ConvexHull
 
 import gfcs
+from gfcs.problems import sphere_fingerprint
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fit_spheres import Sphere, excess, inside, surface_distance  # noqa: E402  (the sibling tool's geometry)
@@ -124,7 +127,8 @@ def main(argv=None) -> int:
                         "radius": math.floor(r * 1e6) / 1e6})
         print(f"{name:18s} largest gap {before * 1e3:5.1f} -> {after * 1e3:5.1f} mm, {len(added)} spheres",
               file=sys.stderr)
-    args.out.write_text(json.dumps({"spheres": out}, indent=1) + "\n")
+    made_for = sphere_fingerprint(spheres)
+    args.out.write_text(json.dumps({"for_spheres": made_for, "spheres": out}, indent=1) + "\n")
     return 0
 
 

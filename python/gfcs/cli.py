@@ -141,8 +141,11 @@ def _robot(args: argparse.Namespace) -> Any:
 
             return mbm_panda()
         return gfcs.Robot.panda()
-    return gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
-                                srdf=args.srdf, spheres=args.spheres)
+    from gfcs.problems import with_gap_spheres
+
+    robot = gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
+                                 srdf=args.srdf, spheres=args.spheres)
+    return with_gap_spheres(robot)  # MotionBenchMaker's panda_spherized.urdf gets --robot mbm's spheres
 
 
 def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:

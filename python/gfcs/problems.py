@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 import json
 import os
 import re
@@ -307,8 +308,41 @@ _MESH_CHECKERS: Dict[int, Tuple[Any, Any]] = {}
 
 
 #: Spheres inscribed in the MBM Panda's collision meshes where its spherized model leaves them uncovered
-#: (``tools/fill_sphere_gaps.py``; link frames, m), added by :func:`mbm_panda` unless ``fill_gaps=False``.
+#: (``tools/fill_sphere_gaps.py``; link frames, m), and the :func:`sphere_fingerprint` of the model they were
+#: made for (``"for_spheres"``); :func:`with_gap_spheres` adds them to that model only.
 MBM_GAP_SPHERES = Path(__file__).with_name("data") / "mbm_panda_gap_spheres.json"
+
+
+def sphere_fingerprint(robot: Any) -> str:
+    """SHA-256 (hex) of a robot's collision spheres: link names, centres (link frames) and radii to 1 µm,
+    in model order. Two models with the same fingerprint have the same sphere model."""
+    lines = [f"{link} {c[0]:.6f} {c[1]:.6f} {c[2]:.6f} {r:.6f}"
+             for link, c, r in zip(robot.sphere_links, robot.sphere_centers_local, robot.sphere_radii)]
+    return hashlib.sha256("\n".join(lines).encode()).hexdigest()
+
+
+def with_gap_spheres(robot: Any, gaps: PathLike = MBM_GAP_SPHERES) -> Any:
+    """``robot`` with the gap spheres of ``gaps`` (a ``tools/fill_sphere_gaps.py`` file) added, when its
+    sphere model is the one they were made for (same :func:`sphere_fingerprint`); else ``robot`` itself.
+
+    By default: the 22 spheres inscribed in the MBM Panda's meshes, added to MotionBenchMaker's
+    ``panda_spherized.urdf`` however it is loaded (:func:`mbm_panda`, or ``gfcs solve --robot`` with that
+    file).
+
+    Raises:
+        ValueError: ``gaps`` is not such a file (the message names it).
+    """
+    try:
+        data = json.loads(Path(gaps).read_text())
+        made_for, spheres = data["for_spheres"], data["spheres"]
+        extra = [(s["link"], [float(x) for x in s["center"]], float(s["radius"])) for s in spheres]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise ValueError(f"{gaps}: not a gap-sphere file (for_spheres, spheres[link, center, radius]): {e}") from e
+    if sphere_fingerprint(robot) != made_for:
+        return robot
+    own = [(link, [float(x) for x in c], float(r))
+           for link, c, r in zip(robot.sphere_links, robot.sphere_centers_local, robot.sphere_radii)]
+    return robot.with_spheres(own + extra)
 
 
 @functools.lru_cache(maxsize=None)
@@ -319,10 +353,7 @@ def _mbm_models(folder: str, fill_gaps: bool = True) -> Tuple[Any, Any]:
 
     if fill_gaps:
         plain, checker = _mbm_models(folder, False)
-        own = [(link, [float(x) for x in c], float(r))
-               for link, c, r in zip(plain.sphere_links, plain.sphere_centers_local, plain.sphere_radii)]
-        extra = [(s["link"], s["center"], s["radius"]) for s in json.loads(MBM_GAP_SPHERES.read_text())["spheres"]]
-        robot = plain.with_spheres(own + extra)
+        robot = with_gap_spheres(plain)
     else:
         root = Path(folder)
         urdf, srdf = root / "panda_spherized.urdf", root / "panda.srdf"
@@ -450,8 +481,9 @@ def mbm_panda(path: Optional[PathLike] = None, fill_gaps: bool = True) -> Any:
         path: the ``mbm_panda`` folder (``panda_spherized.urdf``, ``panda.srdf``, optionally ``panda.urdf``
             and ``meshes/``); default ``shared_dir()/robots/mbm_panda``.
         fill_gaps: add the inscribed gap spheres (False: the spherized URDF's spheres only). They were
-            made for MotionBenchMaker's ``panda.urdf`` meshes and ``panda_spherized.urdf``; for another
-            model in that layout pass False, or make its own with ``tools/fill_sphere_gaps.py``.
+            made for MotionBenchMaker's ``panda.urdf`` meshes and ``panda_spherized.urdf``, and another
+            model in that layout does not get them (:func:`with_gap_spheres`); make its own with
+            ``tools/fill_sphere_gaps.py``.
 
     Raises:
         FileNotFoundError: the folder or its files are missing.
