@@ -131,6 +131,12 @@ def test_sequence_and_evaluate_agree(fabric):
         np.testing.assert_array_equal(a, b)
     *_, trajs = fabric.evaluate(Q0, None, GOAL, cands, return_trajectories=True)
     assert len(trajs) == 4 and trajs[0].q.shape[1] == 7 and trajs[0].cost == costs[0]
+    # the batch's recordings are rollout_sequence's, bit for bit (the solver's candidate selection uses them)
+    for c, got in zip(cands, trajs):
+        ref = fabric.rollout_sequence(Q0, np.zeros(7), c[None], GOAL)
+        for key in ("t", "q", "qd", "qdd", "t_stars"):
+            np.testing.assert_array_equal(getattr(got, key), getattr(ref, key))
+        assert got.cost == ref.cost and got.reached == ref.reached
     # two free commands per candidate: (N, 2·dof)
     two_cmd = fabric.evaluate(Q0, None, GOAL, np.hstack([cands, cands]))
     assert two_cmd[0].shape == (4,)

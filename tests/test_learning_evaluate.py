@@ -25,7 +25,7 @@ class FakeSolver:
         metrics = {"success": success, "ee_length": 1.0 + i + (0.0 if learned else 0.5),
                    "cspace_length": 5.0 + 2 * i, "ee_ldj": -6.0 - i, "cspace_ldj": -7.0,
                    "min_clearance": 0.05, "final_error": 0.001}
-        return SimpleNamespace(solve_time=0.1 * (i + 1), cost=2.0 + i, metrics=metrics)
+        return SimpleNamespace(solve_time=0.1 * (i + 1), wall_time=0.12 * (i + 1), cost=2.0 + i, metrics=metrics)
 
 
 def test_rows_match_direct_statistics():

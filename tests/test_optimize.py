@@ -284,6 +284,7 @@ def test_solve_end_to_end(shelf_problem, solved):
     assert len(r.top) == 4 and costs == sorted(costs) and costs[0] == r.cost
     np.testing.assert_array_equal(r.top[0][0], r.commands.ravel())
     assert r.n_evaluations == 48 and r.solve_time == pytest.approx(r.batch_times.sum())
+    assert r.wall_time > r.solve_time  # the whole call: the optimisation, then the returned motion's rollout
     lo, up = np.asarray(p.robot.lower), np.asarray(p.robot.upper)
     assert np.all(r.commands >= lo) and np.all(r.commands <= up)
     m = r.metrics
@@ -429,8 +430,8 @@ def test_result_json_round_trip(shelf_problem, solved):
     assert back.metrics == solved.metrics and back.settings == solved.settings
     assert back.fabric_config == solved.fabric_config
     assert [(c.tolist(), v) for c, v in back.top] == [(c.tolist(), v) for c, v in solved.top]
-    assert (back.problem, back.cls, back.method, back.seed, back.cost, back.success) == (
-        solved.problem, solved.cls, solved.method, solved.seed, solved.cost, solved.success)
+    assert (back.problem, back.cls, back.method, back.seed, back.cost, back.success, back.wall_time) == (
+        solved.problem, solved.cls, solved.method, solved.seed, solved.cost, solved.success, solved.wall_time)
     # non-finite values survive as strict JSON
     import dataclasses
 

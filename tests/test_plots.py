@@ -28,7 +28,7 @@ def make_rows(seed=0):
                 ok = bool(rng.random() < (0.3 if method == "gf" else 0.85)) and not (cls == "cage" and method == "gf")
                 metrics = dict(success=ok, ee_length=float(rng.uniform(0.5, 1.5)), cspace_length=2.0, ee_ldj=-5.0,
                                cspace_ldj=-4.0, min_clearance=0.01, final_error=0.0 if ok else 0.5)
-                rows.append(bench_row(f"{cls}/{i:04d}", cls, label, method, batches, 0, 1.0, 2.0, metrics))
+                rows.append(bench_row(f"{cls}/{i:04d}", cls, label, method, batches, 0, 1.0, 2.0, metrics, 1.5))
     return rows
 
 

@@ -423,10 +423,11 @@ def test_bench_rows_carry_the_mesh_clearances_and_stay_strict_json(sphere_and_me
     spheres, checker, scene = sphere_and_mesh_sliders
     t = np.linspace(0.0, 1.0, 51)
     q = (0.25 * t)[:, None]
-    plain = bench_row("p", "c", "GF", "gf", 0, 0, 0.1, 1.0, metrics.trajectory_metrics(spheres, scene, t, q, [0.25]))
+    plain = bench_row("p", "c", "GF", "gf", 0, 0, 0.1, 1.0, metrics.trajectory_metrics(spheres, scene, t, q, [0.25]),
+                      0.2)
     assert "mesh_clearance" not in plain and "mesh_self_clearance" not in plain
     met = metrics.trajectory_metrics(spheres, scene, t, q, [0.25], mesh_checker=checker)
-    row = bench_row("p", "c", "GF", "gf", 0, 0, 0.1, 1.0, met)
+    row = bench_row("p", "c", "GF", "gf", 0, 0, 0.1, 1.0, met, 0.2)
     assert row["mesh_clearance"] == pytest.approx(0.4 - 0.45, abs=1e-7) and not row["success"]
     # one link: no self pair, clearance inf, written as the string "Infinity" in strict JSON
     assert json.loads(json.dumps(_enc(row), allow_nan=False))["mesh_self_clearance"] == "Infinity"

@@ -548,6 +548,14 @@ def rollout_commands(
     dof = int(np.asarray(goal).shape[0])
     cmds = np.asarray(commands, dtype=np.float64).reshape(-1, dof)
     seq = fabric.rollout_sequence(q0, qd0, cmds, goal, **settings.as_kwargs())
+    return finish_rollout(fabric, seq, goal, settings)
+
+
+def finish_rollout(
+    fabric: Any, seq: Any, goal: Any, settings: RolloutSettings
+) -> Tuple[Trajectory, float, bool, np.ndarray]:
+    """The recorded ``gfcs.SequenceRollout`` ``seq`` of ``fabric`` finished as :func:`rollout_commands`
+    describes: (trajectory, cost of eq. 4, goal reached, t_stars (n + 1,))."""
     t, q, qd, qdd = np.asarray(seq.t), np.asarray(seq.q), np.asarray(seq.qd), np.asarray(seq.qdd)
     # Leave rest smoothly (see gfcs.blend): the same path, re-timed over its first 0.3 s.
     t, q, qd = retime_start(t, q, qd, qdd, settings.dt)
@@ -571,7 +579,7 @@ def _settings_dict(settings: RolloutSettings, **extra: Any) -> Dict[str, Any]:
 
 def _select_candidate(
     fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
-    mesh_checker: Any, mesh_candidates: int, length_slack: float = 0.0,
+    mesh_checker: Any, mesh_candidates: int, length_slack: float = 0.0, threads: Optional[int] = None,
 ) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray, Dict[str, Any]]:
     """The candidate :func:`solve` returns, rolled out: (commands (n, dof), trajectory, cost, reached,
     t_stars, metrics).
@@ -591,15 +599,21 @@ def _select_candidate(
     keep = keep[:max(1, int(mesh_candidates))]
     rolled: Dict[int, Tuple[np.ndarray, Trajectory, float, bool, np.ndarray]] = {}
 
-    def roll(k: int) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray]:
-        if k not in rolled:
-            commands = np.asarray(opt.all_x[k], dtype=np.float64).reshape(n_commands, dof)
-            rolled[k] = (commands, *rollout_commands(fabric, q0, qd0, goal, commands, settings))
-        return rolled[k]
+    def roll(*ks: int) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray]:
+        """Roll out candidates ``ks`` not rolled yet in one parallel batch; the last one's rollout."""
+        todo = [k for k in dict.fromkeys(ks) if k not in rolled]
+        if todo:
+            x = np.stack([np.asarray(opt.all_x[k], dtype=np.float64) for k in todo])
+            *_, seqs = fabric.evaluate(q0, qd0, goal, x, threads=threads, return_trajectories=True,
+                                       **settings.as_kwargs())
+            for k, row, seq in zip(todo, x, seqs):
+                rolled[k] = (row.reshape(n_commands, dof), *finish_rollout(fabric, seq, goal, settings))
+        return rolled[ks[-1]]
 
     best = float(opt.all_costs[keep[0]])
     if length_slack > 0 and best < settings.penalty:
         near = [k for k in keep if opt.all_costs[k] <= (1.0 + length_slack) * best]
+        roll(*near)
         hand = {k: _metrics.path_length(robot.ee_position(roll(k)[1].q)) for k in near}
         near.sort(key=lambda k: hand[k])  # stable: equal lengths stay in cost order
         keep = near + [k for k in keep if k not in hand]
@@ -690,13 +704,28 @@ def solve(
             solved with 4 mm for seeds 0-2, while 4 mm for every problem lost cage 47 (BENCHMARKS.md).
 
     Returns:
-        :class:`gfcs.results.SolveResult` (trajectory of the best sequence, metrics, per-batch data).
+        :class:`gfcs.results.SolveResult` (trajectory of the best sequence, metrics, per-batch data;
+        ``solve_time`` the optimisation, ``wall_time`` this whole call).
 
     Raises:
         ValueError: bad arguments, or a robot without collision spheres in a scene with obstacles (the
             fabric would not see them).
     """
-    settings = settings or RolloutSettings()
+    start = time.perf_counter()
+    result = _solve(problem, method, batches, population, n_commands, seed, sampler, fabric_config, threads,
+                    progress, settings or RolloutSettings(), top_m, sigma0, mesh_candidates, length_slack,
+                    callback, max_commands, mesh_retry_margin)
+    return dataclasses.replace(result, wall_time=time.perf_counter() - start)
+
+
+def _solve(
+    problem: Any, method: str, batches: int, population: int, n_commands: int, seed: int,
+    sampler: Optional[Sampler], fabric_config: Any, threads: Optional[int], progress: bool,
+    settings: RolloutSettings, top_m: int, sigma0: float, mesh_candidates: int, length_slack: float,
+    callback: Optional[Callable[[BatchInfo], Optional[bool]]], max_commands: Optional[int],
+    mesh_retry_margin: float,
+) -> SolveResult:
+    """The body of :func:`solve` (arguments as there, ``settings`` given), without ``wall_time``."""
     if method not in ("gfcs", "gf"):
         raise ValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
     robot, scene = problem.robot, problem.scene
@@ -834,7 +863,7 @@ def _solve_commands(
             bar.close()
 
     commands, traj, cost, reached, t_stars, met = _select_candidate(
-        fabric, problem, opt, n_commands, settings, mesh_checker, mesh_candidates, length_slack)
+        fabric, problem, opt, n_commands, settings, mesh_checker, mesh_candidates, length_slack, threads)
     return SolveResult(
         method="gfcs",
         commands=commands,

@@ -12,7 +12,8 @@ Row format (keys of :func:`bench_row`), one JSON object per line:
 ``problem`` (str), ``class`` (str), ``label`` (e.g. ``"GF"``, ``"Ours (1 b)"``, ``"Ours (5 b)"``),
 ``method`` (``"gf"`` | ``"gfcs"``), ``batches`` (int, CMA-ES batches behind the row; 0 for GF),
 ``seed`` (int), ``success`` (bool), ``time`` [s] (optimisation wall time up to that batch, or the GF
-rollout time), ``cost`` (GFCS eq. 4), ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``,
+rollout time: the paper's time), ``wall_time`` [s] (the whole solve behind the row: optimisation, rollout
+and validation of the returned motion, retries), ``cost`` (GFCS eq. 4), ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``,
 ``cspace_ldj``, ``min_clearance`` [m] (collision spheres), ``final_error`` [rad]; when the trajectory was
 validated against collision meshes also ``mesh_clearance`` and ``mesh_self_clearance`` [m] (the smallest
 mesh distance to the obstacles and between non-adjacent links; ``inf``: none within the checker's
@@ -166,7 +167,11 @@ class SolveResult:
         batch_best_costs: (B,) best cost found so far after each batch (non-increasing; anytime).
         batch_best_commands: (B, n·dof) the best candidate so far after each batch.
         n_evaluations: number of candidate sequences evaluated.
-        solve_time: wall time of the optimisation [s] (Σ batch_times; the GF rollout time for ``"gf"``).
+        solve_time: wall time of the optimisation [s] (Σ batch_times; the GF rollout time for ``"gf"``):
+            the paper's "time" (GFCS Table I).
+        wall_time: wall time of the whole :func:`gfcs.optimize.solve` call [s]: the optimisation, the
+            rollout and validation of the returned candidate (and of the ones it checked before it) and
+            every retry; 0 when unknown (results from before this field).
         settings: rollout and optimiser settings used (dt, t_max, tol, ...).
         fabric_config: the fabric configuration as a dict (None: the defaults).
     """
@@ -191,6 +196,7 @@ class SolveResult:
     batch_best_commands: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     n_evaluations: int = 0
     solve_time: float = 0.0
+    wall_time: float = 0.0
     settings: Dict[str, Any] = field(default_factory=dict)
     fabric_config: Optional[Dict[str, Any]] = None
     #: The robot the result was solved with (in memory only, not serialised); used by
@@ -229,6 +235,7 @@ class SolveResult:
             "batch_best_commands": _enc(self.batch_best_commands),
             "n_evaluations": int(self.n_evaluations),
             "solve_time": _enc(self.solve_time),
+            "wall_time": _enc(self.wall_time),
             "settings": _enc(self.settings),
             "fabric_config": _enc(self.fabric_config),
         }
@@ -272,6 +279,7 @@ class SolveResult:
             batch_best_commands=_dec_array(d.get("batch_best_commands", []), 2, n_cmd_dim),
             n_evaluations=int(d.get("n_evaluations", 0)),
             solve_time=_dec_float(d.get("solve_time", 0.0)),
+            wall_time=_dec_float(d.get("wall_time", 0.0)),
             settings=_dec_value(d.get("settings", {})),
             fabric_config=_dec_value(d.get("fabric_config")),
         )
@@ -303,6 +311,7 @@ def bench_row(
     time: float,
     cost: float,
     metrics: Dict[str, Any],
+    wall_time: float,
 ) -> Dict[str, Any]:
     """One benchmark row (see the module docstring for the keys) from trajectory metrics."""
     mesh = {key: float(metrics[key]) for key in ("mesh_clearance", "mesh_self_clearance") if key in metrics}
@@ -315,6 +324,7 @@ def bench_row(
         "seed": int(seed),
         "success": bool(metrics["success"]),
         "time": float(time),
+        "wall_time": float(wall_time),
         "cost": float(cost),
         "ee_length": float(metrics["ee_length"]),
         "cspace_length": float(metrics["cspace_length"]),

@@ -79,7 +79,7 @@ def evaluate_first_batch(
             res = solve_fn(problem, batches=1, population=population, n_commands=n_commands,
                            seed=seed + i, sampler=sampler)
             rows.append(bench_row(str(getattr(problem, "name", i)), _GROUP, label, "gfcs", 1, seed + i,
-                                  float(res.solve_time), float(res.cost), res.metrics))
+                                  float(res.solve_time), float(res.cost), res.metrics, float(res.wall_time)))
     if per_problem is not None:
         per_problem.extend(rows)
     summary = summarize(rows)[_GROUP]
