@@ -88,7 +88,18 @@ def test_retime_start_leaves_other_trajectories_alone():
 
 
 def _fd_acceleration(t, q):
-    return np.gradient(np.gradient(q, t, axis=0), t, axis=0)
+    """Plain three-point second difference (no smoothing), interior samples: what a validator computes."""
+    h0, h1 = (t[1:-1] - t[:-2])[:, None], (t[2:] - t[1:-1])[:, None]
+    return 2.0 * (h0 * q[2:] - (h0 + h1) * q[1:-1] + h1 * q[:-2]) / (h0 * h1 * (h0 + h1))
+
+
+def test_second_difference_is_exact_for_quadratics_on_any_grid():
+    from gfcs.blend import second_difference
+
+    t = np.cumsum(np.r_[0.0, np.random.default_rng(0).uniform(0.005, 0.015, 40)])
+    q = np.stack([3.0 * t**2 - t, -0.5 * t**2 + 2.0], axis=1)
+    np.testing.assert_allclose(second_difference(t, q), np.tile([6.0, -1.0], (t.size, 1)), atol=1e-9)
+    np.testing.assert_allclose(second_difference(t, q)[1:-1], _fd_acceleration(t, q), atol=1e-9)
 
 
 def test_limit_acceleration_slows_a_fast_circle_down_along_the_same_path():
