@@ -45,14 +45,18 @@ def test_solve_json_to_stdout():
 
 
 def test_solve_selection_and_timing_options_reach_the_result():
-    r = run("solve", "--json", "-", "--length-slack", "0.3", *SMALL)
+    r = run("solve", "--json", "-", "--length-slack", "0.3", "--mesh-margin", "0.004", *SMALL)
     assert r.returncode in (0, 1), r.stderr
-    assert SolveResult.from_json(r.stdout).settings["length_slack"] == 0.3
+    result = SolveResult.from_json(r.stdout)
+    assert result.settings["length_slack"] == 0.3 and result.settings["mesh_margin"] == 0.004
+    assert result.wall_time > result.solve_time > 0
     r = run("solve", "--json", "-", "--no-acceleration-limits", *SMALL)
     assert r.returncode in (0, 1), r.stderr
     assert SolveResult.from_json(r.stdout).settings["limit_acceleration"] is False
     r = run("solve", "--length-slack", "-1", *SMALL)
     assert r.returncode == 2 and "length_slack" in r.stderr and "Traceback" not in r.stderr
+    r = run("solve", "--mesh-margin", "-1", *SMALL)
+    assert r.returncode == 2 and "mesh_margin" in r.stderr and "Traceback" not in r.stderr
 
 
 def test_solve_validates_with_the_mesh_model_beside_a_spherized_robot(tmp_path):

@@ -179,6 +179,22 @@ def test_trajectory_metrics_report_mesh_contact(sphere_and_mesh_sliders):
     assert short["success"] and short["mesh_clearance"] == pytest.approx(0.1, abs=1e-7)
 
 
+def test_mesh_margin_is_the_clearance_a_success_keeps(sphere_and_mesh_sliders):
+    spheres, checker, scene = sphere_and_mesh_sliders
+    t = np.linspace(0.0, 1.0, 51)
+    q = (0.1 * t)[:, None]  # box face from 0.2 to 0.3: 0.1 m from the ball at the end (closed form)
+    assert metrics.DEFAULT_MESH_MARGIN == 0.001
+    assert metrics.trajectory_metrics(spheres, scene, t, q, [0.1], mesh_checker=checker)["success"]
+    for margin, ok in ((0.0, True), (0.0999, True), (0.1001, False)):
+        m = metrics.trajectory_metrics(spheres, scene, t, q, [0.1], mesh_checker=checker, mesh_margin=margin)
+        assert m["success"] is ok and m["sphere_success"], margin
+    # without a checker the margin has nothing to judge
+    assert metrics.trajectory_metrics(spheres, scene, t, q, [0.1], mesh_margin=1.0)["success"]
+    for bad in (-0.001, math.nan, math.inf):
+        with pytest.raises(ValueError, match="mesh_margin"):
+            metrics.trajectory_metrics(spheres, scene, t, q, [0.1], mesh_checker=checker, mesh_margin=bad)
+
+
 def test_problem_carries_a_matching_checker(sphere_and_mesh_sliders):
     spheres, checker, scene = sphere_and_mesh_sliders
     p = Problem("slide", spheres, scene, q0=[0.0], goal=[0.2], mesh_checker=checker)
@@ -291,6 +307,15 @@ def test_solve_returns_the_best_mesh_free_candidate(shelf):
     assert r.metrics["sphere_success"]  # the spheres alone would have passed it
     gf = opt.solve(hopeless, method="gf")
     assert "mesh_clearance" in gf.metrics and not gf.success
+
+
+def test_solve_holds_candidates_to_the_mesh_margin(shelf):
+    clear = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=0))  # 0.2 m, self 0.1 m
+    once = dict(batches=1, population=8, seed=0, mesh_candidates=2, mesh_retry_margin=0, max_commands=1)
+    ok = opt.solve(clear, **once)
+    assert ok.success and ok.settings["mesh_margin"] == 0.001 and ok.metrics["mesh_candidates_checked"] == 1
+    strict = opt.solve(clear, mesh_margin=0.15, **once)  # the links' 0.1 m from each other is too close
+    assert not strict.success and strict.metrics["sphere_success"] and strict.metrics["mesh_candidates_checked"] == 2
 
 
 def test_failed_solve_retries_with_one_more_command(shelf):

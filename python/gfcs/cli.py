@@ -99,6 +99,9 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     g.add_argument("--length-slack", type=float, metavar="EPS", default=None,
                    help="prefer the shortest hand path among reached candidates within (1 + EPS) x the "
                         "lowest cost (default 0.1; 0: the lowest-cost candidate, the paper's choice)")
+    g.add_argument("--mesh-margin", type=float, metavar="M", default=None,
+                   help="clearance in m the collision meshes must keep for a motion to succeed, when a mesh "
+                        "model validates it (default 0.001; 0: contact only)")
     g.add_argument("--no-retry", action="store_true",
                    help="do not retry a failed solve (with the default sampler: with one more command; "
                         "after a collision of the meshes only: with a 2 mm wider obstacle margin)")
@@ -127,7 +130,8 @@ def _settings(args: argparse.Namespace) -> Any:
 
 def _solve_options(args: argparse.Namespace) -> Dict[str, Any]:
     """Keyword arguments of :func:`gfcs.optimize.solve` given on the command line (others: its defaults)."""
-    return {} if args.length_slack is None else {"length_slack": args.length_slack}
+    given = {"length_slack": args.length_slack, "mesh_margin": args.mesh_margin}
+    return {k: v for k, v in given.items() if v is not None}
 
 
 def _robot(args: argparse.Namespace) -> Any:
@@ -344,8 +348,8 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     with ``retry`` (and the default sampler) a third row, "Ours (B b, retry)", is what
     :func:`gfcs.optimize.solve` returns by default: the same unless that failed, then its retries (n + 1
     commands; a wider obstacle margin after a mesh-only collision; time = every attempt). GF yields
-    "GF". ``solve_options``: further keyword arguments of :func:`gfcs.optimize.solve` for GFCS (e.g.
-    ``length_slack``).
+    "GF". ``solve_options``: further keyword arguments of :func:`gfcs.optimize.solve` for every method
+    (e.g. ``mesh_margin``; GF ignores the GFCS-only ones such as ``length_slack``).
     """
     from gfcs import optimize
     from gfcs.results import bench_row
@@ -353,7 +357,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     rows: List[Dict[str, Any]] = []
     results: List[Any] = []
     for method in methods:
-        once = {**_no_retry(n_commands), **(solve_options or {})} if method == "gfcs" else {}
+        once = {**(_no_retry(n_commands) if method == "gfcs" else {}), **(solve_options or {})}
 
         def run(n_batches: int) -> Any:
             return optimize.solve(problem, method=method, batches=n_batches, population=population,

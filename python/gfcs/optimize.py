@@ -580,6 +580,7 @@ def _settings_dict(settings: RolloutSettings, **extra: Any) -> Dict[str, Any]:
 def _select_candidate(
     fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
     mesh_checker: Any, mesh_candidates: int, length_slack: float = 0.0, threads: Optional[int] = None,
+    mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
 ) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray, Dict[str, Any]]:
     """The candidate :func:`solve` returns, rolled out: (commands (n, dof), trajectory, cost, reached,
     t_stars, metrics).
@@ -622,7 +623,8 @@ def _select_candidate(
     first = None
     for checked, k in enumerate(keep, start=1):
         commands, traj, cost, reached, t_stars = roll(k)
-        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker)
+        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker,
+                                          mesh_margin=mesh_margin)
         met["selection_rank"] = int(np.flatnonzero(order == k)[0])
         if mesh_checker is not None:
             met["mesh_candidates_checked"] = checked
@@ -657,6 +659,7 @@ def solve(
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
     max_commands: Optional[int] = None,
     mesh_retry_margin: float = 0.002,
+    mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1) or with the local fabric alone (``method="gf"``).
 
@@ -702,6 +705,10 @@ def solve(
             spheres leave up to 12-20 mm of the MBM Panda's meshes uncovered (:func:`gfcs.problems.mbm_panda`);
             0.002: on MotionBenchMaker cage 48, which no candidate of either attempt solved with seed 1,
             solved with 4 mm for seeds 0-2, while 4 mm for every problem lost cage 47 (BENCHMARKS.md).
+        mesh_margin: with a mesh checker, the clearance [m] the collision meshes must keep for a trajectory
+            to succeed (:func:`gfcs.metrics.trajectory_metrics`); candidates closer than that are passed
+            over like colliding ones. Default :data:`gfcs.metrics.DEFAULT_MESH_MARGIN` (1 mm); 0: contact
+            only.
 
     Returns:
         :class:`gfcs.results.SolveResult` (trajectory of the best sequence, metrics, per-batch data;
@@ -714,7 +721,7 @@ def solve(
     start = time.perf_counter()
     result = _solve(problem, method, batches, population, n_commands, seed, sampler, fabric_config, threads,
                     progress, settings or RolloutSettings(), top_m, sigma0, mesh_candidates, length_slack,
-                    callback, max_commands, mesh_retry_margin)
+                    callback, max_commands, mesh_retry_margin, mesh_margin)
     return dataclasses.replace(result, wall_time=time.perf_counter() - start)
 
 
@@ -723,7 +730,7 @@ def _solve(
     sampler: Optional[Sampler], fabric_config: Any, threads: Optional[int], progress: bool,
     settings: RolloutSettings, top_m: int, sigma0: float, mesh_candidates: int, length_slack: float,
     callback: Optional[Callable[[BatchInfo], Optional[bool]]], max_commands: Optional[int],
-    mesh_retry_margin: float,
+    mesh_retry_margin: float, mesh_margin: float,
 ) -> SolveResult:
     """The body of :func:`solve` (arguments as there, ``settings`` given), without ``wall_time``."""
     if method not in ("gfcs", "gf"):
@@ -742,10 +749,12 @@ def _solve(
         start = time.perf_counter()
         traj, cost, reached, t_stars = rollout_commands(fabric, q0, qd0, goal, np.zeros((0, dof)), settings)
         elapsed = time.perf_counter() - start
-        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker)
+        met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker,
+                                          mesh_margin=mesh_margin)
         return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached,
                            t_stars=t_stars, trajectory=traj, success=bool(met["success"]), metrics=met,
-                           n_evaluations=1, solve_time=elapsed, settings=_settings_dict(settings),
+                           n_evaluations=1, solve_time=elapsed,
+                           settings=_settings_dict(settings, mesh_margin=float(mesh_margin)),
                            **common)
 
     n_commands = int(n_commands)
@@ -767,7 +776,7 @@ def _solve(
         raise ValueError(f"mesh_retry_margin must be a finite number ≥ 0 [m], got {mesh_retry_margin}")
     options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
-                   length_slack=length_slack,
+                   length_slack=length_slack, mesh_margin=mesh_margin,
                    callback=callback)
     def attempt(n: int, fab: Any = fabric, info: Dict[str, Any] = common) -> SolveResult:
         return _solve_commands(problem, fab, mesh_checker, info, n,
@@ -816,7 +825,7 @@ def _solve_commands(
     problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, Any], n_commands: int, sampler: Sampler,
     *, batches: int, population: int, seed: int, threads: Optional[int], progress: bool,
     settings: RolloutSettings, top_m: int, sigma0: float, mesh_candidates: int, length_slack: float,
-    callback: Optional[Callable[[BatchInfo], Optional[bool]]],
+    mesh_margin: float, callback: Optional[Callable[[BatchInfo], Optional[bool]]],
 ) -> SolveResult:
     """GFCS with exactly ``n_commands`` free commands (the body of :func:`solve`)."""
     robot = problem.robot
@@ -863,7 +872,8 @@ def _solve_commands(
             bar.close()
 
     commands, traj, cost, reached, t_stars, met = _select_candidate(
-        fabric, problem, opt, n_commands, settings, mesh_checker, mesh_candidates, length_slack, threads)
+        fabric, problem, opt, n_commands, settings, mesh_checker, mesh_candidates, length_slack, threads,
+        mesh_margin)
     return SolveResult(
         method="gfcs",
         commands=commands,
@@ -881,7 +891,7 @@ def _solve_commands(
         solve_time=float(np.sum(opt.batch_times)),
         settings=_settings_dict(settings, batches=int(batches), population=int(population),
                                 n_commands=n_commands, sigma0=float(sigma0), top_m=int(top_m),
-                                length_slack=float(length_slack),
+                                length_slack=float(length_slack), mesh_margin=float(mesh_margin),
                                 sampler=type(sampler).__name__),
         **common,
     )
@@ -895,6 +905,7 @@ def replay(
     settings: Optional[RolloutSettings] = None,
     commands: Optional[Any] = None,
     mesh_checker: Optional[Any] = None,
+    mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
 ) -> SolveResult:
     """Replay a solved command sequence in another scene without re-optimising (GFCS Sec. V, Fig. 4).
 
@@ -910,7 +921,7 @@ def replay(
         commands: (n, dof) commands to replay instead of ``result.commands`` (e.g. a row of
             ``result.batch_best_commands`` to get the first-batch solution).
         mesh_checker: optional :class:`gfcs.MeshChecker` (e.g. ``problem.mesh_checker``): the replay's
-            metrics then include the mesh clearances, and success requires them > 0.
+            metrics then include the mesh clearances, and success requires them > ``mesh_margin`` [m].
 
     Returns:
         A copy of ``result`` whose trajectory, cost, reached flag, t_stars, metrics and success are those
@@ -936,6 +947,7 @@ def replay(
     dof = result.dof
     cmds = np.asarray(result.commands if commands is None else commands, dtype=np.float64).reshape(-1, dof)
     traj, cost, reached, t_stars = rollout_commands(fabric, result.q0, result.qd0, result.goal, cmds, settings)
-    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, mesh_checker=mesh_checker)
+    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, mesh_checker=mesh_checker,
+                                      mesh_margin=mesh_margin)
     return dataclasses.replace(result, commands=cmds, trajectory=traj, cost=cost, reached=reached,
                                t_stars=t_stars, metrics=met, success=bool(met["success"]), robot=robot)
