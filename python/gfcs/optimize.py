@@ -718,23 +718,15 @@ def solve(
         ValueError: bad arguments, or a robot without collision spheres in a scene with obstacles (the
             fabric would not see them).
     """
-    start = time.perf_counter()
-    result = _solve(problem, method, batches, population, n_commands, seed, sampler, fabric_config, threads,
-                    progress, settings or RolloutSettings(), top_m, sigma0, mesh_candidates, length_slack,
-                    callback, max_commands, mesh_retry_margin, mesh_margin)
-    return dataclasses.replace(result, wall_time=time.perf_counter() - start)
+    called = time.perf_counter()
 
+    def done(result: SolveResult) -> SolveResult:
+        return dataclasses.replace(result, wall_time=time.perf_counter() - called)
 
-def _solve(
-    problem: Any, method: str, batches: int, population: int, n_commands: int, seed: int,
-    sampler: Optional[Sampler], fabric_config: Any, threads: Optional[int], progress: bool,
-    settings: RolloutSettings, top_m: int, sigma0: float, mesh_candidates: int, length_slack: float,
-    callback: Optional[Callable[[BatchInfo], Optional[bool]]], max_commands: Optional[int],
-    mesh_retry_margin: float, mesh_margin: float,
-) -> SolveResult:
-    """The body of :func:`solve` (arguments as there, ``settings`` given), without ``wall_time``."""
+    settings = settings or RolloutSettings()
     if method not in ("gfcs", "gf"):
         raise ValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
+    mesh_margin = _non_negative("mesh_margin", mesh_margin, " [m]")
     robot, scene = problem.robot, problem.scene
     dof = int(robot.dof)
     q0 = np.asarray(problem.q0, dtype=np.float64)
@@ -751,18 +743,15 @@ def _solve(
         elapsed = time.perf_counter() - start
         met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker,
                                           mesh_margin=mesh_margin)
-        return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached,
-                           t_stars=t_stars, trajectory=traj, success=bool(met["success"]), metrics=met,
-                           n_evaluations=1, solve_time=elapsed,
-                           settings=_settings_dict(settings, mesh_margin=float(mesh_margin)),
-                           **common)
+        return done(SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached,
+                                t_stars=t_stars, trajectory=traj, success=bool(met["success"]), metrics=met,
+                                n_evaluations=1, solve_time=elapsed,
+                                settings=_settings_dict(settings, mesh_margin=mesh_margin), **common))
 
     n_commands = int(n_commands)
     if n_commands < 1:
         raise ValueError(f"n_commands must be ≥ 1 for method 'gfcs', got {n_commands}")
-    length_slack = float(length_slack)
-    if not (math.isfinite(length_slack) and length_slack >= 0):
-        raise ValueError(f"length_slack must be a finite number ≥ 0, got {length_slack}")
+    length_slack = _non_negative("length_slack", length_slack, "")
     if max_commands is None:
         max_commands = n_commands + 1 if sampler is None else n_commands
     max_commands = int(max_commands)
@@ -771,9 +760,7 @@ def _solve(
     if sampler is not None and max_commands != n_commands:
         raise ValueError("max_commands > n_commands needs the default sampler: a sampler of your own "
                          f"proposes {n_commands} command(s) per candidate")
-    mesh_retry_margin = float(mesh_retry_margin)
-    if not (math.isfinite(mesh_retry_margin) and mesh_retry_margin >= 0):
-        raise ValueError(f"mesh_retry_margin must be a finite number ≥ 0 [m], got {mesh_retry_margin}")
+    mesh_retry_margin = _non_negative("mesh_retry_margin", mesh_retry_margin, " [m]")
     options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
                    length_slack=length_slack, mesh_margin=mesh_margin,
@@ -791,7 +778,15 @@ def _solve(
         margin = float(common["fabric_config"]["obstacles"]["margin"]) + mesh_retry_margin
         wider = make_fabric(problem, fabric.config.replace({"obstacles": {"margin": margin}}))
         attempts.append(attempt(n_commands, wider, {**common, "fabric_config": wider.config.to_dict()}))
-    return combine_attempts(attempts)
+    return done(combine_attempts(attempts))
+
+
+def _non_negative(name: str, value: Any, unit: str) -> float:
+    """``value`` as a float; ValueError naming ``name`` unless it is finite and ≥ 0."""
+    v = float(value)
+    if not (math.isfinite(v) and v >= 0):
+        raise ValueError(f"{name} must be a finite number ≥ 0{unit}, got {value}")
+    return v
 
 
 def _mesh_collision_only(result: SolveResult) -> bool:
@@ -891,7 +886,7 @@ def _solve_commands(
         solve_time=float(np.sum(opt.batch_times)),
         settings=_settings_dict(settings, batches=int(batches), population=int(population),
                                 n_commands=n_commands, sigma0=float(sigma0), top_m=int(top_m),
-                                length_slack=float(length_slack), mesh_margin=float(mesh_margin),
+                                length_slack=float(length_slack), mesh_margin=mesh_margin,
                                 sampler=type(sampler).__name__),
         **common,
     )
