@@ -235,8 +235,11 @@ pub fn write_pose(out: &mut [f64], pose: &Isometry3<f64>) {
     }
 }
 
+/// Outputs of fewer values than this are flattened on the calling thread (see [`flatten_parallel`]).
+const PARALLEL_MIN_VALUES: usize = 1 << 14;
+
 /// `items` flattened into one row-major buffer of `width` values per item, `write` filling each item's
-/// chunk, in parallel (rayon). The buffer starts zeroed, which for a large one costs no pass over its pages
+/// chunk, in parallel (rayon) from [`PARALLEL_MIN_VALUES`] values on. The buffer starts zeroed, which for a large one costs no pass over its pages
 /// (they are mapped on first write, by the worker that fills them).
 pub fn flatten_parallel<T: Sync>(
     items: &[T],
@@ -244,7 +247,15 @@ pub fn flatten_parallel<T: Sync>(
     write: impl Fn(&T, &mut [f64]) + Sync,
 ) -> Vec<f64> {
     let mut data = vec![0.0; items.len() * width];
-    if width > 0 {
+    if width == 0 {
+        return data;
+    }
+    if data.len() < PARALLEL_MIN_VALUES {
+        // small outputs are written on the calling thread: waking rayon's workers costs more
+        for (out, item) in data.chunks_exact_mut(width).zip(items) {
+            write(item, out);
+        }
+    } else {
         data.par_chunks_mut(width)
             .zip(items.par_iter())
             .for_each(|(out, item)| write(item, out));

@@ -24,8 +24,13 @@ fn rows(robot: &Robot, qs: &[f64]) -> Result<usize> {
     Ok(qs.len() / dof)
 }
 
+/// Fewer configurations than this are computed on the calling thread: forward kinematics takes about a
+/// microsecond per configuration, waking rayon's workers tens of microseconds (a Python loop calling
+/// `Robot.link_poses` once per step spent most of its time in futex wake-ups).
+const PARALLEL_MIN_CONFIGS: usize = 32;
+
 /// `value(ws, k)` for entry k of each configuration's output row after its forward kinematics, in
-/// parallel. The result is collected by rayon straight into its final buffer (no serial zero-filling
+/// parallel ([`PARALLEL_MIN_CONFIGS`] and more). The result is collected by rayon straight into its final buffer (no serial zero-filling
 /// first, which would keep one thread busy touching every page); a worker recomputes the kinematics
 /// only when it moves on to the next configuration.
 fn for_each_config<T: Send>(
@@ -36,6 +41,16 @@ fn for_each_config<T: Send>(
 ) -> Result<Vec<T>> {
     let n = rows(robot, qs)?;
     let dof = robot.dof();
+    if n < PARALLEL_MIN_CONFIGS {
+        // a few configurations: waking the pool's threads would cost more than the kinematics
+        let mut ws = KinematicsWorkspace::new(robot);
+        let mut out = Vec::with_capacity(n * per_row);
+        for q in qs.chunks_exact(dof) {
+            robot.forward_positions(q, &mut ws);
+            out.extend((0..per_row).map(|k| value(&ws, k)));
+        }
+        return Ok(out);
+    }
     Ok((0..n * per_row)
         .into_par_iter()
         .with_min_len(per_row.max(1))
