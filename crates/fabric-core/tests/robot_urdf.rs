@@ -280,9 +280,15 @@ fn self_collision_pairs_follow_bodies_and_srdf() {
 
 #[test]
 fn batches_match_single_evaluations_for_any_thread_count() {
+    // 1 and 5 configurations run on the calling thread, 257 in parallel
+    for n in [1, 5, 257] {
+        batch_matches_single_evaluations(n);
+    }
+}
+
+fn batch_matches_single_evaluations(n: usize) {
     let robot = Robot::panda();
     let mut rng = ChaCha8Rng::seed_from_u64(9);
-    let n = 257;
     let qs: Vec<f64> = (0..n)
         .flat_map(|_| random_state(&robot, &mut rng).0)
         .collect();
