@@ -17,8 +17,8 @@ Mesh validation: the fabric and the cost see the robot's collision *spheres*; be
 its collision *meshes*. When the problem carries a ``mesh_checker`` (:class:`gfcs.MeshChecker`, see
 :mod:`gfcs.problems`), :func:`solve` rolls out the evaluated candidates in cost order (the lowest-cost one,
 then those that reached the goal, at most ``mesh_candidates``) and returns the first whose full trajectory succeeds with every mesh clear of the obstacles and of the robot
-itself (``metrics["success"]``, which then requires ``mesh_clearance > 0`` and ``mesh_self_clearance > 0``
-besides reaching the goal with the spheres clear); if none does, the lowest-cost candidate is returned (and
+itself (``metrics["success"]``, which then requires ``mesh_clearance`` and ``mesh_self_clearance`` above
+``mesh_margin``, 1 mm by default, besides reaching the goal with the spheres clear); if none does, the lowest-cost candidate is returned (and
 reported as failed): a mesh-free candidate that misses the goal is no better. ``result.top`` and the per-batch data are the
 optimiser's, unchanged (anytime / top-m semantics of Alg. 1).
 

@@ -105,7 +105,8 @@ class Problem:
         cls: problem class (:data:`CLASSES`), "" when unknown.
         meta: free-form provenance (source files, generator parameters, obstacle primitives).
         mesh_checker: optional :class:`gfcs.MeshChecker` of the robot's collision meshes (same joints, same
-            order as ``robot``); when set, metrics report ``mesh_clearance`` and success requires it > 0.
+            order as ``robot``); when set, metrics report ``mesh_clearance`` and success requires it above
+            the mesh margin (:data:`gfcs.metrics.DEFAULT_MESH_MARGIN`).
     """
 
     name: str
