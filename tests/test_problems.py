@@ -57,6 +57,18 @@ def test_generated_problems_are_valid(generated, panda, cls):
     assert a.meta["primitives"] != b.meta["primitives"]
 
 
+def test_generated_problems_for_the_mbm_panda_carry_its_meshes_and_keep_them_clear(mbm_panda_dir):
+    # its spheres leave the meshes partly uncovered: sphere-clear starts and goals are checked on the meshes
+    robot = problems.mbm_panda(mbm_panda_dir)
+    checker = problems.mesh_checker_for(robot)
+    for cls in ("box", "cage"):
+        for p in generators.generate(cls, 2, seed=0, robot=robot):
+            assert p.mesh_checker is checker
+            q = np.stack([p.q0, p.goal])
+            assert checker.min_clearance(p.scene, q) > metrics.DEFAULT_MESH_MARGIN
+            assert checker.min_self_clearance(q) > metrics.DEFAULT_MESH_MARGIN
+
+
 def test_self_margin_is_the_fabrics():
     # generated goals keep the clearance the default fabric's self-collision barrier keeps
     assert generators.SELF_MARGIN == gfcs.FabricConfig().to_dict()["self_collision"]["margin"]

@@ -5,6 +5,10 @@
 inverse kinematics to sampled end-effector targets. Every start and goal is inside the joint limits
 (with a small inset) and collision-free under the robot's sphere model: for every collision sphere,
 signed distance − radius ≥ ``margin`` against the scene, and ≥ :data:`SELF_MARGIN` between self-collision pairs.
+For a robot with collision meshes on record (:func:`gfcs.problems.mesh_checker_for`, e.g. the MotionBenchMaker
+Panda of :func:`gfcs.problems.mbm_panda`, whose spheres do not cover its meshes) the problems carry that
+mesh checker, and their starts and goals keep the meshes more than :data:`gfcs.metrics.DEFAULT_MESH_MARGIN`
+from the obstacles and from each other too, so that every generated problem can succeed.
 
 Frames: the robot base is the world origin, z up. Each structure (shelf, table, ...) has a local frame
 whose x axis points away from the robot (depth), y is lateral and z up; its front face is at local x = 0.
@@ -40,7 +44,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from gfcs import metrics as _metrics
-from gfcs.problems import CLASSES, Problem, canonical_class
+from gfcs.problems import CLASSES, Problem, canonical_class, mesh_checker_for
 
 __all__ = [
     "Primitive",
@@ -424,6 +428,14 @@ def is_collision_free(robot: Any, scene: Any, q: Any, margin: float = 0.01,
                 and _metrics.self_clearance(robot, qa)[0] >= self_margin)
 
 
+def _meshes_clear(checker: Any, scene: Any, q: np.ndarray) -> bool:
+    """``q`` passes the mesh part of the success criterion: meshes more than
+    :data:`gfcs.metrics.DEFAULT_MESH_MARGIN` from the obstacles and from each other."""
+    qa = np.asarray(q, dtype=np.float64)[None, :]
+    return bool(checker.min_clearance(scene, qa) > _metrics.DEFAULT_MESH_MARGIN
+                and checker.min_self_clearance(qa) > _metrics.DEFAULT_MESH_MARGIN)
+
+
 def inverse_kinematics(
     robot: Any,
     target: Target,
@@ -550,6 +562,7 @@ def generate(
         raise ValueError(f"n must be ≥ 0, got {n}")
     robot = gfcs.Robot.panda() if robot is None else robot
     ready = _ready(robot)
+    checker = mesh_checker_for(robot)
     layout_fn = _LAYOUTS[name]
     problems = []
     for i in range(int(n)):
@@ -558,7 +571,9 @@ def generate(
         for _ in range(int(max_scenes)):
             layout = layout_fn(rng)
             scene = build_scene(layout.primitives)
-            free = lambda q, scene=scene: is_collision_free(robot, scene, q, margin)  # noqa: E731
+            def free(q: np.ndarray, scene: Any = scene) -> bool:
+                return is_collision_free(robot, scene, q, margin) and (
+                    checker is None or _meshes_clear(checker, scene, q))
             if layout.start is None:
                 q0 = ready if free(ready) else None
             else:
@@ -582,7 +597,7 @@ def generate(
                 if goal is not None:
                     problem = Problem(
                         name=f"{name}/gen{int(seed)}_{i:04d}", robot=robot, scene=scene, q0=q0, goal=goal,
-                        cls=name,
+                        cls=name, mesh_checker=checker,
                         meta={"generator": name, "seed": int(seed), "index": i,
                               "primitives": [dataclasses.asdict(p) for p in layout.primitives]},
                     )
