@@ -121,6 +121,7 @@ def test_generate_then_bench(tmp_path):
     text = md.read_text()
     assert "### box" in text and "| Method | % Success |" in text
     assert "Ours (2 b)" in r.stdout
+    assert "Ours (2 b): " in text and "Ours (2 b): " in r.stdout and "whole solve" in r.stdout  # the totals
     r = run("bench", "--problems", str(tmp_path / "suite"), "--classes", "box", "--batches", "1",
             "--population", "4", "--method", "gfcs", "--no-retry", "--json", str(rows_file), "--no-progress")
     assert r.returncode == 0, r.stderr

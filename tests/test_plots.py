@@ -129,3 +129,20 @@ def test_training_figure_draws_the_history(tmp_path):
     out = plots.plot_file(path, tmp_path / "t.png")
     img = mpimg.imread(out)
     assert img.ndim == 3 and img[..., :3].std() > 0.05
+
+
+def test_totals_count_every_class_and_take_the_medians():
+    from gfcs.results import format_totals
+
+    rows = make_rows()
+    for k, r in enumerate(rows):
+        r["time"], r["wall_time"] = 0.1 * k, 0.1 * k + 0.05
+    lines = format_totals(rows).splitlines()
+    assert [line.split(":")[0] for line in lines] == [label for label, _, _ in LABELS]
+    for line, (label, _, _) in zip(lines, LABELS):
+        mine = [r for r in rows if r["label"] == label]
+        solved = sum(r["success"] for r in mine)
+        assert f"{solved}/18 solved ({100 * solved / 18:.1f} %)" in line
+        assert f"median time {np.median([r['time'] for r in mine]):.3f} s" in line
+        assert f"whole solve {np.median([r['wall_time'] for r in mine]):.3f} s" in line
+

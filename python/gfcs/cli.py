@@ -428,7 +428,7 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """`gfcs bench`: run the suite, print the tables (and write rows / markdown)."""
-    from gfcs.results import format_table, summarize
+    from gfcs.results import format_table, format_totals, summarize
 
     robot = _robot(args)
     suite = _with_mesh_checker(args, load_problems(args, robot))
@@ -438,9 +438,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
                      progress=not args.no_progress, retry=not args.no_retry,
                      solve_options=_solve_options(args))
     summary = summarize(rows)
-    print(format_table(summary, markdown=False))
+    totals = format_totals(rows) if rows else ""
+    print(format_table(summary, markdown=False) + "\n" + totals, end="")
     if args.markdown:
-        Path(args.markdown).write_text(format_table(summary, markdown=True))
+        Path(args.markdown).write_text(format_table(summary, markdown=True) + "\n" + totals)
     return 0
 
 

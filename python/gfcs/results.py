@@ -35,6 +35,7 @@ __all__ = [
     "bench_row",
     "summarize",
     "format_table",
+    "format_totals",
     "TABLE_COLUMNS",
     "read_rows",
 ]
@@ -397,6 +398,22 @@ def format_table(summary: Dict[str, Dict[str, Dict[str, Any]]], markdown: bool =
             lines += [fmt_row(row) for row in body]
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks) + "\n"
+
+
+def format_totals(rows: Iterable[Dict[str, Any]]) -> str:
+    """One line per label over every class: problems solved, and the median over all its problems of
+    ``time`` (the optimisation, GFCS Table I's measure) and of ``wall_time`` (the whole solve), in s."""
+    by_label: Dict[str, List[Dict[str, Any]]] = {}
+    for r in rows:
+        by_label.setdefault(str(r["label"]), []).append(r)
+    lines = []
+    for label, rs in by_label.items():
+        solved = sum(bool(r["success"]) for r in rs)
+        time = np.median([_dec_float(r["time"]) for r in rs])
+        wall = np.median([_dec_float(r["wall_time"]) for r in rs])
+        lines.append(f"{label}: {solved}/{len(rs)} solved ({100.0 * solved / len(rs):.1f} %), median time "
+                     f"{time:.3f} s, whole solve {wall:.3f} s")
+    return "\n".join(lines) + "\n"
 
 
 def read_rows(lines: Sequence[str]) -> List[Dict[str, Any]]:
