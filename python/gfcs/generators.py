@@ -428,14 +428,6 @@ def is_collision_free(robot: Any, scene: Any, q: Any, margin: float = 0.01,
                 and _metrics.self_clearance(robot, qa)[0] >= self_margin)
 
 
-def _meshes_clear(checker: Any, scene: Any, q: np.ndarray) -> bool:
-    """``q`` passes the mesh part of the success criterion: meshes more than
-    :data:`gfcs.metrics.DEFAULT_MESH_MARGIN` from the obstacles and from each other."""
-    qa = np.asarray(q, dtype=np.float64)[None, :]
-    return bool(checker.min_clearance(scene, qa) > _metrics.DEFAULT_MESH_MARGIN
-                and checker.min_self_clearance(qa) > _metrics.DEFAULT_MESH_MARGIN)
-
-
 def inverse_kinematics(
     robot: Any,
     target: Target,
@@ -573,7 +565,7 @@ def generate(
             scene = build_scene(layout.primitives)
             def free(q: np.ndarray, scene: Any = scene) -> bool:
                 return is_collision_free(robot, scene, q, margin) and (
-                    checker is None or _meshes_clear(checker, scene, q))
+                    checker is None or _metrics.mesh_verdict(checker, scene, q)[2])
             if layout.start is None:
                 q0 = ready if free(ready) else None
             else:

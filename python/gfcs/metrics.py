@@ -23,7 +23,7 @@ import the compiled extension.
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, Optional
+from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
@@ -35,6 +35,7 @@ __all__ = [
     "obstacle_clearance",
     "self_clearance",
     "mesh_clearance",
+    "mesh_verdict",
     "uniform_resample",
     "trajectory_metrics",
     "DEFAULT_SUCCESS_TOL",
@@ -231,6 +232,19 @@ def mesh_clearance(mesh_checker: Any, scene: Any, q: Any) -> np.ndarray:
     return np.asarray(mesh_checker.clearance(scene, qa), dtype=np.float64).reshape(qa.shape[0])
 
 
+def mesh_verdict(mesh_checker: Any, scene: Any, q: Any,
+                 margin: float = DEFAULT_MESH_MARGIN) -> Tuple[float, float, bool]:
+    """The mesh part of the success criterion over the samples of ``q`` (T, dof).
+
+    Returns:
+        (min mesh clearance to the obstacles [m], min mesh clearance between links [m], both > ``margin``).
+    """
+    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    clear = float(mesh_checker.min_clearance(scene, qa))
+    self_clear = float(mesh_checker.min_self_clearance(qa))
+    return clear, self_clear, clear > margin and self_clear > margin
+
+
 def uniform_resample(t: Any, x: Any) -> "tuple[np.ndarray, float]":
     """Resample a path onto a uniform time grid by linear interpolation (for the LDJ).
 
@@ -326,9 +340,7 @@ def trajectory_metrics(
     mesh_ok = True
     extra: Dict[str, Any] = {}
     if mesh_checker is not None:
-        mesh_clear = float(mesh_checker.min_clearance(scene, qa))
-        mesh_self = float(mesh_checker.min_self_clearance(qa))
-        mesh_ok = mesh_clear > mesh_margin and mesh_self > mesh_margin
+        mesh_clear, mesh_self, mesh_ok = mesh_verdict(mesh_checker, scene, qa, mesh_margin)
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
     sphere_ok = bool(final_error <= tol and clear >= 0.0 and self_clear >= 0.0 and limits_ok)
