@@ -391,9 +391,12 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
               seed: int = 0, n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
               threads: Optional[int] = None, settings: Any = None, jsonl: Optional[str] = None,
               rrd_dir: Optional[str] = None, progress: bool = True, retry: bool = True,
-              solve_options: Optional[Dict[str, Any]] = None) -> List[Dict[str, Any]]:
+              solve_options: Optional[Dict[str, Any]] = None,
+              results_dir: Optional[str] = None) -> List[Dict[str, Any]]:
     """Benchmark ``methods`` on ``problems``; rows are appended to ``jsonl`` as they are produced (rows:
-    :func:`bench_problem`).
+    :func:`bench_problem`). With ``results_dir``, the returned result of every method on every problem
+    (with its trajectory, as ``gfcs solve --json`` writes it) goes to ``<results_dir>/<class>_<NNNN>.<method>.json``,
+    for validators of your own (e.g. ``tools/check_trajectories.py``).
 
     Returns:
         All rows (see :mod:`gfcs.results` for the row format).
@@ -405,7 +408,9 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
     rows: List[Dict[str, Any]] = []
     if rrd_dir:
         _viz()  # fail before the first problem when the extra is missing
-        Path(rrd_dir).mkdir(parents=True, exist_ok=True)
+    for folder in (rrd_dir, results_dir):
+        if folder:
+            Path(folder).mkdir(parents=True, exist_ok=True)
     out = open(jsonl, "w") if jsonl else None
     try:
         bar = tqdm(problems, desc="bench", unit="problem", disable=not progress)
@@ -418,8 +423,12 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
                 for r in new:
                     out.write(json.dumps(_enc(r), allow_nan=False) + "\n")
                 out.flush()
+            stem = problem.name.replace("/", "_")
             if rrd_dir:
-                _record(problem, results, str(Path(rrd_dir) / (problem.name.replace("/", "_") + ".rrd")))
+                _record(problem, results, str(Path(rrd_dir) / (stem + ".rrd")))
+            if results_dir:
+                for res in results:
+                    (Path(results_dir) / f"{stem}.{res.method}.json").write_text(res.to_json())
     finally:
         if out is not None:
             out.close()
@@ -436,7 +445,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
                      n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
                      threads=args.threads, settings=_settings(args), jsonl=args.json, rrd_dir=args.rrd_dir,
                      progress=not args.no_progress, retry=not args.no_retry,
-                     solve_options=_solve_options(args))
+                     solve_options=_solve_options(args), results_dir=args.results_dir)
     summary = summarize(rows)
     totals = format_totals(rows) if rows else ""
     print(format_table(summary, markdown=False) + "\n" + totals, end="")
@@ -466,6 +475,9 @@ def _register_bench(sub: Any) -> None:
     out.add_argument("--json", metavar="RESULTS.jsonl", help="write the rows as JSON lines")
     out.add_argument("--markdown", metavar="TABLE.md", help="write the tables as markdown")
     out.add_argument("--rrd-dir", metavar="DIR", help="write one rerun recording per problem (viz extra)")
+    out.add_argument("--results-dir", metavar="DIR",
+                     help="write every returned result with its trajectory (the JSON of gfcs solve --json) "
+                          "as DIR/<class>_<NNNN>.<method>.json")
     out.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_bench)
 

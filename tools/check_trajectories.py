@@ -1,0 +1,485 @@
+#!/usr/bin/env python3
+"""Check returned trajectories the way an outside validator would, without gfcs.
+
+Everything here is independent of the package: the robot is read with yourdfpy and its collision meshes
+with trimesh, distances come from FCL (python-fcl), the scene and the request are parsed from the MoveIt
+YAML files with PyYAML, and the kinematics are recomputed from the URDF joints (checked against
+yourdfpy's own forward kinematics on the first state of every trajectory). No code of ``gfcs`` is imported.
+
+For every result file (the JSON of ``gfcs solve --json`` or of ``gfcs bench --results-dir``) and every
+state of its trajectory:
+
+* start: the first state against the request's start state [rad];
+* goal: ‖q_T − q_g‖ against the request's joint goal [rad] (reached when ≤ ``--goal-tol``);
+* joint limits: the smallest distance to the URDF position limits [rad] (< 0: outside), and the largest
+  ratio of the finite-difference joint speed to the URDF velocity limit;
+* obstacles: the smallest FCL distance between a link's collision geometry and an obstacle [m]
+  (≤ 0: contact);
+* self-collision: the smallest FCL distance between two links' collision geometry [m], over the link
+  pairs not disabled by the SRDF nor allowed by the scene's collision matrix;
+* end-effector and joint-space path lengths [m, rad], recomputed.
+
+A state in contact is a collision (FCL reports 0 or less for touching or overlapping shapes). The verdict
+``valid`` is: start matches, goal reached, limits kept, no contact with obstacles nor between links.
+
+Output: one JSON line per result (``--json``, or stdout) and a summary on stderr; exit status 1 when a
+result that claims ``success`` is not valid here, else 2 when a result could not be checked (its line has
+an ``error``), else 0.
+
+Example (every result of a benchmark run)::
+
+    gfcs bench --problems ../shared/mbm --robot mbm --method gf gfcs --results-dir runs/
+    python tools/check_trajectories.py --problems ../shared/mbm \\
+        --urdf ../shared/robots/mbm_panda/panda.urdf --srdf ../shared/robots/mbm_panda/panda.srdf runs/
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import math
+import multiprocessing
+import sys
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple
+
+import fcl
+import numpy as np
+import trimesh
+import yaml
+import yourdfpy
+
+
+# ------------------------------------------------------------------------------------------ geometry
+def quat_xyzw_to_matrix(q: Sequence[float]) -> np.ndarray:
+    """Rotation matrix of a quaternion given as (x, y, z, w) (the MoveIt YAML order), normalised."""
+    x, y, z, w = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def pose_matrix(pose: Optional[Dict[str, Any]]) -> np.ndarray:
+    """4x4 transform of a MoveIt pose ``{position: [x, y, z], orientation: [x, y, z, w]}`` (identity: None)."""
+    T = np.eye(4)
+    if pose:
+        T[:3, :3] = quat_xyzw_to_matrix(pose.get("orientation", [0, 0, 0, 1]))
+        T[:3, 3] = np.asarray(pose.get("position", [0, 0, 0]), dtype=np.float64)
+    return T
+
+
+def fcl_object(geometry: Any, T: np.ndarray) -> fcl.CollisionObject:
+    return fcl.CollisionObject(geometry, fcl.Transform(T[:3, :3], T[:3, 3]))
+
+
+def primitive_geometry(kind: str, dims: Sequence[float], where: str) -> Any:
+    """FCL geometry of a MoveIt SolidPrimitive (box: x y z; cylinder: height radius; sphere: radius)."""
+    d = [float(v) for v in dims]
+    if kind == "box" and len(d) == 3:
+        return box_geometry(d)
+    if kind == "cylinder" and len(d) == 2:
+        return fcl.Cylinder(d[1], d[0])  # FCL: (radius, length along z)
+    if kind == "sphere" and len(d) == 1:
+        return fcl.Sphere(d[0])
+    raise ValueError(f"{where}: unsupported primitive {kind!r} with dimensions {d}")
+
+
+def box_geometry(size: Sequence[float]) -> fcl.BVHModel:
+    """A box as a 12-triangle mesh: FCL 0.7's box primitive gives distances to boxes and to meshes up to
+    60 mm too large (GJK on its box; 0.409 instead of 0.35 m between two cubes), its meshes exact ones."""
+    return mesh_geometry(trimesh.creation.box(extents=[float(v) for v in size]))
+
+
+def mesh_geometry(mesh: trimesh.Trimesh) -> fcl.BVHModel:
+    model = fcl.BVHModel()
+    model.beginModel(len(mesh.vertices), len(mesh.faces))
+    model.addSubModel(np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int32))
+    model.endModel()
+    return model
+
+
+# --------------------------------------------------------------------------------------------- scene
+@dataclass
+class Obstacle:
+    """One primitive of a scene object: MoveIt kind and dimensions, world pose T (4x4), FCL object."""
+    name: str
+    kind: str
+    dims: List[float]
+    T: np.ndarray
+    object: fcl.CollisionObject
+
+
+@dataclass
+class Part:
+    """One URDF ``<collision>`` element: its link, origin in the link frame (4x4), FCL geometry, and a
+    sphere (centre in the element's frame, radius) containing it, whose distances bound its own."""
+    link: str
+    origin: np.ndarray
+    geometry: Any
+    center: np.ndarray
+    radius: float
+
+
+def load_scene(path: Path) -> List[Obstacle]:
+    """The obstacles of a MoveIt PlanningScene YAML, posed in the world frame."""
+    doc = yaml.safe_load(path.read_text())
+    objects = []
+    for k, obj in enumerate(((doc or {}).get("world") or {}).get("collision_objects") or []):
+        name = str(obj.get("id", k))
+        T_obj = pose_matrix(obj.get("pose"))
+        prims, poses = obj.get("primitives") or [], obj.get("primitive_poses") or []
+        if len(prims) != len(poses):
+            raise ValueError(f"{path}: object {name!r} has {len(prims)} primitives and {len(poses)} poses")
+        if obj.get("meshes"):
+            raise ValueError(f"{path}: object {name!r} has meshes (only primitives are read)")
+        for prim, pose in zip(prims, poses):
+            geom = primitive_geometry(prim["type"], prim["dimensions"], f"{path}: object {name!r}")
+            T = T_obj @ pose_matrix(pose)
+            objects.append(Obstacle(name, prim["type"], [float(v) for v in prim["dimensions"]], T, fcl_object(geom, T)))
+    return objects
+
+
+def load_request(path: Path) -> Tuple[Dict[str, float], Dict[str, float]]:
+    """(start joint positions, joint goal) by joint name, from a MoveIt MotionPlanRequest YAML."""
+    doc = yaml.safe_load(path.read_text())
+    js = doc["start_state"]["joint_state"]
+    start = dict(zip(js["name"], map(float, js["position"])))
+    goal = {c["joint_name"]: float(c["position"]) for c in doc["goal_constraints"][0]["joint_constraints"]}
+    return start, goal
+
+
+def allowed_pairs(scene_path: Path) -> set:
+    """Link pairs the scene's allowed collision matrix allows (MoveIt ACM, ``true`` = allowed)."""
+    doc = yaml.safe_load(scene_path.read_text()) or {}
+    acm = doc.get("allowed_collision_matrix") or {}
+    names, values = acm.get("entry_names") or [], acm.get("entry_values") or []
+    return {frozenset((names[i], names[j])) for i, row in enumerate(values) for j, v in enumerate(row)
+            if v and i != j}
+
+
+# --------------------------------------------------------------------------------------------- robot
+class RobotModel:
+    """The URDF read by yourdfpy: joint chain, limits and collision geometry as FCL objects per link."""
+
+    def __init__(self, urdf: Path, srdf: Optional[Path], ee_link: str, mesh_dir: Optional[Path] = None):
+        self.path = urdf
+        root = mesh_dir or urdf.parent
+        self.urdf = yourdfpy.URDF.load(str(urdf), load_meshes=False, build_scene_graph=True,
+                                       build_collision_scene_graph=False, load_collision_meshes=False)
+        robot = self.urdf.robot
+        self.base = self.urdf.base_link
+        self.joints = {j.child: j for j in robot.joints}  # child link -> joint
+        self.actuated = [j.name for j in robot.joints if j.type in ("revolute", "continuous", "prismatic")
+                         and j.mimic is None]
+        self.ee_link = ee_link
+        if ee_link not in {l.name for l in robot.links}:
+            raise ValueError(f"{urdf}: no link {ee_link!r}")
+        self.parts = [self._part(link.name, c, root) for link in robot.links for c in link.collisions]
+        disabled = set()
+        if srdf is not None:
+            for e in ET.parse(srdf).getroot().iter("disable_collisions"):
+                disabled.add(frozenset((e.get("link1"), e.get("link2"))))
+        self.disabled = disabled
+
+    def parts_links(self) -> List[str]:
+        return sorted({p.link for p in self.parts})
+
+    def _part(self, link: str, c: Any, root: Path) -> Part:
+        origin = c.origin if c.origin is not None else np.eye(4)
+        g = c.geometry
+        if g.mesh is not None:
+            name = g.mesh.filename
+            for prefix in ("package://", "file://"):
+                if name.startswith(prefix):
+                    name = name[len(prefix):]
+            path = Path(name) if Path(name).is_absolute() else root / name
+            if not path.exists():  # package://<package>/meshes/...: drop the package name
+                path = root / Path(name).relative_to(Path(name).parts[0])
+            mesh = trimesh.load(str(path), force="mesh")
+            if g.mesh.scale is not None:
+                mesh.apply_scale(np.broadcast_to(np.asarray(g.mesh.scale, dtype=np.float64), (3,)))
+            v = np.asarray(mesh.vertices, dtype=np.float64)
+            center = (v.min(axis=0) + v.max(axis=0)) / 2
+            return Part(link, origin, mesh_geometry(mesh), center, float(np.linalg.norm(v - center, axis=1).max()))
+        if g.box is not None:
+            size = np.asarray(g.box.size, dtype=np.float64)
+            return Part(link, origin, box_geometry(size), np.zeros(3), float(np.linalg.norm(size) / 2))
+        if g.cylinder is not None:
+            r, h = float(g.cylinder.radius), float(g.cylinder.length)
+            return Part(link, origin, fcl.Cylinder(r, h), np.zeros(3), math.hypot(r, h / 2))
+        if g.sphere is not None:
+            return Part(link, origin, fcl.Sphere(float(g.sphere.radius)), np.zeros(3), float(g.sphere.radius))
+        raise ValueError(f"{self.path}: link {link!r} has an unsupported collision geometry")
+
+    def chain(self, link: str) -> List[Any]:
+        """Joints from the base to ``link``, base first."""
+        out = []
+        while link in self.joints:
+            j = self.joints[link]
+            out.append(j)
+            link = j.parent
+        return out[::-1]
+
+    def fk(self, cfg: Dict[str, np.ndarray], links: Iterable[str], n: int) -> Dict[str, np.ndarray]:
+        """World poses (n, 4, 4) of ``links`` for n configurations (``cfg``: joint name -> (n,) values;
+        joints not given stay at 0), from the URDF joints: T = T_parent · origin · motion(q)."""
+        cache: Dict[str, np.ndarray] = {self.base: np.broadcast_to(np.eye(4), (n, 4, 4))}
+
+        def pose(link: str) -> np.ndarray:
+            if link in cache:
+                return cache[link]
+            j = self.joints[link]
+            T = pose(j.parent) @ (j.origin if j.origin is not None else np.eye(4))
+            if j.type in ("revolute", "continuous", "prismatic"):
+                q = np.asarray(cfg.get(j.mimic.joint if j.mimic else j.name, np.zeros(n)), dtype=np.float64)
+                if j.mimic is not None:
+                    q = q * j.mimic.multiplier + j.mimic.offset
+                M = np.broadcast_to(np.eye(4), (n, 4, 4)).copy()
+                axis = np.asarray(j.axis, dtype=np.float64) / np.linalg.norm(j.axis)
+                if j.type == "prismatic":
+                    M[:, :3, 3] = q[:, None] * axis
+                else:  # Rodrigues
+                    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+                    s, c = np.sin(q)[:, None, None], np.cos(q)[:, None, None]
+                    M[:, :3, :3] = np.eye(3) + s * K + (1 - c) * (K @ K)
+                T = T @ M
+            cache[link] = T
+            return T
+
+        return {link: pose(link) for link in links}
+
+    def limits(self, names: Sequence[str]) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(lower, upper, velocity) URDF limits of the joints ``names``."""
+        by_name = {j.name: j for j in self.urdf.robot.joints}
+        lo, up, vel = [], [], []
+        for n in names:
+            lim = by_name[n].limit
+            lo.append(-math.inf if lim is None or lim.lower is None else float(lim.lower))
+            up.append(math.inf if lim is None or lim.upper is None else float(lim.upper))
+            vel.append(math.inf if lim is None or lim.velocity is None else float(lim.velocity))
+        return np.array(lo), np.array(up), np.array(vel)
+
+
+# --------------------------------------------------------------------------------------------- check
+def fcl_distance(a: fcl.CollisionObject, b: fcl.CollisionObject) -> float:
+    """FCL distance between two objects [m], 0 when they touch or overlap (FCL reports −1 then)."""
+    return max(float(fcl.distance(a, b, fcl.DistanceRequest(), fcl.DistanceResult())), 0.0)
+
+
+def obstacle_sdf(kind: str, dims: Sequence[float], T: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Closed-form signed distance [m] from points p (..., 3) to a box, cylinder or sphere posed by T."""
+    x = (p - T[:3, 3]) @ T[:3, :3]  # obstacle frame
+    d = [float(v) for v in dims]
+    if kind == "box":
+        e = np.abs(x) - np.asarray(d) / 2
+        return np.linalg.norm(np.maximum(e, 0), axis=-1) + np.minimum(e.max(axis=-1), 0)
+    if kind == "cylinder":
+        e = np.stack([np.linalg.norm(x[..., :2], axis=-1) - d[1], np.abs(x[..., 2]) - d[0] / 2], axis=-1)
+        return np.linalg.norm(np.maximum(e, 0), axis=-1) + np.minimum(e.max(axis=-1), 0)
+    return np.linalg.norm(x, axis=-1) - d[0]
+
+
+def smallest(bounds: np.ndarray, exact: Any) -> Tuple[float, Tuple[int, ...]]:
+    """The minimum of ``exact(*index)`` over every index of ``bounds``, an array of lower bounds of it:
+    indices are visited in increasing bound and the search stops at the first bound ≥ the smallest exact
+    value found (branch and bound; the result is the exact minimum). Returns (min, its index)."""
+    best, where = math.inf, ()
+    flat = bounds.ravel()
+    for i in np.argsort(flat, kind="stable"):
+        if flat[i] >= best:
+            break
+        idx = np.unravel_index(i, bounds.shape)
+        d = exact(*idx)
+        if d < best:
+            best, where = d, tuple(int(v) for v in idx)
+    return best, where
+
+
+def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, request_path: Path,
+                 goal_tol: float) -> Dict[str, Any]:
+    """The independent verdict on one result (keys in the module docstring)."""
+    traj = result["trajectory"]
+    q = np.asarray(traj["q"], dtype=np.float64)
+    t = np.asarray(traj["t"], dtype=np.float64)
+    names = list(traj.get("joint_names") or result.get("joint_names") or model.actuated)
+    if q.ndim != 2 or q.shape[1] != len(names) or q.shape[0] != t.shape[0] or q.shape[0] == 0:
+        raise ValueError(f"trajectory: q {q.shape} and t {t.shape} do not match {len(names)} joints")
+    start, goal = load_request(request_path)
+    q_start = np.array([start[n] for n in names])
+    q_goal = np.array([goal[n] for n in names])
+    lo, up, vel = model.limits(names)
+    n = q.shape[0]
+    cfg = {name: q[:, k] for k, name in enumerate(names)}
+    poses = model.fk(cfg, set(model.parts_links()) | {model.ee_link}, n)
+
+    # the recomputed kinematics against yourdfpy's own, first state
+    model.urdf.update_cfg({name: float(v) for name, v in zip(names, q[0])})
+    fk_error = max(float(np.abs(model.urdf.get_transform(l, model.base) - poses[l][0]).max())
+                   for l in set(model.parts_links()) | {model.ee_link})
+
+    parts = model.parts
+    world = [poses[p.link] @ p.origin for p in parts]  # (n, 4, 4) per part
+    centers = np.stack([W[:, :3, :3] @ p.center + W[:, :3, 3] for W, p in zip(world, parts)], axis=1)
+    radii = np.array([p.radius for p in parts])
+    obj = [fcl_object(p.geometry, np.eye(4)) for p in parts]
+
+    def place(k: int, i: int) -> fcl.CollisionObject:
+        obj[i].setTransform(fcl.Transform(world[i][k, :3, :3], world[i][k, :3, 3]))
+        return obj[i]
+
+    obstacles = load_scene(scene_path)
+    if obstacles:
+        bounds = np.stack([obstacle_sdf(o.kind, o.dims, o.T, centers) for o in obstacles], axis=-1) - radii[:, None]
+        clear, (k_obs, i_obs, j_obs) = smallest(bounds, lambda k, i, j: fcl_distance(place(k, i), obstacles[j].object))
+        obstacle_hit = f"{parts[i_obs].link} / {obstacles[j_obs].name}"
+    else:
+        clear, k_obs, obstacle_hit = math.inf, -1, None
+    allowed = allowed_pairs(scene_path) | model.disabled
+    pairs = [(a, b) for a, b in itertools.combinations(range(len(parts)), 2)
+             if parts[a].link != parts[b].link and frozenset((parts[a].link, parts[b].link)) not in allowed]
+    if pairs:
+        ia, ib = np.array(pairs).T
+        bounds = np.linalg.norm(centers[:, ia] - centers[:, ib], axis=-1) - radii[ia] - radii[ib]
+        self_clear, (k_self, m) = smallest(bounds, lambda k, m: fcl_distance(place(k, pairs[m][0]), place(k, pairs[m][1])))
+        self_hit = [parts[ia[m]].link, parts[ib[m]].link]
+    else:
+        self_clear, self_hit = math.inf, None
+    link_pairs = {frozenset((parts[a].link, parts[b].link)) for a, b in pairs}
+    dq = np.diff(q, axis=0)
+    dt = np.diff(t)
+    speed_ratio = float(np.max(np.abs(dq / dt[:, None]) / vel)) if n > 1 else 0.0
+    ee = poses[model.ee_link][:, :3, 3]
+    out = {
+        "problem": result.get("problem"),
+        "method": result.get("method"),
+        "claimed_success": bool(result.get("success")),
+        "n_states": int(n),
+        "start_error": float(np.abs(q[0] - q_start).max()),
+        "goal_error": float(np.linalg.norm(q[-1] - q_goal)),
+        "limit_margin": float(min((q - lo).min(), (up - q).min())),
+        "speed_ratio": speed_ratio,
+        "clearance": clear,
+        "closest_state": int(k_obs),
+        "closest_obstacle": obstacle_hit,
+        "self_clearance": self_clear,
+        "closest_links": self_hit,
+        "self_pairs": len(link_pairs),
+        "ee_length": float(np.linalg.norm(np.diff(ee, axis=0), axis=1).sum()),
+        "cspace_length": float(np.linalg.norm(dq, axis=1).sum()),
+        "fk_error": fk_error,
+    }
+    out["valid"] = bool(out["start_error"] <= 1e-6 and out["goal_error"] <= goal_tol and out["limit_margin"] >= 0
+                        and clear > 0 and self_clear > 0)
+    reported = result.get("metrics") or {}
+    for key in ("ee_length", "cspace_length"):
+        if isinstance(reported.get(key), (int, float)):
+            out[f"{key}_reported"] = float(reported[key])
+    if isinstance(reported.get("mesh_clearance"), (int, float)):
+        out["clearance_reported"] = float(reported["mesh_clearance"])
+    return out
+
+
+def problem_files(problems: Path, name: str) -> Tuple[Path, Path]:
+    """Scene and request files of a MotionBenchMaker problem named ``<class>/<NNNN>``."""
+    cls, number = name.rsplit("/", 1)
+    folder = problems / cls if (problems / cls).is_dir() else problems
+    scene, request = folder / f"scene{number}.yaml", folder / f"request{number}.yaml"
+    if not scene.exists() or not request.exists():
+        raise FileNotFoundError(f"problem {name!r}: no {scene} / {request}")
+    return scene, request
+
+
+_MODEL: Optional[RobotModel] = None
+_ARGS: Optional[argparse.Namespace] = None
+
+
+def _init(args: argparse.Namespace) -> None:
+    global _MODEL, _ARGS
+    _ARGS = args
+    _MODEL = RobotModel(Path(args.urdf), Path(args.srdf) if args.srdf else None, args.ee_link,
+                        Path(args.mesh_dir) if args.mesh_dir else None)
+
+
+def _check_file(path: str) -> Dict[str, Any]:
+    assert _MODEL is not None and _ARGS is not None
+    try:
+        result = json.loads(Path(path).read_text())
+        if "trajectory" not in result:
+            raise ValueError("no trajectory (written with --no-trajectory?)")
+        scene, request = problem_files(Path(_ARGS.problems), str(result["problem"]))
+        return {"file": path, **check_result(result, _MODEL, scene, request, _ARGS.goal_tol)}
+    except Exception as e:  # reported per file; the run goes on
+        return {"file": path, "error": f"{type(e).__name__}: {e}"}
+
+
+def result_files(paths: Sequence[str]) -> List[str]:
+    files: List[str] = []
+    for p in map(Path, paths):
+        files.extend(sorted(map(str, p.glob("*.json"))) if p.is_dir() else [str(p)])
+    return files
+
+
+def summary(rows: Sequence[Dict[str, Any]]) -> str:
+    ok = [r for r in rows if "error" not in r]
+    claimed = [r for r in ok if r["claimed_success"]]
+    bad = [r for r in claimed if not r["valid"]]
+    lines = [f"{len(rows)} results, {len(rows) - len(ok)} unreadable, {len(claimed)} claim success, "
+             f"{len(claimed) - len(bad)} of them valid here, {len(bad)} not"]
+    if claimed:
+        lines.append("claimed successes: min obstacle clearance %.2f mm, min self clearance %.2f mm, max goal "
+                     "error %.2e rad, min limit margin %.4f rad, max speed/limit %.3f, max FK difference %.1e"
+                     % (1e3 * min(r["clearance"] for r in claimed), 1e3 * min(r["self_clearance"] for r in claimed),
+                        max(r["goal_error"] for r in claimed), min(r["limit_margin"] for r in claimed),
+                        max(r["speed_ratio"] for r in claimed), max(r["fk_error"] for r in claimed)))
+        diffs = [(abs(r["ee_length"] - r["ee_length_reported"]), abs(r["clearance"] - r["clearance_reported"]))
+                 for r in claimed if "ee_length_reported" in r and "clearance_reported" in r
+                 and math.isfinite(r["clearance_reported"])]
+        if diffs:
+            lines.append("against the reported metrics: max |EE length difference| %.2e m, max |clearance "
+                         "difference| %.2e m" % (max(d[0] for d in diffs), max(d[1] for d in diffs)))
+    lines += [f"NOT VALID: {r['file']}: {_why(r)}" for r in bad]
+    lines += [f"ERROR: {r['file']}: {r['error']}" for r in rows if "error" in r]
+    return "\n".join(lines)
+
+
+def _why(r: Dict[str, Any]) -> str:
+    return ", ".join(f"{k}={r[k]:.4g}" for k in ("start_error", "goal_error", "limit_margin", "clearance",
+                                                 "self_clearance"))
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("results", nargs="+", help="result JSON files, or folders of them")
+    p.add_argument("--problems", required=True, help="MotionBenchMaker folder (<class>/sceneNNNN.yaml, requestNNNN.yaml)")
+    p.add_argument("--urdf", required=True, help="URDF whose collision geometry is checked")
+    p.add_argument("--srdf", help="SRDF whose disabled collisions are not checked")
+    p.add_argument("--mesh-dir", help="folder resolving package:// mesh paths (default: the URDF's folder)")
+    p.add_argument("--ee-link", default="panda_hand", help="end-effector link (default panda_hand)")
+    p.add_argument("--goal-tol", type=float, default=0.01, help="goal tolerance, rad (default 0.01)")
+    p.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    p.add_argument("--json", help="write one JSON line per result here (default: stdout)")
+    args = p.parse_args(argv)
+    files = result_files(args.results)
+    if not files:
+        p.error("no result files found")
+    with multiprocessing.Pool(args.jobs, initializer=_init, initargs=(args,)) as pool:
+        rows = pool.map(_check_file, files, chunksize=1)
+    text = "\n".join(json.dumps(r) for r in rows) + "\n"
+    if args.json:
+        Path(args.json).write_text(text)
+    else:
+        sys.stdout.write(text)
+    print(summary(rows), file=sys.stderr)
+    if any(r.get("claimed_success") and not r.get("valid") for r in rows):
+        return 1
+    return 2 if any("error" in r for r in rows) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
