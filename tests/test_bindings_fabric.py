@@ -231,6 +231,23 @@ def test_ee_target_matches_default_targets(robot):
     )
 
 
+def test_acceleration_calls_do_not_depend_on_earlier_calls(robot, scene):
+    """The workspace kept between ``acceleration`` calls carries nothing over: any sequence of calls
+    (commands, end-effector targets, states) gives bit for bit what a new fabric gives for each call."""
+    cfg = {"ee_position": {"enabled": True}, "ee_orientation": {"enabled": True}}
+    kept = gfcs.Fabric(robot, scene, cfg)
+    rng = np.random.default_rng(4)
+    target = robot.link_poses(Q0)[robot.link_index(robot.ee_link)]
+    for k in range(12):
+        q, qd = Q0 + rng.normal(0, 0.2, 7), rng.normal(0, 0.5, 7)
+        command = GOAL if k % 3 else Q0  # the end-effector targets follow the command, or are given
+        ee = target if k % 4 == 1 else None
+        fresh = gfcs.Fabric(robot, scene, cfg)
+        np.testing.assert_array_equal(kept.acceleration(q, qd, command, ee_target=ee),
+                                      fresh.acceleration(q, qd, command, ee_target=ee))
+        assert kept.diagnostics() == fresh.diagnostics()
+
+
 def test_gil_released_during_evaluate(fabric):
     cands = np.tile(GOAL, (256, 1)) + np.random.default_rng(0).normal(scale=0.3, size=(256, 7))
     done = threading.Event()

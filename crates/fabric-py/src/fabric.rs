@@ -32,6 +32,9 @@ pub struct PyFabric {
     robot: Py<PyRobot>,
     scene: RwLock<Arc<Scene>>,
     last: Mutex<Option<Diagnostics>>,
+    /// Scratch of `acceleration`, kept between calls: building it (kinematics workspaces, one task point
+    /// per sphere) cost as much as the evaluation itself (81 spheres: ~12 of ~25 µs per call).
+    ws: Mutex<FabricWorkspace>,
 }
 
 impl PyFabric {
@@ -158,11 +161,13 @@ impl PyFabric {
         let fabric = guarded(py, || Fabric::new(model, config))?;
         let scene = scene.map(|s| s.inner.clone()).unwrap_or_default();
         fabric.check_scene(&scene).map_err(error)?;
+        let ws = Mutex::new(FabricWorkspace::new(&fabric));
         Ok(PyFabric {
             fabric: Arc::new(fabric),
             robot: robot.unbind(),
             scene: RwLock::new(Arc::new(scene)),
             last: Mutex::new(None),
+            ws,
         })
     }
 
@@ -259,15 +264,24 @@ impl PyFabric {
             .transpose()?;
         let fabric = &self.fabric;
         let scene = self.scene_snapshot();
+        // the GIL is held throughout, so the lock is never contended; after a panic inside (poisoned
+        // lock) the workspace is built afresh rather than trusted
+        let mut ws = self.ws.lock().unwrap_or_else(|poisoned| {
+            let mut ws = poisoned.into_inner();
+            *ws = FabricWorkspace::new(fabric);
+            self.ws.clear_poison();
+            ws
+        });
+        let ws = &mut *ws;
         let (qdd, diag) = guarded(py, || {
-            let mut ws = FabricWorkspace::new(fabric);
             let mut qdd = vec![0.0; n];
             match &targets {
-                Some(t) => fabric
-                    .acceleration_with_targets(&scene, &q, &qd, &command, t, &mut ws, &mut qdd)?,
-                None => fabric.acceleration(&scene, &q, &qd, &command, &mut ws, &mut qdd)?,
+                Some(t) => {
+                    fabric.acceleration_with_targets(&scene, &q, &qd, &command, t, ws, &mut qdd)?
+                }
+                None => fabric.acceleration(&scene, &q, &qd, &command, ws, &mut qdd)?,
             }
-            Ok((qdd, fabric.diagnostics(&ws)))
+            Ok((qdd, fabric.diagnostics(ws)))
         })?;
         *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Some(diag);
         output(py, qdd, &[n])
