@@ -292,7 +292,9 @@ def _initial_batch(sampler: InitialCandidates, n: int, dim: int, rng: np.random.
 
 #: Modules pycma imports at its top level for features Alg. 1 does not use (surrogate models' rank
 #: correlation, plotting); together they were 0.75 of its 0.95 s import time.
-_CMA_OPTIONAL_IMPORTS = ("scipy.stats", "matplotlib.pyplot")
+#: Blocked while pycma is imported, when not loaded yet. "matplotlib" itself too: pycma's
+#: ``from matplotlib import pyplot`` loads the package (0.25 s) before it finds pyplot missing.
+_CMA_OPTIONAL_IMPORTS = ("scipy.stats", "matplotlib", "matplotlib.pyplot")
 
 
 def _import_cma() -> Any:
