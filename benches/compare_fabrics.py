@@ -3,7 +3,7 @@
 
 Same robot (the MotionBenchMaker Panda URDF, ``$GFCS_SHARED/robots/mbm_panda`` or ``<repo>/../shared``), same
 ``--obstacles`` sphere obstacles (radius 5 cm, seeded positions around the arm, none touching it at the
-start), same start, and a goal whose hand position is the `fabrics` planner's goal. Each engine drives the
+start), same start, and a joint goal (gfcs) whose hand position is the `fabrics` planner's goal. Each engine drives the
 arm there for ``--steps`` explicit Euler steps of 10 ms, and the time of every acceleration query is taken
 (median of the steps, µs). The two engines need different environments (`fabrics` pins numpy 1.26), so run
 the script once per engine:
@@ -38,6 +38,8 @@ import numpy as np
 
 START = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 GOAL = np.array([0.9, 0.3, 0.2, -1.6, -0.1, 1.9, 0.6])
+#: panda_hand's position at GOAL [m] (the `fabrics` planner's goal; `run_gfcs` checks it to 1 mm)
+GOAL_HAND = np.array([0.3128, 0.5696, 0.4608])
 LIMITS = [[-2.8973, 2.8973], [-1.7628, 1.7628], [-2.8973, 2.8973], [-3.0718, -0.0698], [-2.8973, 2.8973],
           [-0.0175, 3.7525], [-2.8973, 2.8973]]
 RADIUS = 0.05
@@ -53,7 +55,7 @@ def obstacles(n: int, seed: int = 0) -> np.ndarray:
     """(n, 3) sphere centres [m]: seeded, 0.3-0.8 m from the base, above the floor, away from the start
     and goal hand positions (at least 0.25 m)."""
     rng = np.random.default_rng(seed)
-    keep_out = np.array([[0.307, 0.0, 0.59], [0.50, 0.31, 0.55]])  # hand at START, roughly at GOAL
+    keep_out = np.array([[0.307, 0.0, 0.59], GOAL_HAND])  # the hand at START and at GOAL
     out = []
     while len(out) < n:
         p = rng.uniform([-0.8, -0.8, 0.1], [0.8, 0.8, 0.9])
@@ -80,6 +82,8 @@ def run_gfcs(args: argparse.Namespace) -> dict:
     from gfcs import problems
 
     robot = problems.mbm_panda()
+    if np.linalg.norm(np.asarray(robot.ee_position(GOAL)) - GOAL_HAND) > 1e-3:
+        raise SystemExit(f"GOAL_HAND is not the hand at GOAL: {robot.ee_position(GOAL)}")
     scene = gfcs.Scene()
     for c in obstacles(args.obstacles):
         scene.add_sphere(c, RADIUS)
@@ -111,7 +115,7 @@ def run_fabrics(args: argparse.Namespace) -> dict:
     fk = GenericURDFFk(urdf, root_link="panda_link0", end_links=["panda_hand"])
     planner = ParameterizedFabricPlanner(7, fk)
     links = ["panda_link3", "panda_link4", "panda_link5", "panda_link6", "panda_link7", "panda_hand"]
-    goal_xyz = [0.5, 0.31, 0.55]
+    goal_xyz = GOAL_HAND.tolist()
     goal = GoalComposition(name="goal", content_dict={"subgoal0": {
         "weight": 1.0, "is_primary_goal": True, "indices": [0, 1, 2], "parent_link": "panda_link0",
         "child_link": "panda_hand", "desired_position": goal_xyz, "epsilon": 0.02, "type": "staticSubGoal"}})

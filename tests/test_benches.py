@@ -82,3 +82,14 @@ def test_retrieval_sampler_returns_the_nearest_contexts_targets():
     problem = SimpleNamespace(robot=robot, context=np.array([4.0, 4.0]))
     y = sampler.sample(problem, 4, np.random.default_rng(0))
     np.testing.assert_allclose(y, [[1.0, -1.0], [0.2, 0.2], [0.1, 0.1], [1.0, -1.0]])
+
+
+def test_compare_fabrics_times_the_gfcs_side(tmp_path, shared_dir):
+    """The gfcs half of benches/compare_fabrics.py (the `fabrics` half needs that package's own environment):
+    the arm moves, every sphere and obstacle is in, and both timings are positive."""
+    out = tmp_path / "gfcs.json"
+    _run("compare_fabrics.py", "--engine", "gfcs", "--steps", "50", "--obstacles", "3", "--json", str(out),
+         shared=shared_dir)
+    figures = json.loads(out.read_text())
+    assert figures["spheres"] == 81 and figures["obstacles"] == 3 and figures["rollout_steps"] == 50
+    assert figures["median_us"] > 0 and figures["rollout_us_per_step"] > 0
