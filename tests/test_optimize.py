@@ -429,6 +429,8 @@ def test_result_json_round_trip(shelf_problem, solved):
         np.testing.assert_array_equal(getattr(back.trajectory, name), getattr(solved.trajectory, name))
     assert back.metrics == solved.metrics and back.settings == solved.settings
     assert back.fabric_config == solved.fabric_config
+    # the joint order of every vector, for readers of the JSON that do not load the robot
+    assert back.joint_names == solved.joint_names == list(shelf_problem.robot.joint_names)
     assert [(c.tolist(), v) for c, v in back.top] == [(c.tolist(), v) for c, v in solved.top]
     assert (back.problem, back.cls, back.method, back.seed, back.cost, back.success, back.wall_time) == (
         solved.problem, solved.cls, solved.method, solved.seed, solved.cost, solved.success, solved.wall_time)

@@ -175,6 +175,8 @@ class SolveResult:
             every retry; 0 when unknown (results from before this field).
         settings: rollout and optimiser settings used (dt, t_max, tol, ...).
         fabric_config: the fabric configuration as a dict (None: the defaults).
+        joint_names: the robot's joint names, the order of every (dof,) vector and of the trajectory's
+            columns ([] when unknown: results from before this field).
     """
 
     problem: str
@@ -200,6 +202,7 @@ class SolveResult:
     wall_time: float = 0.0
     settings: Dict[str, Any] = field(default_factory=dict)
     fabric_config: Optional[Dict[str, Any]] = None
+    joint_names: List[str] = field(default_factory=list)
     #: The robot the result was solved with (in memory only, not serialised); used by
     #: :func:`gfcs.optimize.replay`.
     robot: Any = field(default=None, repr=False, compare=False)
@@ -239,6 +242,7 @@ class SolveResult:
             "wall_time": _enc(self.wall_time),
             "settings": _enc(self.settings),
             "fabric_config": _enc(self.fabric_config),
+            "joint_names": list(self.joint_names),
         }
         if include_trajectory:
             d["trajectory"] = self.trajectory.to_dict()
@@ -283,6 +287,7 @@ class SolveResult:
             wall_time=_dec_float(d.get("wall_time", 0.0)),
             settings=_dec_value(d.get("settings", {})),
             fabric_config=_dec_value(d.get("fabric_config")),
+            joint_names=[str(n) for n in d.get("joint_names", [])],
         )
 
     @classmethod
