@@ -4,6 +4,7 @@ URDF options, sphere and SRDF inputs, and the exceptions raised for bad input.""
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 
@@ -144,6 +145,69 @@ def test_inverse_kinematics_reaches_fk_targets_single_and_batched(panda):
 def test_inverse_kinematics_rejects_bad_input(panda, kwargs, error, match):
     with pytest.raises(error, match=match):
         panda.inverse_kinematics(**kwargs)
+
+
+def numpy_point_ik(robot, q, xt, link, point, axis, approach, cone_deg, lo, up, iterations=150, tol=2e-3):
+    """Reference of Robot.point_ik in numpy (the generators' former loop): DLS on [x* − x; 0.5 (a* − R·axis)]
+    with λ² = 0.0025, steps ≤ 0.3 rad, clipped; converged tested before each step."""
+    cos_cone, w = math.cos(math.radians(cone_deg)), 0.5
+    q = np.clip(q, lo, up)
+    for _ in range(iterations):
+        pose = np.asarray(robot.link_poses(q))[link]
+        err = xt - (pose[:3, :3] @ point + pose[:3, 3])
+        rows, errs = [np.asarray(robot.point_jacobian(q, link, point))], [err]
+        a = pose[:3, :3] @ axis
+        if approach is not None:
+            rows.append(w * np.asarray(robot.axis_jacobian(q, link, axis)))
+            errs.append(w * (approach - a))
+        if np.linalg.norm(err) < tol and (approach is None or float(a @ approach) >= cos_cone):
+            return q, True
+        jac, e = np.vstack(rows), np.concatenate(errs)
+        dq = jac.T @ np.linalg.solve(jac @ jac.T + 0.05**2 * np.eye(jac.shape[0]), e)
+        dq *= min(1.0, 0.3 / max(np.linalg.norm(dq), 1e-300))
+        q = np.clip(q + dq, lo, up)
+    return q, False
+
+
+def test_point_ik_equals_its_numpy_reference(panda):
+    """Random starts and targets, with and without an approach cone, converging or not: the core's descent
+    is the numpy iteration to round-off, and a converged result meets the target."""
+    rng = np.random.default_rng(0)
+    link, tcp, z = panda.link_index(panda.ee_link), np.array([0.0, 0.0, 0.1034]), np.array([0.0, 0.0, 1.0])
+    lo, up = np.asarray(panda.lower) + 0.05, np.asarray(panda.upper) - 0.05
+    outcomes = set()
+    for i in range(30):
+        q, xt = rng.uniform(lo, up), rng.uniform([0.2, -0.5, 0.1], [0.7, 0.5, 0.8])
+        approach = None if i % 2 else np.array([0.0, 0.0, -1.0])
+        ref, ref_ok = numpy_point_ik(panda, q, xt, link, tcp, z, approach, 25.0, lo, up)
+        got, ok = panda.point_ik(q, xt, link=link, point=tcp, approach=approach, cone_deg=25.0, lower=lo, upper=up)
+        assert ok == ref_ok and got.shape == (7,)
+        np.testing.assert_allclose(got, ref, atol=1e-10, rtol=0)
+        assert np.all(got >= lo) and np.all(got <= up)
+        if ok:
+            pose = panda.link_poses(got)[link]
+            assert np.linalg.norm(pose[:3, :3] @ tcp + pose[:3, 3] - xt) < 2e-3
+            if approach is not None:
+                assert pose[:3, 2] @ approach >= math.cos(math.radians(25.0))
+        outcomes.add(ok)
+    assert outcomes == {True, False}  # both branches exercised
+    # defaults: the end-effector link's origin, the joint limits
+    q, ok = panda.point_ik([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785], [0.4, 0.1, 0.5])
+    assert ok and np.linalg.norm(panda.ee_position(q) - [0.4, 0.1, 0.5]) < 2e-3
+
+
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"position": np.zeros(2)}, gfcs.ShapeError, "position"),
+    ({"position": [0.0, np.nan, 0.0]}, gfcs.NonFiniteError, "position"),
+    ({"position": np.zeros(3), "approach": np.zeros(3)}, gfcs.InvalidValueError, "approach"),
+    ({"position": np.zeros(3), "lower": np.ones(7), "upper": np.zeros(7)}, gfcs.InvalidValueError, "lower"),
+    ({"position": np.zeros(3), "upper": np.zeros(6)}, gfcs.ShapeError, "upper"),
+    ({"position": np.zeros(3), "max_step": 0.0}, gfcs.InvalidValueError, "max_step"),
+    ({"position": np.zeros(3), "link": "nope"}, gfcs.LinkError, "nope"),
+])
+def test_point_ik_rejects_bad_input(panda, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        panda.point_ik(np.zeros(7), **kwargs)
 
 
 def test_panda_fk_and_spheres_match_yourdfpy(panda, panda_urdf_path):

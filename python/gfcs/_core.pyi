@@ -154,6 +154,19 @@ class Robot:
         Δq = Jᵀ (J Jᵀ + damping I)⁻¹ e, clipped into the limits; at most ``iterations`` steps, fewer when
         ‖e‖ < ``tolerance``; None: the core's defaults (30 steps, 1e-3 m², 1e-5, 0.3 m). Returns (dof,) or
         (N, dof); batches run in parallel."""
+    def point_ik(
+        self, q: ArrayLike, position: ArrayLike, link: Optional[LinkRef] = None,
+        point: Optional[ArrayLike] = None, axis: Optional[ArrayLike] = None,
+        approach: Optional[ArrayLike] = None, cone_deg: float = 0.0, lower: Optional[ArrayLike] = None,
+        upper: Optional[ArrayLike] = None, iterations: Optional[int] = None, damping: Optional[float] = None,
+        tolerance: Optional[float] = None, axis_weight: Optional[float] = None, max_step: Optional[float] = None,
+    ) -> Tuple[FloatArray, bool]:
+        """One damped least-squares descent from ``q`` (dof,) of the point ``point`` (3,) m of ``link``
+        (default: the end-effector link's origin) to ``position`` (3,) m, and with ``approach`` (3,) of the
+        link axis ``axis`` (default z) toward it within ``cone_deg`` degrees: e = [x* − x; w (a* − R·axis)],
+        Δq = Jᵀ (J Jᵀ + damping I)⁻¹ e scaled to ≤ ``max_step`` rad, clipped into [lower, upper] (default
+        the joint limits). None: 150 steps, damping 0.0025 m², tolerance 2e-3 m, w 0.5, max_step 0.3.
+        Returns (q, converged)."""
     def point_jacobian(self, q: ArrayLike, link: LinkRef, point: Optional[ArrayLike] = None) -> FloatArray:
         """(3, dof) Jacobian ∂x/∂q of the point ``point`` (3,) (default origin) fixed in ``link``."""
     def point_jdot_qdot(

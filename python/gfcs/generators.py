@@ -451,7 +451,7 @@ def inverse_kinematics(
     ``q_seed`` (when given), the others uniformly inside the limits.
 
     Args:
-        robot: a :class:`gfcs.Robot` (``link_poses``, ``point_jacobian``, ``axis_jacobian``).
+        robot: a :class:`gfcs.Robot` (each descent is its ``point_ik``).
         target: position [m] and optional approach direction with its cone.
         rng: generator for the restarts.
         link: link name or index (default ``robot.ee_link``).
@@ -465,34 +465,15 @@ def inverse_kinematics(
     idx = robot.link_index(link if link is not None else robot.ee_link) if not isinstance(link, int) else link
     lo = np.asarray(robot.lower, dtype=np.float64) + inset
     up = np.asarray(robot.upper, dtype=np.float64) - inset
-    pt = np.asarray(point, dtype=np.float64)
-    ax = np.asarray(axis, dtype=np.float64)
-    xt = np.asarray(target.position, dtype=np.float64)
-    at = None if target.approach is None else np.asarray(target.approach, dtype=np.float64)
-    cos_cone = math.cos(math.radians(target.cone_deg))
-    w_axis, lam2 = 0.5, 0.05**2
     for attempt in range(int(restarts)):
         q = np.clip(q_seed if (attempt == 0 and q_seed is not None) else rng.uniform(lo, up), lo, up)
-        for _ in range(int(iterations)):
-            pose = np.asarray(robot.link_poses(q))[idx]
-            x = pose[:3, :3] @ pt + pose[:3, 3]
-            err = xt - x
-            rows = [np.asarray(robot.point_jacobian(q, idx, pt))]
-            errs = [err]
-            a = pose[:3, :3] @ ax
-            if at is not None:
-                rows.append(w_axis * np.asarray(robot.axis_jacobian(q, idx, ax)))
-                errs.append(w_axis * (at - a))
-            if np.linalg.norm(err) < position_tol and (at is None or float(a @ at) >= cos_cone):
-                if accept is None or accept(q):
-                    return q
-                break
-            jac, e = np.vstack(rows), np.concatenate(errs)
-            dq = jac.T @ np.linalg.solve(jac @ jac.T + lam2 * np.eye(jac.shape[0]), e)
-            norm = np.linalg.norm(dq)
-            if norm > 0.3:
-                dq *= 0.3 / norm
-            q = np.clip(q + dq, lo, up)
+        # one descent in the core (Robot.point_ik): 2-5 µs per step against ~80 µs of numpy
+        q, converged = robot.point_ik(q, target.position, link=idx, point=point, axis=axis,
+                                      approach=target.approach, cone_deg=target.cone_deg, lower=lo, upper=up,
+                                      iterations=int(iterations), tolerance=position_tol, damping=0.05**2,
+                                      axis_weight=0.5, max_step=0.3)
+        if converged and (accept is None or accept(q)):
+            return q
     return None
 
 

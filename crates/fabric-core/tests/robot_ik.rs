@@ -143,3 +143,84 @@ fn bad_input_is_reported() {
         ));
     }
 }
+
+/// `point_ik` (the generators' descent): from starts near random configurations it brings the hand's
+/// tool point to the configuration's and the hand z axis into a 20° cone about the configuration's
+/// axis, inside the bounds it is given; a start that already meets the target is returned as it is.
+#[test]
+fn point_ik_reaches_tool_points_and_approach_cones() {
+    use fabric_core::robot::{point_ik, PointIkOptions, PointTarget};
+    let robot = Robot::panda();
+    let ee = robot.ee_link();
+    let tcp = Vector3::new(0.0, 0.0, 0.1034);
+    let (starts, targets) = reachable(&robot, 20, 0.3, true);
+    let options = PointIkOptions::default();
+    let (lo, up) = (robot.lower().to_vec(), robot.upper().to_vec());
+    let mut ws = KinematicsWorkspace::new(&robot);
+    let mut reached = 0;
+    for (start, t) in starts.chunks(7).zip(&targets) {
+        let z = t.axes.unwrap()[1];
+        let tool = t.position + z * 0.1034; // the tool point of the target configuration
+        let target = PointTarget {
+            position: tool,
+            approach: Some((z, 20f64.to_radians().cos())),
+        };
+        let mut q = start.to_vec();
+        if point_ik(
+            &robot,
+            ee,
+            &tcp,
+            &Vector3::z(),
+            &target,
+            &mut q,
+            &lo,
+            &up,
+            &options,
+        )
+        .unwrap()
+        {
+            reached += 1;
+            robot.update_positions(&q, &mut ws).unwrap();
+            let pose = robot.link_pose(&ws, ee);
+            assert!((pose.transform_point(&tcp.into()).coords - tool).norm() < options.tolerance);
+            assert!((pose.rotation * Vector3::z()).dot(&z) >= 20f64.to_radians().cos());
+            let again = q.clone();
+            assert!(point_ik(
+                &robot,
+                ee,
+                &tcp,
+                &Vector3::z(),
+                &target,
+                &mut q,
+                &lo,
+                &up,
+                &options
+            )
+            .unwrap());
+            assert_eq!(q, again);
+        }
+        assert!(q
+            .iter()
+            .zip(&lo)
+            .zip(&up)
+            .all(|((v, l), u)| l <= v && v <= u));
+    }
+    assert!(reached >= 18, "{reached} of 20");
+    let bad = PointTarget {
+        position: Vector3::new(0.4, 0.0, 0.5),
+        approach: Some((Vector3::zeros(), 0.9)),
+    };
+    let mut q = starts[..7].to_vec();
+    let err = point_ik(
+        &robot,
+        ee,
+        &tcp,
+        &Vector3::z(),
+        &bad,
+        &mut q,
+        &lo,
+        &up,
+        &options,
+    );
+    assert!(matches!(err, Err(FabricError::Value { .. })));
+}

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use fabric_core::robot::{
-    batch, inverse_kinematics, CollisionSphere, GeometryKind, IkOptions, IkTarget,
-    KinematicsWorkspace, Robot, RobotOptions, TaskPoint,
+    batch, inverse_kinematics, point_ik, CollisionSphere, GeometryKind, IkOptions, IkTarget,
+    KinematicsWorkspace, PointIkOptions, PointTarget, Robot, RobotOptions, TaskPoint,
 };
 use fabric_core::FabricError;
 use nalgebra::{Matrix3xX, Vector3};
@@ -471,6 +471,84 @@ impl PyRobot {
             None => output(py, data, &[dof]),
             Some(n) => output(py, data, &[n, dof]),
         }
+    }
+
+    /// One damped least-squares descent from `q` (dof,) of the point `point` (3,) m of `link` (default
+    /// the end-effector link; point default its origin) to `position` (3,) m (world frame), and with
+    /// `approach` (3,) of the link axis `axis` (3,) (default z) toward that world direction, met within
+    /// `cone_deg` degrees: e = [x* − x; w (a* − R·axis)] (w = `axis_weight`), Δq = Jᵀ (J Jᵀ + `damping`
+    /// I)⁻¹ e scaled to at most `max_step` rad, q clipped into [`lower`, `upper`] (default the joint
+    /// limits), at most `iterations` steps. Returns (q (dof,), converged): converged when the point is
+    /// within `tolerance` m and the axis inside the cone (tested before each step). The problem
+    /// generators run it from several starts (`gfcs.generators.inverse_kinematics`).
+    #[pyo3(signature = (q, position, link=None, point=None, axis=None, approach=None, cone_deg=0.0,
+                        lower=None, upper=None, iterations=None, damping=None, tolerance=None,
+                        axis_weight=None, max_step=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn point_ik<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        position: &Bound<'py, PyAny>,
+        link: Option<LinkRef>,
+        point: Option<&Bound<'py, PyAny>>,
+        axis: Option<&Bound<'py, PyAny>>,
+        approach: Option<&Bound<'py, PyAny>>,
+        cone_deg: f64,
+        lower: Option<&Bound<'py, PyAny>>,
+        upper: Option<&Bound<'py, PyAny>>,
+        iterations: Option<usize>,
+        damping: Option<f64>,
+        tolerance: Option<f64>,
+        axis_weight: Option<f64>,
+        max_step: Option<f64>,
+    ) -> PyResult<(Bound<'py, PyArrayDyn<f64>>, bool)> {
+        let robot = &self.inner;
+        let dof = robot.dof();
+        let link = match link {
+            Some(l) => l.resolve(robot)?,
+            None => robot.ee_link(),
+        };
+        let vec3 = |v: Option<&Bound<'py, PyAny>>, what: &str, default: Vector3<f64>| match v
+            .filter(|v| !v.is_none())
+        {
+            Some(v) => Ok::<_, PyErr>(Vector3::from_column_slice(&convert::vector(v, what, 3)?)),
+            None => Ok(default),
+        };
+        let mut q = convert::vector(q, "q", dof)?;
+        let position = Vector3::from_column_slice(&convert::vector(position, "position", 3)?);
+        let point = vec3(point, "point", Vector3::zeros())?;
+        let axis = vec3(axis, "axis", Vector3::z())?;
+        let approach = match approach.filter(|a| !a.is_none()) {
+            Some(a) => Some((
+                Vector3::from_column_slice(&convert::vector(a, "approach", 3)?),
+                cone_deg.to_radians().cos(),
+            )),
+            None => None,
+        };
+        let bounds = |v: Option<&Bound<'py, PyAny>>, what: &str, default: &[f64]| match v
+            .filter(|v| !v.is_none())
+        {
+            Some(v) => convert::vector(v, what, dof),
+            None => Ok(default.to_vec()),
+        };
+        let lower = bounds(lower, "lower", robot.lower())?;
+        let upper = bounds(upper, "upper", robot.upper())?;
+        let default = PointIkOptions::default();
+        let options = PointIkOptions {
+            iterations: iterations.unwrap_or(default.iterations),
+            damping: damping.unwrap_or(default.damping),
+            tolerance: tolerance.unwrap_or(default.tolerance),
+            axis_weight: axis_weight.unwrap_or(default.axis_weight),
+            max_step: max_step.unwrap_or(default.max_step),
+        };
+        let target = PointTarget { position, approach };
+        let converged = guarded(py, || {
+            point_ik(
+                robot, link, &point, &axis, &target, &mut q, &lower, &upper, &options,
+            )
+        })?;
+        Ok((output(py, q, &[dof])?, converged))
     }
 
     /// Jacobian ∂x/∂q (3, dof) of the point `point` (3,) m, fixed in the frame of `link` (name or index),

@@ -176,3 +176,170 @@ fn solve_one(
         clip(q);
     }
 }
+
+/// Settings of [`point_ik`] (defaults: those of the procedural problem generators).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointIkOptions {
+    /// Maximum number of damped least-squares steps.
+    pub iterations: usize,
+    /// λ² (> 0, m²): damping of J Jᵀ.
+    pub damping: f64,
+    /// Converged when the point is within this of its target (m, > 0) and the axis inside its cone.
+    pub tolerance: f64,
+    /// w (≥ 0): weight of the axis rows (J and e) relative to the position rows.
+    pub axis_weight: f64,
+    /// Largest step norm ‖Δq‖ (rad, > 0): longer steps are scaled down to it.
+    pub max_step: f64,
+}
+
+impl Default for PointIkOptions {
+    fn default() -> Self {
+        PointIkOptions {
+            iterations: 150,
+            damping: 0.05 * 0.05,
+            tolerance: 2e-3,
+            axis_weight: 0.5,
+            max_step: 0.3,
+        }
+    }
+}
+
+/// Target of [`point_ik`]: a position for a point of the link and, optionally, a direction for one of
+/// its axes, met when the axis lies within a cone around it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointTarget {
+    /// Position (m, world frame) of the link point.
+    pub position: Vector3<f64>,
+    /// World direction for the link axis (normalised here) and the cosine of the cone's half angle.
+    pub approach: Option<(Vector3<f64>, f64)>,
+}
+
+/// One damped least-squares descent, in place on `q` (dof), of the point `point` (link frame, m) of
+/// `link` to `target.position` and, with an approach, of the link axis `axis` (link frame) toward the
+/// approach direction a*: e = [x* − x; w (a* − R·axis)], Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ e scaled to at most
+/// `max_step`, q clipped into [`lower`, `upper`] (rad) before the first step and after each. Returns
+/// whether it converged: ‖x* − x‖ < `tolerance` and a*·(R·axis) ≥ the cone's cosine, tested before
+/// each step (so a start that already meets the target is returned unchanged, clipped).
+///
+/// Errors: `Shape` (q, lower or upper not of length dof), `NonFinite` (inputs), `Value` (link out of
+/// range, zero axis or approach, lower > upper, bad options).
+#[allow(clippy::too_many_arguments)]
+pub fn point_ik(
+    robot: &Robot,
+    link: usize,
+    point: &Vector3<f64>,
+    axis: &Vector3<f64>,
+    target: &PointTarget,
+    q: &mut [f64],
+    lower: &[f64],
+    upper: &[f64],
+    options: &PointIkOptions,
+) -> Result<bool> {
+    robot.check_link_index(link, "link")?;
+    let dof = robot.dof();
+    for (what, v) in [("q", &*q), ("lower", lower), ("upper", upper)] {
+        if v.len() != dof {
+            return Err(FabricError::Shape {
+                what: what.into(),
+                expected: format!("({dof},)"),
+                got: format!("({},)", v.len()),
+            });
+        }
+        check_finite(what, v)?;
+    }
+    check_finite("point", point.as_slice())?;
+    check_finite("axis", axis.as_slice())?;
+    check_finite("target position", target.position.as_slice())?;
+    let value = |what: &str, message: String| FabricError::Value {
+        what: what.into(),
+        message,
+    };
+    if lower.iter().zip(upper).any(|(l, u)| l > u) {
+        return Err(value(
+            "lower",
+            "a lower bound exceeds its upper bound".into(),
+        ));
+    }
+    let o = options;
+    if !(o.damping.is_finite() && o.damping > 0.0) {
+        return Err(value("damping", format!("must be > 0, got {}", o.damping)));
+    }
+    if !(o.tolerance.is_finite() && o.tolerance > 0.0) {
+        return Err(value(
+            "tolerance",
+            format!("must be > 0, got {}", o.tolerance),
+        ));
+    }
+    if !(o.axis_weight.is_finite() && o.axis_weight >= 0.0) {
+        return Err(value(
+            "axis_weight",
+            format!("must be >= 0, got {}", o.axis_weight),
+        ));
+    }
+    if !(o.max_step.is_finite() && o.max_step > 0.0) {
+        return Err(value(
+            "max_step",
+            format!("must be > 0, got {}", o.max_step),
+        ));
+    }
+    let approach = match target.approach {
+        None => None,
+        Some((a, cos_cone)) => {
+            check_finite("approach", a.as_slice())?;
+            check_finite("cone", &[cos_cone])?;
+            if a.norm() == 0.0 || axis.norm() == 0.0 {
+                return Err(value(
+                    "approach",
+                    "the approach direction or the axis is zero".into(),
+                ));
+            }
+            Some((a.normalize(), cos_cone))
+        }
+    };
+    let clip = |q: &mut [f64]| {
+        for ((v, l), u) in q.iter_mut().zip(lower).zip(upper) {
+            *v = v.clamp(*l, *u);
+        }
+    };
+    clip(q);
+    let rows = if approach.is_some() { 6 } else { 3 };
+    let w = o.axis_weight;
+    let (mut ws, mut tp) = (KinematicsWorkspace::new(robot), TaskPoint::new(dof));
+    let mut jac = DMatrix::<f64>::zeros(rows, dof);
+    let mut err = DVector::<f64>::zeros(rows);
+    for _ in 0..o.iterations {
+        robot.forward_positions(q, &mut ws);
+        robot.point(&ws, link, point, &mut tp);
+        let position_error = target.position - tp.x;
+        err.rows_mut(0, 3).copy_from(&position_error);
+        jac.rows_mut(0, 3).copy_from(&tp.jac);
+        let mut inside = true;
+        if let Some((a, cos_cone)) = approach {
+            robot.axis(&ws, link, axis, &mut tp);
+            inside = a.dot(&tp.x) >= cos_cone;
+            err.rows_mut(3, 3).copy_from(&((a - tp.x) * w));
+            jac.rows_mut(3, 3).copy_from(&(&tp.jac * w));
+        }
+        if position_error.norm() < o.tolerance && inside {
+            return Ok(true);
+        }
+        let mut gram = &jac * jac.transpose();
+        for i in 0..rows {
+            gram[(i, i)] += o.damping;
+        }
+        // J Jᵀ + λ² I is symmetric positive definite for λ² > 0.
+        let Some(chol) = gram.cholesky() else {
+            return Ok(false);
+        };
+        let mut step = jac.transpose() * chol.solve(&err);
+        let norm = step.norm();
+        if norm > o.max_step {
+            step *= o.max_step / norm;
+        }
+        for (v, s) in q.iter_mut().zip(step.iter()) {
+            *v += s;
+        }
+        clip(q);
+    }
+    Ok(false)
+}

@@ -7,7 +7,8 @@
 //! * [`CollisionSphere`] (spheres.rs) and the self-collision pairs (srdf.rs).
 //! * [`LinkGeometry`] (geometry.rs): URDF collision geometry for mesh-based validation.
 //! * [`Robot::panda`] (panda.rs): the shipped Franka Panda. [`batch`]: parallel forward kinematics.
-//! * [`inverse_kinematics`] (ik.rs): damped least-squares IK of one link for many targets in parallel.
+//! * [`inverse_kinematics`] (ik.rs): damped least-squares IK of one link for many targets in parallel;
+//!   [`point_ik`]: one descent of a link point and axis (the problem generators' IK).
 
 pub mod batch;
 mod geometry;
@@ -21,7 +22,7 @@ mod tree;
 mod urdf;
 
 pub use geometry::{GeometryKind, LinkGeometry};
-pub use ik::{inverse_kinematics, IkOptions, IkTarget};
+pub use ik::{inverse_kinematics, point_ik, IkOptions, IkTarget, PointIkOptions, PointTarget};
 pub use kinematics::{KinematicsWorkspace, TaskPoint};
 pub use model::{Robot, RobotOptions};
 pub use spheres::CollisionSphere;
