@@ -80,6 +80,27 @@ def test_solve_validates_with_the_mesh_model_beside_a_spherized_robot(tmp_path):
     assert r.returncode == 2 and "missing.urdf" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_solve_takes_the_spheres_of_the_spherized_model_beside_a_mesh_robot(tmp_path):
+    """--robot X.urdf without spheres, X_spherized.urdf beside it (MotionBenchMaker's layout): the fabric
+    avoids obstacles with the twin's spheres (said on stderr) and X's own geometry validates the motion."""
+    import gfcs
+
+    def panda_with(collision):
+        return gfcs.panda_urdf().replace('<link name="panda_hand"/>',
+                                         f'<link name="panda_hand"><collision><geometry>{collision}'
+                                         '</geometry></collision></link>')
+
+    mesh_model = tmp_path / "arm.urdf"
+    mesh_model.write_text(panda_with('<box size="0.1 0.2 0.1"/>'))
+    r = run("solve", "--method", "gf", "--class", "box", "--robot", str(mesh_model))
+    assert r.returncode == 2 and "no collision spheres" in r.stderr  # no twin: the one-line refusal
+    (tmp_path / "arm_spherized.urdf").write_text(panda_with('<sphere radius="0.05"/>'))
+    r = run("solve", "--method", "gf", "--class", "box", "--robot", str(mesh_model))
+    assert r.returncode in (0, 1), r.stderr
+    assert "uses those of" in r.stderr and "arm_spherized.urdf" in r.stderr
+    assert "checked   collision meshes" in r.stdout
+
+
 def test_solve_gf_summary(tmp_path):
     out = tmp_path / "r.json"
     r = run("solve", "--method", "gf", "--class", "box", "--json", str(out))

@@ -64,7 +64,8 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--robot", metavar="URDF",
                    help="robot URDF file, or 'mbm' for the MotionBenchMaker Panda of the shared data folder "
                         "(spherized URDF + SRDF; use it for MotionBenchMaker problems: their goals are "
-                        "collision-free for its spheres)")
+                        "collision-free for its spheres); a URDF X.urdf without collision spheres takes "
+                        "those of X_spherized.urdf beside it")
     g.add_argument("--srdf", metavar="SRDF", help="SRDF whose disabled collisions prune self-collision pairs")
     g.add_argument("--spheres", metavar="JSON", help="collision sphere file (replaces URDF spheres)")
     g.add_argument("--ee-link", metavar="LINK", help="end-effector link (default: deepest active link)")
@@ -145,10 +146,16 @@ def _robot(args: argparse.Namespace) -> Any:
 
             return mbm_panda()
         return gfcs.Robot.panda()
-    from gfcs.problems import with_gap_spheres
+    from gfcs.problems import spherized_urdf_for, with_gap_spheres
 
     robot = gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
                                  srdf=args.srdf, spheres=args.spheres)
+    sibling = spherized_urdf_for(args.robot) if len(robot.sphere_radii) == 0 else None
+    if sibling is not None:  # a mesh model with its spherized twin beside it (MotionBenchMaker's panda.urdf)
+        twin = gfcs.Robot.from_urdf(sibling, ee_link=args.ee_link, mesh_dir=args.mesh_dir)
+        robot = robot.with_spheres(list(zip(twin.sphere_links, twin.sphere_centers_local, twin.sphere_radii)))
+        print(f"gfcs: {args.robot} has no collision spheres; the fabric uses those of {sibling}",
+              file=sys.stderr)
     return with_gap_spheres(robot)  # MotionBenchMaker's panda_spherized.urdf gets --robot mbm's spheres
 
 

@@ -454,6 +454,16 @@ def mesh_urdf_for(urdf: PathLike) -> Optional[Path]:
     return None
 
 
+def spherized_urdf_for(urdf: PathLike) -> Optional[Path]:
+    """The spherized model beside a URDF: ``X_spherized.urdf`` next to ``X.urdf`` (MotionBenchMaker's
+    layout), when it exists and ``urdf`` is not itself spherized; otherwise None."""
+    path = Path(urdf)
+    if path.stem.endswith("_spherized"):
+        return None
+    sibling = path.with_name(path.stem + "_spherized" + path.suffix)
+    return sibling if sibling.is_file() else None
+
+
 def mesh_checker_for(robot: Any) -> Any:
     """The mesh checker :func:`mbm_panda` attached to ``robot``, None for any other robot."""
     entry = _MESH_CHECKERS.get(id(robot))
