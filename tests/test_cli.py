@@ -59,14 +59,16 @@ def test_solve_selection_and_timing_options_reach_the_result():
     assert r.returncode == 2 and "mesh_margin" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_solve_validates_with_the_mesh_model_beside_a_spherized_robot(tmp_path):
+def panda_with(collision):
+    """The shipped Panda's URDF (no collision elements) with one ``<collision>`` geometry on the hand."""
     import gfcs
 
-    def panda_with(collision):
-        return gfcs.panda_urdf().replace('<link name="panda_hand"/>',
-                                         f'<link name="panda_hand"><collision><geometry>{collision}'
-                                         '</geometry></collision></link>')
+    return gfcs.panda_urdf().replace('<link name="panda_hand"/>',
+                                     f'<link name="panda_hand"><collision><geometry>{collision}'
+                                     '</geometry></collision></link>')
 
+
+def test_solve_validates_with_the_mesh_model_beside_a_spherized_robot(tmp_path):
     spherized = tmp_path / "arm_spherized.urdf"
     spherized.write_text(panda_with('<sphere radius="0.05"/>'))
     r = run("solve", "--method", "gf", "--class", "box", "--robot", str(spherized))
@@ -83,13 +85,6 @@ def test_solve_validates_with_the_mesh_model_beside_a_spherized_robot(tmp_path):
 def test_solve_takes_the_spheres_of_the_spherized_model_beside_a_mesh_robot(tmp_path):
     """--robot X.urdf without spheres, X_spherized.urdf beside it (MotionBenchMaker's layout): the fabric
     avoids obstacles with the twin's spheres (said on stderr) and X's own geometry validates the motion."""
-    import gfcs
-
-    def panda_with(collision):
-        return gfcs.panda_urdf().replace('<link name="panda_hand"/>',
-                                         f'<link name="panda_hand"><collision><geometry>{collision}'
-                                         '</geometry></collision></link>')
-
     mesh_model = tmp_path / "arm.urdf"
     mesh_model.write_text(panda_with('<box size="0.1 0.2 0.1"/>'))
     r = run("solve", "--method", "gf", "--class", "box", "--robot", str(mesh_model))

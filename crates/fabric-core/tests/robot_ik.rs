@@ -165,38 +165,29 @@ fn point_ik_reaches_tool_points_and_approach_cones() {
             position: tool,
             approach: Some((z, 20f64.to_radians().cos())),
         };
+        let solve = |q: &mut [f64]| {
+            point_ik(
+                &robot,
+                ee,
+                &tcp,
+                &Vector3::z(),
+                &target,
+                q,
+                &lo,
+                &up,
+                &options,
+            )
+            .unwrap()
+        };
         let mut q = start.to_vec();
-        if point_ik(
-            &robot,
-            ee,
-            &tcp,
-            &Vector3::z(),
-            &target,
-            &mut q,
-            &lo,
-            &up,
-            &options,
-        )
-        .unwrap()
-        {
+        if solve(&mut q) {
             reached += 1;
             robot.update_positions(&q, &mut ws).unwrap();
             let pose = robot.link_pose(&ws, ee);
             assert!((pose.transform_point(&tcp.into()).coords - tool).norm() < options.tolerance);
             assert!((pose.rotation * Vector3::z()).dot(&z) >= 20f64.to_radians().cos());
             let again = q.clone();
-            assert!(point_ik(
-                &robot,
-                ee,
-                &tcp,
-                &Vector3::z(),
-                &target,
-                &mut q,
-                &lo,
-                &up,
-                &options
-            )
-            .unwrap());
+            assert!(solve(&mut q));
             assert_eq!(q, again);
         }
         assert!(q

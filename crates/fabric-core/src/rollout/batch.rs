@@ -88,6 +88,9 @@ pub fn evaluate_batch_system<S: System>(
     with_threads(threads, || {
         candidates
             .par_chunks(row)
+            // one candidate per job: rollouts differ in length by up to 7x (stalls, timeouts), and
+            // rayon's default chunks left a thread idle at the end of a batch
+            .with_max_len(1)
             .map_init(
                 || (system.workspace(), Buffers::new(dof)),
                 |(ws, buffers), commands| {
