@@ -147,6 +147,24 @@ def test_inverse_kinematics_rejects_bad_input(panda, kwargs, error, match):
         panda.inverse_kinematics(**kwargs)
 
 
+def test_self_clearance_is_the_minimum_over_the_sphere_pairs(panda):
+    """Robot.self_clearance against the formula over every self-collision pair, from the sphere centres."""
+    q = random_q(panda, 40)
+    pairs, radii = np.asarray(panda.self_collision_pairs), np.asarray(panda.sphere_radii)
+    c = np.asarray(panda.sphere_centers(q))
+    expect = (np.linalg.norm(c[:, pairs[:, 0]] - c[:, pairs[:, 1]], axis=2)
+              - radii[pairs[:, 0]] - radii[pairs[:, 1]]).min(axis=1)
+    got = panda.self_clearance(q)
+    assert got.shape == (40,)
+    np.testing.assert_allclose(got, expect, atol=1e-14, rtol=0)
+    assert panda.self_clearance(q[0]).shape == () and float(panda.self_clearance(q[0])) == pytest.approx(expect[0])
+    # a robot without pairs: +inf; a bad shape: the usual ShapeError
+    bare = gfcs.Robot.from_urdf(gfcs.panda_urdf())
+    assert np.all(np.isinf(bare.self_clearance(q[:3])))
+    with pytest.raises(gfcs.ShapeError, match="q"):
+        panda.self_clearance(np.zeros(6))
+
+
 def numpy_point_ik(robot, q, xt, link, point, axis, approach, cone_deg, lo, up, iterations=150, tol=2e-3):
     """Reference of Robot.point_ik in numpy (the generators' former loop): DLS on [x* − x; 0.5 (a* − R·axis)]
     with λ² = 0.0025, steps ≤ 0.3 rad, clipped; converged tested before each step."""

@@ -130,6 +130,10 @@ class FakeRobot:
         c[:, 1, 2] = q[:, 1] + 0.5
         return c
 
+    def self_clearance(self, q):
+        c = self.sphere_centers(q)
+        return np.linalg.norm(c[:, 0] - c[:, 1], axis=1) - 0.2
+
     def ee_position(self, q):
         return self.sphere_centers(q)[:, 1]
 

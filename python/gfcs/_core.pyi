@@ -137,6 +137,9 @@ class Robot:
     @property
     def self_collision_pairs(self) -> IntArray:
         """(P, 2) int64 sphere index pairs (i < j) checked for self-collision."""
+    def self_clearance(self, q: ArrayLike) -> FloatArray:
+        """Self-collision clearance [m] of the spheres: min over ``self_collision_pairs`` of
+        ‖c_a − c_b‖ − r_a − r_b (negative: overlap; +inf without pairs); () for q (dof,), (N,) for (N, dof)."""
     def link_poses(self, q: ArrayLike) -> FloatArray:
         """World poses of every link: (L, 4, 4) for q (dof,), (N, L, 4, 4) for q (N, dof)."""
     def sphere_centers(self, q: ArrayLike) -> FloatArray:

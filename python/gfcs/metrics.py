@@ -201,14 +201,9 @@ def self_clearance(robot: Any, q: Any) -> np.ndarray:
         (T,) clearances [m]; +inf when the robot has no self-collision pairs.
     """
     qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
-    pairs = np.asarray(robot.self_collision_pairs, dtype=np.int64).reshape(-1, 2)
-    if pairs.shape[0] == 0 or qa.shape[0] == 0:
-        return np.full(qa.shape[0], math.inf)
-    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
-    # per coordinate (3, T, S): gathers of contiguous (T, S) planes, 4x faster than one (T, P, 3) gather
-    xyz = np.asarray(robot.sphere_centers(qa), dtype=np.float64).reshape(qa.shape[0], -1, 3).transpose(2, 0, 1)
-    d2 = sum((c[:, pairs[:, 0]] - c[:, pairs[:, 1]]) ** 2 for c in xyz)
-    return (np.sqrt(d2) - (radii[pairs[:, 0]] + radii[pairs[:, 1]])).min(axis=1)
+    if qa.shape[0] == 0:
+        return np.zeros(0)
+    return np.asarray(robot.self_clearance(qa), dtype=np.float64).reshape(qa.shape[0])  # in the core
 
 
 def mesh_clearance(mesh_checker: Any, scene: Any, q: Any) -> np.ndarray:

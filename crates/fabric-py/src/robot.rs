@@ -337,6 +337,17 @@ impl PyRobot {
         )
     }
 
+    /// Self-collision clearance (m) of the collision spheres: min over `self_collision_pairs` of
+    /// ‖c_a − c_b‖ − r_a − r_b (negative: overlap; +inf without pairs), a 0-d array for q (dof,) or (N,)
+    /// for q (N, dof). Batches run in parallel with the GIL released.
+    fn self_clearance<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.per_configuration(py, q, &[], |robot, qs, _| batch::self_clearance(robot, qs))
+    }
+
     /// World poses of every link, (L, 4, 4) for q (dof,) or (N, L, 4, 4) for q (N, dof). Link order:
     /// `link_names`. Batches run in parallel with the GIL released.
     fn link_poses<'py>(

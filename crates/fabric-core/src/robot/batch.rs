@@ -91,3 +91,20 @@ pub fn link_origins(robot: &Robot, qs: &[f64], link: usize) -> Result<Vec<Vector
         robot.link_pose(ws, link).translation.vector
     })
 }
+
+/// Self-collision clearance (m) for N configurations: per configuration, the minimum over
+/// [`Robot::self_collision_pairs`] of ‖c_a − c_b‖ − r_a − r_b (negative: the spheres overlap); +∞ when
+/// the robot has no pairs. `qs` is N × dof row-major. Errors: `Shape`, `NonFinite`.
+pub fn self_clearance(robot: &Robot, qs: &[f64]) -> Result<Vec<f64>> {
+    let spheres = robot.spheres();
+    let pairs = robot.self_collision_pairs();
+    for_each_config(robot, qs, 1, |ws, _| {
+        let centers: Vec<Vector3<f64>> = (0..spheres.len())
+            .map(|i| robot.sphere_center(ws, i))
+            .collect();
+        pairs.iter().fold(f64::INFINITY, |best, &(a, b)| {
+            let d = (centers[a] - centers[b]).norm() - spheres[a].radius - spheres[b].radius;
+            best.min(d)
+        })
+    })
+}
