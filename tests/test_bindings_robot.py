@@ -221,6 +221,8 @@ def test_point_ik_equals_its_numpy_reference(panda):
     ({"position": np.zeros(3), "lower": np.ones(7), "upper": np.zeros(7)}, gfcs.InvalidValueError, "lower"),
     ({"position": np.zeros(3), "upper": np.zeros(6)}, gfcs.ShapeError, "upper"),
     ({"position": np.zeros(3), "max_step": 0.0}, gfcs.InvalidValueError, "max_step"),
+    ({"position": np.zeros(3), "cone_deg": -1.0}, gfcs.InvalidValueError, "cone_deg"),
+    ({"position": np.zeros(3), "cone_deg": float("nan")}, gfcs.InvalidValueError, "cone_deg"),
     ({"position": np.zeros(3), "link": "nope"}, gfcs.LinkError, "nope"),
 ])
 def test_point_ik_rejects_bad_input(panda, kwargs, error, match):

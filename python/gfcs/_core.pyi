@@ -160,13 +160,13 @@ class Robot:
     def point_ik(
         self, q: ArrayLike, position: ArrayLike, link: Optional[LinkRef] = None,
         point: Optional[ArrayLike] = None, axis: Optional[ArrayLike] = None,
-        approach: Optional[ArrayLike] = None, cone_deg: float = 0.0, lower: Optional[ArrayLike] = None,
+        approach: Optional[ArrayLike] = None, cone_deg: float = 25.0, lower: Optional[ArrayLike] = None,
         upper: Optional[ArrayLike] = None, iterations: Optional[int] = None, damping: Optional[float] = None,
         tolerance: Optional[float] = None, axis_weight: Optional[float] = None, max_step: Optional[float] = None,
     ) -> Tuple[FloatArray, bool]:
         """One damped least-squares descent from ``q`` (dof,) of the point ``point`` (3,) m of ``link``
         (default: the end-effector link's origin) to ``position`` (3,) m, and with ``approach`` (3,) of the
-        link axis ``axis`` (default z) toward it within ``cone_deg`` degrees: e = [x* − x; w (a* − R·axis)],
+        link axis ``axis`` (default z) toward it within ``cone_deg`` degrees (0-180, default 25): e = [x* − x; w (a* − R·axis)],
         Δq = Jᵀ (J Jᵀ + damping I)⁻¹ e scaled to ≤ ``max_step`` rad, clipped into [lower, upper] (default
         the joint limits). None: 150 steps, damping 0.0025 m², tolerance 2e-3 m, w 0.5, max_step 0.3.
         Returns (q, converged)."""

@@ -487,12 +487,12 @@ impl PyRobot {
     /// One damped least-squares descent from `q` (dof,) of the point `point` (3,) m of `link` (default
     /// the end-effector link; point default its origin) to `position` (3,) m (world frame), and with
     /// `approach` (3,) of the link axis `axis` (3,) (default z) toward that world direction, met within
-    /// `cone_deg` degrees: e = [x* − x; w (a* − R·axis)] (w = `axis_weight`), Δq = Jᵀ (J Jᵀ + `damping`
+    /// `cone_deg` degrees (0-180, default 25): e = [x* − x; w (a* − R·axis)] (w = `axis_weight`), Δq = Jᵀ (J Jᵀ + `damping`
     /// I)⁻¹ e scaled to at most `max_step` rad, q clipped into [`lower`, `upper`] (default the joint
     /// limits), at most `iterations` steps. Returns (q (dof,), converged): converged when the point is
     /// within `tolerance` m and the axis inside the cone (tested before each step). The problem
     /// generators run it from several starts (`gfcs.generators.inverse_kinematics`).
-    #[pyo3(signature = (q, position, link=None, point=None, axis=None, approach=None, cone_deg=0.0,
+    #[pyo3(signature = (q, position, link=None, point=None, axis=None, approach=None, cone_deg=25.0,
                         lower=None, upper=None, iterations=None, damping=None, tolerance=None,
                         axis_weight=None, max_step=None))]
     #[allow(clippy::too_many_arguments)]
@@ -530,6 +530,12 @@ impl PyRobot {
         let position = Vector3::from_column_slice(&convert::vector(position, "position", 3)?);
         let point = vec3(point, "point", Vector3::zeros())?;
         let axis = vec3(axis, "axis", Vector3::z())?;
+        if !(0.0..=180.0).contains(&cone_deg) {
+            return Err(error(FabricError::Value {
+                what: "cone_deg".into(),
+                message: format!("must be within [0, 180] degrees, got {cone_deg}"),
+            }));
+        }
         let approach = match approach.filter(|a| !a.is_none()) {
             Some(a) => Some((
                 Vector3::from_column_slice(&convert::vector(a, "approach", 3)?),
