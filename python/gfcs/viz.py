@@ -277,6 +277,8 @@ def _collision_meshes(robot: Any) -> List[_LinkMesh]:
 def _robot_meshes(robot: Any, geometry: str, urdf: Optional[Any], mesh_dir: Optional[str]) -> List[_LinkMesh]:
     if geometry == "spheres":
         return []
+    if geometry == "auto" and urdf is None and not any(g["type"] == "mesh" for g in robot.collision_geometry()):
+        return []  # nothing to load (the shipped Panda): spare the import of trimesh, ~0.8 s
     try:
         import trimesh  # noqa: F401
     except ImportError:
