@@ -56,6 +56,14 @@ DEFAULT_LIMIT_TOL = 1e-6
 DEFAULT_MESH_MARGIN = 0.001
 
 
+def _non_negative(name: str, value: Any, unit: str) -> float:
+    """``value`` as a float; ValueError naming ``name`` unless it is finite and ≥ 0."""
+    v = float(value)
+    if not (math.isfinite(v) and v >= 0):
+        raise ValueError(f"{name} must be a finite number ≥ 0{unit}, got {value}")
+    return v
+
+
 def _as_path(x: Any, name: str) -> np.ndarray:
     """``x`` as a float64 array of shape (T, k); a 1-D input (T,) becomes (T, 1)."""
     a = np.asarray(x, dtype=np.float64)
@@ -318,8 +326,7 @@ def trajectory_metrics(
         raise ValueError(f"goal: expected shape ({qa.shape[1]},), got {g.shape}")
     if qa.shape[0] == 0:
         raise ValueError("q: expected at least one sample, got shape (0, dof)")
-    if not (math.isfinite(mesh_margin) and mesh_margin >= 0):
-        raise ValueError(f"mesh_margin must be a finite number ≥ 0 [m], got {mesh_margin}")
+    mesh_margin = _non_negative("mesh_margin", mesh_margin, " [m]")
     ee_a = (
         np.asarray(robot.ee_position(qa), dtype=np.float64).reshape(qa.shape[0], 3)
         if ee is None

@@ -728,7 +728,7 @@ def solve(
     settings = settings or RolloutSettings()
     if method not in ("gfcs", "gf"):
         raise ValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
-    mesh_margin = _non_negative("mesh_margin", mesh_margin, " [m]")
+    mesh_margin = _metrics._non_negative("mesh_margin", mesh_margin, " [m]")
     robot, scene = problem.robot, problem.scene
     dof = int(robot.dof)
     q0 = np.asarray(problem.q0, dtype=np.float64)
@@ -754,7 +754,7 @@ def solve(
     n_commands = int(n_commands)
     if n_commands < 1:
         raise ValueError(f"n_commands must be ≥ 1 for method 'gfcs', got {n_commands}")
-    length_slack = _non_negative("length_slack", length_slack, "")
+    length_slack = _metrics._non_negative("length_slack", length_slack, "")
     if max_commands is None:
         max_commands = n_commands + 1 if sampler is None else n_commands
     max_commands = int(max_commands)
@@ -763,7 +763,7 @@ def solve(
     if sampler is not None and max_commands != n_commands:
         raise ValueError("max_commands > n_commands needs the default sampler: a sampler of your own "
                          f"proposes {n_commands} command(s) per candidate")
-    mesh_retry_margin = _non_negative("mesh_retry_margin", mesh_retry_margin, " [m]")
+    mesh_retry_margin = _metrics._non_negative("mesh_retry_margin", mesh_retry_margin, " [m]")
     options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
                    length_slack=length_slack, mesh_margin=mesh_margin,
@@ -782,14 +782,6 @@ def solve(
         wider = make_fabric(problem, fabric.config.replace({"obstacles": {"margin": margin}}))
         attempts.append(attempt(n_commands, wider, {**common, "fabric_config": wider.config.to_dict()}))
     return done(combine_attempts(attempts))
-
-
-def _non_negative(name: str, value: Any, unit: str) -> float:
-    """``value`` as a float; ValueError naming ``name`` unless it is finite and ≥ 0."""
-    v = float(value)
-    if not (math.isfinite(v) and v >= 0):
-        raise ValueError(f"{name} must be a finite number ≥ 0{unit}, got {value}")
-    return v
 
 
 def _mesh_collision_only(result: SolveResult) -> bool:

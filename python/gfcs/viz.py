@@ -259,12 +259,15 @@ def _urdf_visual_meshes(urdf: Union[str, os.PathLike], mesh_dir: Optional[str], 
     return out
 
 
+def _collision_mesh_files(robot: Any) -> List[Dict[str, Any]]:
+    """The robot's URDF ``<collision>`` elements that are mesh files found on disk."""
+    return [g for g in robot.collision_geometry() if g.get("type") == "mesh" and g.get("path") and g.get("exists")]
+
+
 def _collision_meshes(robot: Any) -> List[_LinkMesh]:
     """Mesh elements of the robot's URDF ``<collision>`` geometry that load with trimesh."""
     out: List[_LinkMesh] = []
-    for g in robot.collision_geometry():
-        if g.get("type") != "mesh" or not g.get("path") or not g.get("exists"):
-            continue
+    for g in _collision_mesh_files(robot):
         try:
             mesh = _load_mesh_file(str(g["path"]))
         except _MeshLoadError as e:
@@ -277,7 +280,7 @@ def _collision_meshes(robot: Any) -> List[_LinkMesh]:
 def _robot_meshes(robot: Any, geometry: str, urdf: Optional[Any], mesh_dir: Optional[str]) -> List[_LinkMesh]:
     if geometry == "spheres":
         return []
-    if geometry == "auto" and urdf is None and not any(g["type"] == "mesh" for g in robot.collision_geometry()):
+    if geometry == "auto" and urdf is None and not _collision_mesh_files(robot):
         return []  # nothing to load (the shipped Panda): spare the import of trimesh, ~0.8 s
     try:
         import trimesh  # noqa: F401

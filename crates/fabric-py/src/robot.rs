@@ -28,7 +28,18 @@ pub enum LinkRef {
     Name(String),
 }
 
+/// An optional argument that was given: `Some` unless omitted or Python `None`.
+fn given<'a, 'py>(v: Option<&'a Bound<'py, PyAny>>) -> Option<&'a Bound<'py, PyAny>> {
+    v.filter(|v| !v.is_none())
+}
+
 impl LinkRef {
+    /// The index of `link`, or of the end-effector link when it is `None` (the default of the IK
+    /// methods).
+    pub fn resolve_or_ee(link: Option<LinkRef>, robot: &Robot) -> PyResult<usize> {
+        link.map_or(Ok(robot.ee_link()), |l| l.resolve(robot))
+    }
+
     /// The link index; `LinkError` for an unknown name or an index out of range.
     pub fn resolve(&self, robot: &Robot) -> PyResult<usize> {
         match self {
@@ -418,10 +429,7 @@ impl PyRobot {
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let robot = self.inner.clone();
         let dof = robot.dof();
-        let link = match link {
-            Some(l) => l.resolve(&robot)?,
-            None => robot.ee_link(),
-        };
+        let link = LinkRef::resolve_or_ee(link, &robot)?;
         let (qs, q_batch) = convert::vector_or_rows(q_init, "q_init", dof)?;
         let (points, p_batch) = convert::vector_or_rows(positions, "positions", 3)?;
         if q_batch != p_batch {
@@ -516,41 +524,26 @@ impl PyRobot {
     ) -> PyResult<(Bound<'py, PyArrayDyn<f64>>, bool)> {
         let robot = &self.inner;
         let dof = robot.dof();
-        let link = match link {
-            Some(l) => l.resolve(robot)?,
-            None => robot.ee_link(),
-        };
-        let vec3 = |v: Option<&Bound<'py, PyAny>>, what: &str, default: Vector3<f64>| match v
-            .filter(|v| !v.is_none())
-        {
-            Some(v) => Ok::<_, PyErr>(Vector3::from_column_slice(&convert::vector(v, what, 3)?)),
-            None => Ok(default),
-        };
+        let link = LinkRef::resolve_or_ee(link, robot)?;
         let mut q = convert::vector(q, "q", dof)?;
-        let position = Vector3::from_column_slice(&convert::vector(position, "position", 3)?);
-        let point = vec3(point, "point", Vector3::zeros())?;
-        let axis = vec3(axis, "axis", Vector3::z())?;
+        let position = convert::vector3(position, "position")?;
+        let point = given(point).map_or(Ok(Vector3::zeros()), |v| convert::vector3(v, "point"))?;
+        let axis = given(axis).map_or(Ok(Vector3::z()), |v| convert::vector3(v, "axis"))?;
         if !(0.0..=180.0).contains(&cone_deg) {
             return Err(error(FabricError::Value {
                 what: "cone_deg".into(),
                 message: format!("must be within [0, 180] degrees, got {cone_deg}"),
             }));
         }
-        let approach = match approach.filter(|a| !a.is_none()) {
-            Some(a) => Some((
-                Vector3::from_column_slice(&convert::vector(a, "approach", 3)?),
-                cone_deg.to_radians().cos(),
-            )),
-            None => None,
+        let approach = given(approach)
+            .map(|a| convert::vector3(a, "approach"))
+            .transpose()?
+            .map(|a| (a, cone_deg.to_radians().cos()));
+        let bound = |v, what, default: &[f64]| {
+            given(v).map_or(Ok(default.to_vec()), |v| convert::vector(v, what, dof))
         };
-        let bounds = |v: Option<&Bound<'py, PyAny>>, what: &str, default: &[f64]| match v
-            .filter(|v| !v.is_none())
-        {
-            Some(v) => convert::vector(v, what, dof),
-            None => Ok(default.to_vec()),
-        };
-        let lower = bounds(lower, "lower", robot.lower())?;
-        let upper = bounds(upper, "upper", robot.upper())?;
+        let lower = bound(lower, "lower", robot.lower())?;
+        let upper = bound(upper, "upper", robot.upper())?;
         let default = PointIkOptions::default();
         let options = PointIkOptions {
             iterations: iterations.unwrap_or(default.iterations),
