@@ -132,9 +132,11 @@ def test_branch_and_bound_finds_the_exact_minimum():
         assert len(calls) < bounds.size
 
 
-def test_agrees_with_gfcs_on_motionbenchmaker(mbm_dir, mbm_panda_dir, tmp_path):
+def test_agrees_with_gfcs_on_motionbenchmaker(mbm_dir, mbm_panda_dir, tmp_path, monkeypatch):
     """The returned motions of both methods on two MBM problems: the validator's verdict equals the claimed
     success, and its mesh clearance, path lengths and kinematics equal gfcs's own to round-off."""
+    # `--robot mbm` finds the shared folder through GFCS_SHARED when gfcs is installed outside the checkout (CI).
+    monkeypatch.setenv("GFCS_SHARED", str(mbm_panda_dir.parent.parent))
     from gfcs import cli
 
     out = tmp_path / "res"

@@ -144,12 +144,14 @@ def shared_dir() -> Optional[Path]:
 
     ``$GFCS_SHARED`` when set, else ``<repository root>/../shared`` (for a source checkout).
     """
+    path = _default_shared()
+    return path if path.is_dir() else None
+
+
+def _default_shared() -> Path:
+    """Where :func:`shared_dir` looks: ``$GFCS_SHARED``, else ``<repository root>/../shared``."""
     env = os.environ.get("GFCS_SHARED")
-    candidates = [Path(env)] if env else [Path(__file__).resolve().parents[2].parent / "shared"]
-    for c in candidates:
-        if c.is_dir():
-            return c
-    return None
+    return Path(env) if env else Path(__file__).resolve().parents[2].parent / "shared"
 
 
 def _missing_joint_error(message: str) -> Exception:
@@ -299,7 +301,8 @@ def _mbm_folder(path: Optional[PathLike]) -> Path:
         return Path(path)
     base = shared_dir()
     if base is None:
-        raise FileNotFoundError("shared data folder not found (set GFCS_SHARED)")
+        raise FileNotFoundError(f"shared data folder not found at {_default_shared()} "
+                                "(set GFCS_SHARED to its location)")
     return base / "robots" / "mbm_panda"
 
 
