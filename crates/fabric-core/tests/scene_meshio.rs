@@ -12,12 +12,27 @@ use nalgebra::{Isometry3, Point3};
 use parry3d_f64::query::PointQuery;
 use scene_support::{fine_cube, shared_dir, UNIT_CUBE_OBJ};
 
-fn temp_file(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("gfcs_scene_meshio_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    path
+/// A folder of test files, one per test (tests run in parallel), removed when dropped.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(test: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("gfcs_scene_meshio_{}_{test}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+
+    fn file(&self, name: &str, bytes: &[u8]) -> PathBuf {
+        let path = self.0.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 fn mesh_message(r: Result<impl std::fmt::Debug, FabricError>) -> (String, String) {
@@ -94,9 +109,10 @@ fn obj_errors_name_file_and_line() {
 fn stl_ascii_and_binary_give_the_same_solid_as_obj() {
     let (v, t) = parse_obj(UNIT_CUBE_OBJ, "cube.obj").unwrap();
     let obj = build_mesh(v.clone(), t.clone(), "cube.obj").unwrap();
-    let a = load_mesh(&temp_file("cube_ascii.stl", ascii_stl(&v, &t).as_bytes())).unwrap();
-    let b = load_mesh(&temp_file("cube_binary.STL", &binary_stl(&v, &t))).unwrap();
-    let o = load_mesh(&temp_file("cube.obj", UNIT_CUBE_OBJ.as_bytes())).unwrap();
+    let tmp = TempDir::new("stl_obj");
+    let a = load_mesh(&tmp.file("cube_ascii.stl", ascii_stl(&v, &t).as_bytes())).unwrap();
+    let b = load_mesh(&tmp.file("cube_binary.STL", &binary_stl(&v, &t))).unwrap();
+    let o = load_mesh(&tmp.file("cube.obj", UNIT_CUBE_OBJ.as_bytes())).unwrap();
     for m in [&obj, &a, &b, &o] {
         // STL duplicates vertices per triangle: merged back to the 8 corners, closed, solid.
         assert_eq!(m.vertices().len(), 8);
@@ -161,12 +177,13 @@ fn build_mesh_orients_closed_meshes_and_leaves_open_ones_unsigned() {
 
 #[test]
 fn load_mesh_errors() {
-    let (path, message) = mesh_message(load_mesh(&temp_file("m.dae", b"<xml/>")));
+    let tmp = TempDir::new("errors");
+    let (path, message) = mesh_message(load_mesh(&tmp.file("m.dae", b"<xml/>")));
     assert!(path.ends_with("m.dae"));
     assert!(message.contains("unsupported"), "{message}");
     let (path, _) = mesh_message(load_mesh(std::path::Path::new("/nonexistent/dir/mesh.obj")));
     assert_eq!(path, "/nonexistent/dir/mesh.obj");
-    let (path, message) = mesh_message(load_mesh(&temp_file("broken.obj", b"v 0 0 0\nf 1 2 3\n")));
+    let (path, message) = mesh_message(load_mesh(&tmp.file("broken.obj", b"v 0 0 0\nf 1 2 3\n")));
     assert!(path.ends_with("broken.obj"));
     assert!(message.starts_with("line 2"), "{message}");
 }
