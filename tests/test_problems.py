@@ -23,6 +23,16 @@ def test_problem_defaults_and_validation(panda):
         Problem("p", panda, gfcs.Scene(), q0=np.zeros(3), goal=generators.READY)
     with pytest.raises(ValueError, match="goal contains NaN"):
         Problem("p", panda, gfcs.Scene(), q0=generators.READY, goal=np.full(7, math.nan))
+    outside = generators.READY.copy()
+    outside[3] = panda.upper[3] + 0.01
+    with pytest.raises(ValueError, match=r"problem 'p': goal: joint panda_joint4 = -0.0598 rad lies outside its "
+                                         r"limits \[-3.0718, -0.0698\]"):
+        Problem("p", panda, gfcs.Scene(), q0=generators.READY, goal=outside)
+    with pytest.raises(ValueError, match="problem 'p': q0: joint panda_joint4"):
+        Problem("p", panda, gfcs.Scene(), q0=outside, goal=generators.READY)
+    at_limit = generators.READY.copy()
+    at_limit[3] = panda.upper[3] + 0.5 * metrics.DEFAULT_LIMIT_TOL  # round-off at a limit is accepted
+    Problem("p", panda, gfcs.Scene(), q0=generators.READY, goal=at_limit)
     scene = gfcs.Scene()
     scene.add_sphere([0.5, 0.0, 0.5], 0.1)
     q = p.with_scene(scene)

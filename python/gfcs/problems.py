@@ -91,6 +91,19 @@ def _vector(value: Any, what: str, dof: int) -> np.ndarray:
     return a
 
 
+def _check_within_limits(robot: Any, q: np.ndarray, what: str) -> None:
+    """ValueError naming ``what`` and the first joint of ``q`` outside the robot's position limits (beyond
+    :data:`gfcs.metrics.DEFAULT_LIMIT_TOL`): no motion within the limits can start or end there."""
+    from gfcs.metrics import DEFAULT_LIMIT_TOL
+
+    lower, upper = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
+    outside = np.flatnonzero((q < lower - DEFAULT_LIMIT_TOL) | (q > upper + DEFAULT_LIMIT_TOL))
+    if outside.size:
+        j = int(outside[0])
+        raise ValueError(f"{what}: joint {robot.joint_names[j]} = {q[j]:.6g} rad lies outside its limits "
+                         f"[{lower[j]:.6g}, {upper[j]:.6g}]")
+
+
 @dataclass
 class Problem:
     """One motion problem (a GFCOP instance, GFCS eq. 4-8).
@@ -99,14 +112,18 @@ class Problem:
         name: identifier, e.g. ``"bookshelf_small/0001"``.
         robot: a :class:`gfcs.Robot`.
         scene: a :class:`gfcs.Scene` (the environment E).
-        q0: (dof,) start configuration [rad].
-        goal: (dof,) goal configuration q_g [rad].
+        q0: (dof,) start configuration [rad], within the robot's joint limits.
+        goal: (dof,) goal configuration q_g [rad], within the robot's joint limits.
         qd0: (dof,) start velocity [rad/s]; None means zeros.
         cls: problem class (:data:`CLASSES`), "" when unknown.
         meta: free-form provenance (source files, generator parameters, obstacle primitives).
         mesh_checker: optional :class:`gfcs.MeshChecker` of the robot's collision meshes (same joints, same
             order as ``robot``); when set, metrics report ``mesh_clearance`` and success requires it above
             the mesh margin (:data:`gfcs.metrics.DEFAULT_MESH_MARGIN`).
+
+    Raises:
+        ValueError: a vector of the wrong shape or not finite, or ``q0`` or ``goal`` outside the joint limits
+            (naming the problem, the vector and the joint).
     """
 
     name: str
@@ -127,6 +144,8 @@ class Problem:
         self.q0 = _vector(self.q0, "q0", dof)
         self.goal = _vector(self.goal, "goal", dof)
         self.qd0 = np.zeros(dof) if self.qd0 is None else _vector(self.qd0, "qd0", dof)
+        for what, q in (("q0", self.q0), ("goal", self.goal)):
+            _check_within_limits(self.robot, q, f"problem {self.name!r}: {what}")
 
     @property
     def dof(self) -> int:
