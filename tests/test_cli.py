@@ -144,6 +144,29 @@ def test_generate_then_bench(tmp_path):
     assert {row["label"] for row in read_rows(rows_file.read_text().splitlines())} == {"Ours (1 b)"}
 
 
+def test_a_suite_leaves_out_problems_outside_the_joint_limits(tmp_path, capsys):
+    import yaml
+
+    import gfcs
+    from gfcs import problems
+
+    assert cli.main(["generate", "--out", str(tmp_path), "--classes", "box", "--n", "2"]) == 0
+    request = tmp_path / "box" / "request0002.yaml"
+    doc = yaml.safe_load(request.read_text())
+    for c in doc["goal_constraints"][0]["joint_constraints"]:
+        if c["joint_name"] == "panda_joint4":
+            c["position"] = 0.05  # MotionBenchMaker's URDF allows it, Franka's limit is -0.0698
+    request.write_text(yaml.safe_dump(doc))
+    robot = gfcs.Robot.panda()
+    with pytest.raises(gfcs.InvalidValueError, match="problem 'box/0002': goal: joint panda_joint4 = 0.05 rad"):
+        problems.load_mbm_dir(tmp_path, robot=robot)
+    capsys.readouterr()
+    suite = cli.load_mbm_suite(str(tmp_path), None, None, robot)
+    assert [p.name for p in suite] == ["box/0001"]
+    err = capsys.readouterr().err
+    assert "left out 1 problem(s)" in err and "'box/0002': goal: joint panda_joint4" in err
+
+
 def test_one_batch_row_is_a_one_batch_solve_sharing_the_first_batch():
     import gfcs
     from gfcs import generators, optimize

@@ -38,6 +38,7 @@ __all__ = [
     "EXTERNAL_COMMANDS",
     "run_bench",
     "bench_problem",
+    "load_mbm_suite",
     "load_problems",
     "DEFAULT_DEMO_CLASS",
 ]
@@ -327,13 +328,27 @@ def _register_solve(sub: Any) -> None:
 
 
 # --------------------------------------------------------------------------------------------- bench
+def load_mbm_suite(folder: str, classes: Optional[Sequence[str]], limit: Optional[int], robot: Any,
+                   skip: int = 0) -> List[Any]:
+    """:func:`gfcs.problems.load_mbm_dir`, leaving out (and listing on stderr) the problems whose start or
+    goal lies outside the robot's joint limits: one such problem does not stop a whole suite."""
+    from gfcs import problems
+
+    invalid: List[Tuple[str, str]] = []
+    suite = problems.load_mbm_dir(folder, classes=classes, limit=limit, robot=robot, skip=skip, invalid=invalid)
+    if invalid:
+        print(f"gfcs: left out {len(invalid)} problem(s) not valid for this robot:", file=sys.stderr)
+        for _, message in invalid:
+            print(f"  {message}", file=sys.stderr)
+    return suite
+
+
 def load_problems(args: argparse.Namespace, robot: Any) -> List[Any]:
     """The suite of ``gfcs bench``: a MotionBenchMaker folder, or generated problems."""
     from gfcs import generators, problems
 
     if args.problems:
-        return problems.load_mbm_dir(args.problems, classes=args.classes, limit=args.limit, robot=robot,
-                                     skip=args.skip)
+        return load_mbm_suite(args.problems, args.classes, args.limit, robot, args.skip)
     classes = args.classes or list(problems.CLASSES)
     n = args.limit if args.limit is not None else 10
     suite: List[Any] = []

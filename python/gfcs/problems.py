@@ -92,15 +92,17 @@ def _vector(value: Any, what: str, dof: int) -> np.ndarray:
 
 
 def _check_within_limits(robot: Any, q: np.ndarray, what: str) -> None:
-    """ValueError naming ``what`` and the first joint of ``q`` outside the robot's position limits (beyond
-    :data:`gfcs.metrics.DEFAULT_LIMIT_TOL`): no motion within the limits can start or end there."""
+    """``gfcs.InvalidValueError`` (a ValueError) naming ``what`` and the first joint of ``q`` outside the
+    robot's position limits (beyond :data:`gfcs.metrics.DEFAULT_LIMIT_TOL`): no motion within the limits can
+    start or end there."""
+    from gfcs.errors import InvalidValueError
     from gfcs.metrics import DEFAULT_LIMIT_TOL
 
     lower, upper = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
     outside = np.flatnonzero((q < lower - DEFAULT_LIMIT_TOL) | (q > upper + DEFAULT_LIMIT_TOL))
     if outside.size:
         j = int(outside[0])
-        raise ValueError(f"{what}: joint {robot.joint_names[j]} = {q[j]:.6g} rad lies outside its limits "
+        raise InvalidValueError(f"{what}: joint {robot.joint_names[j]} = {q[j]:.6g} rad lies outside its limits "
                          f"[{lower[j]:.6g}, {upper[j]:.6g}]")
 
 
@@ -258,6 +260,7 @@ def load_mbm_dir(
     robot: Any = None,
     mesh_checker: Any = None,
     skip: int = 0,
+    invalid: Optional[List[Tuple[str, str]]] = None,
 ) -> List[Problem]:
     """Every problem of a MotionBenchMaker folder, sorted by class then number.
 
@@ -271,9 +274,13 @@ def load_mbm_dir(
         mesh_checker: shared by all problems (default: as :func:`load_mbm`).
         skip: leave out the first ``skip`` problems of each class (by number), e.g. ``skip=40`` keeps the
             test problems 41-50 of the GFCS split (train on 1-40, test on 41-50).
+        invalid: when a list, problems whose start or goal lies outside ``robot``'s joint limits are left
+            out and appended to it as (name, message) instead of raising (MotionBenchMaker's URDF lets
+            joint 4 of the Panda reach 0.0873 rad, Franka's limits and :meth:`gfcs.Robot.panda` -0.0698).
 
     Raises:
         FileNotFoundError: ``directory`` does not exist, or a scene has no matching request.
+        gfcs.InvalidValueError: a start or goal outside the joint limits (without ``invalid``).
         ValueError: no problems found (the message says where it looked).
     """
     import gfcs
@@ -305,9 +312,14 @@ def load_mbm_dir(
                             if (class_dir / f"request{digits}{ext}").is_file()), None)
             if request is None:
                 raise FileNotFoundError(f"{scene_path}: no matching request{digits}.yaml")
-            problems.append(load_mbm(scene_path, request, robot=robot,
-                                     name=f"{class_dir.name}/{digits}", cls=class_dir.name,
-                                     mesh_checker=mesh_checker))
+            try:
+                problems.append(load_mbm(scene_path, request, robot=robot,
+                                         name=f"{class_dir.name}/{digits}", cls=class_dir.name,
+                                         mesh_checker=mesh_checker))
+            except gfcs.InvalidValueError as e:
+                if invalid is None:
+                    raise
+                invalid.append((f"{class_dir.name}/{digits}", str(e)))
     if not problems:
         raise ValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
                          + (f" for classes {sorted(wanted)}" if wanted else ""))

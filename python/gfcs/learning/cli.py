@@ -114,7 +114,7 @@ def _load_problems(args: argparse.Namespace, seed: int) -> List[Any]:
 
     if (args.problems is None) == (args.generate is None):
         raise ConfigError("gfcs train: give exactly one of --problems DIR or --generate CLASS ...")
-    from gfcs.cli import _robot, _with_mesh_checker
+    from gfcs.cli import _robot, _with_mesh_checker, load_mbm_suite
 
     robot = _robot(args)
     if args.generate is not None:
@@ -124,10 +124,7 @@ def _load_problems(args: argparse.Namespace, seed: int) -> List[Any]:
         for cls in args.generate:
             problems += generate(cls, args.n_problems, seed=seed, robot=robot)
         return _with_mesh_checker(args, problems)
-    from gfcs.problems import load_mbm_dir
-
-    return _with_mesh_checker(args, list(load_mbm_dir(args.problems, classes=args.classes, limit=args.limit,
-                                                      robot=robot, skip=args.skip)))
+    return _with_mesh_checker(args, load_mbm_suite(args.problems, args.classes, args.limit, robot, args.skip))
 
 
 def _config(args: argparse.Namespace):
