@@ -137,6 +137,39 @@ def test_written_problems_load_back(generated, panda, tmp_path):
     assert [p.name for p in tail] == ["bookshelf_small/0002", "cage/0002"]
 
 
+def test_locked_joints_are_held_where_the_request_starts_them(generated, panda, tmp_path):
+    """A request that opens the fingers (MotionBenchMaker: 0.065 m) gets a copy of the shipped Panda holding
+    them there, as MoveIt keeps joints outside the planning group at their start values; the robot passed
+    in is untouched, and one copy serves every problem with the same fingers."""
+    import yaml
+
+    generators.write_problems(generated["box"], tmp_path)
+    for k in (1, 2):
+        request = tmp_path / "box" / f"request000{k}.yaml"
+        doc = yaml.safe_load(request.read_text())
+        state = doc["start_state"]["joint_state"]
+        state["name"] += ["panda_finger_joint1", "panda_finger_joint2"]
+        state["position"] += [0.065, 0.065]
+        request.write_text(yaml.safe_dump(doc))
+    loaded = problems.load_mbm_dir(tmp_path, robot=panda)
+    assert panda.locked_positions == {"panda_finger_joint1": 0.04}
+    assert loaded[0].robot is loaded[1].robot and loaded[0].robot is not panda
+    assert loaded[0].robot.locked_positions == {"panda_finger_joint1": 0.065}
+    assert loaded[0].meta["start_state"]["panda_finger_joint1"] == 0.065
+    q = loaded[0].q0
+    for robot, width in ((panda, 0.04), (loaded[0].robot, 0.065)):
+        poses = robot.link_poses(q)
+        hand, left = (poses[robot.link_index(name)] for name in ("panda_hand", "panda_leftfinger"))
+        offset = hand[:3, :3].T @ (left[:3, 3] - hand[:3, 3])  # in the hand frame
+        np.testing.assert_allclose(offset, [0.0, width, 0.0584], atol=1e-12)
+    assert loaded[0].robot.joint_names == panda.joint_names
+    np.testing.assert_array_equal(loaded[0].robot.sphere_radii, panda.sphere_radii)
+    assert len(loaded[0].robot.self_collision_pairs) == len(panda.self_collision_pairs)
+    # without finger values in the start state, the robot passed in is the problem's
+    generators.write_problems(generated["cage"][:1], tmp_path / "plain")
+    assert problems.load_mbm_dir(tmp_path / "plain", robot=panda)[0].robot is panda
+
+
 def test_load_errors_name_the_culprit(generated, panda, tmp_path):
     with pytest.raises(FileNotFoundError, match="nowhere"):
         problems.load_mbm_dir(tmp_path / "nowhere")

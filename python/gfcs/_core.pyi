@@ -99,6 +99,13 @@ class Robot:
         """A copy with other collision spheres (self-collision pairs recomputed)."""
     def with_srdf(self, srdf: Union[PathLike, str]) -> Robot:
         """A copy whose self-collision pairs follow the SRDF (path or XML text)."""
+    def with_locked_positions(self, positions: Dict[str, float]) -> Robot:
+        """A copy with inactive joints held at other positions {joint: rad or m} (e.g. a gripper opened as a
+        request's start state says), rebuilt from the same URDF; collision spheres and self-collision pairs
+        kept. ``LinkError`` for an unknown joint, ``InvalidValueError`` for an active, fixed or mimic one."""
+    @property
+    def locked_positions(self) -> Dict[str, float]:
+        """{joint: position} of the inactive movable joints that are not mimic joints (rad or m)."""
     @property
     def name(self) -> str: ...
     @property

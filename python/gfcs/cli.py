@@ -172,7 +172,8 @@ def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:
     if urdf is None or not suite:
         return suite
     checker = problems.urdf_mesh_checker(urdf, suite[0].robot, mesh_dir=args.mesh_dir, srdf=args.srdf)
-    return [dataclasses.replace(p, mesh_checker=checker) for p in suite]
+    return [dataclasses.replace(p, mesh_checker=problems.held_as_requested(checker, p.meta.get("start_state", {})))
+            for p in suite]
 
 
 def _sampler(args: argparse.Namespace) -> Any:

@@ -37,6 +37,7 @@ __all__ = [
     "canonical_class",
     "load_mbm",
     "load_mbm_dir",
+    "held_as_requested",
     "mbm_panda",
     "mbm_mesh_checker",
     "mesh_checker_for",
@@ -205,6 +206,10 @@ def load_mbm(
         mesh_checker: the problem's :class:`gfcs.MeshChecker`; default :func:`mesh_checker_for` ``(robot)``
             (the MBM Panda's meshes when ``robot`` came from :func:`mbm_panda`, else none).
 
+    Joints the robot (or the checker's robot) holds locked, such as the shipped Panda's fingers, are held
+    where the request's start state puts them (:func:`held_as_requested`): the problem's robot is then a
+    copy of ``robot``.
+
     Raises:
         gfcs.LinkError: a joint of the robot is missing from the request's start state or goal (the
             message names the joint and the file).
@@ -216,6 +221,10 @@ def load_mbm(
     scene_path, request_path = Path(scene_yaml), Path(request_yaml)
     scene = gfcs.Scene.from_moveit_yaml(str(scene_path))
     request = gfcs.load_motion_plan_request(str(request_path))
+    checker = mesh_checker if mesh_checker is not None else mesh_checker_for(robot)
+    robot = held_as_requested(robot, request["start"])
+    if checker is not None:
+        checker = held_as_requested(checker, request["start"])
     values = {}
     for part in ("start", "goal"):
         table = request[part]
@@ -237,9 +246,43 @@ def load_mbm(
         goal=values["goal"],
         cls=cls if cls is not None else folder,
         meta={"scene_file": str(scene_path), "request_file": str(request_path),
-              "group": request.get("group", "")},
-        mesh_checker=mesh_checker if mesh_checker is not None else mesh_checker_for(robot),
+              "group": request.get("group", ""), "start_state": dict(request["start"])},
+        mesh_checker=checker,
     )
+
+
+#: Robots and mesh checkers rebuilt by :func:`held_as_requested`, keyed by (id of the original, positions);
+#: each entry keeps its original alive, so an id is not reused while it is registered.
+_HELD: Dict[Tuple[int, Tuple[Tuple[str, float], ...]], Tuple[Any, Any]] = {}
+
+
+def held_as_requested(model: Any, start: Dict[str, float]) -> Any:
+    """``model`` (a :class:`gfcs.Robot`, or a :class:`gfcs.MeshChecker` and its robot) with its locked joints
+    where a request's start state puts them, as MoveIt keeps the joints outside the planning group at their
+    start values: the shipped Panda holds its fingers at 0.04 m, MotionBenchMaker requests open them to
+    0.065 m (its URDF's fixed fingers), and with 0.04 m the fingers of a returned motion could touch what
+    the wider hand is placed around. ``model`` itself when nothing differs; one rebuilt copy per model and
+    positions (cached).
+
+    Args:
+        model: the robot or mesh checker.
+        start: {joint name: position} of the request's start state (rad or m).
+    """
+    import gfcs
+
+    robot = model.robot if isinstance(model, gfcs.MeshChecker) else model
+    held = robot.locked_positions
+    change = tuple(sorted((j, float(start[j])) for j in held if j in start and float(start[j]) != held[j]))
+    if not change:
+        return model
+    key = (id(model), change)
+    entry = _HELD.get(key)
+    if entry is None or entry[0] is not model:
+        moved = robot.with_locked_positions(dict(change))
+        if isinstance(model, gfcs.MeshChecker):
+            moved = gfcs.MeshChecker(moved, max_distance=model.max_distance)
+        entry = _HELD[key] = (model, moved)
+    return entry[1]
 
 
 _SCENE_RE = re.compile(r"^scene(\d+)\.ya?ml$")

@@ -17,7 +17,8 @@ struct TempDir(PathBuf);
 
 impl TempDir {
     fn new(test: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("gfcs_scene_meshio_{}_{test}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("gfcs_scene_meshio_{}_{test}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         TempDir(dir)
     }

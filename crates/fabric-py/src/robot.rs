@@ -243,6 +243,26 @@ impl PyRobot {
         self.modified(py, |r| r.set_self_collision_from_srdf(&text, &source))
     }
 
+    /// A copy of this robot with inactive joints held at other positions ({joint name: rad or m}), e.g. a
+    /// gripper opened as a planning request's start state says; spheres and self-collision pairs kept.
+    fn with_locked_positions(
+        &self,
+        py: Python<'_>,
+        positions: std::collections::HashMap<String, f64>,
+    ) -> PyResult<Self> {
+        let mut list: Vec<(String, f64)> = positions.into_iter().collect();
+        list.sort_by(|a, b| a.0.cmp(&b.0));
+        let robot = &self.inner;
+        let out = guarded(py, || robot.with_locked_positions(&list))?;
+        Ok(PyRobot::new(out))
+    }
+
+    /// {joint name: position} of the inactive movable joints (not mimic joints), rad or m.
+    #[getter]
+    fn locked_positions(&self) -> std::collections::HashMap<String, f64> {
+        self.inner.locked_positions().iter().cloned().collect()
+    }
+
     /// Robot name (URDF `<robot name>`).
     #[getter]
     fn name(&self) -> String {

@@ -145,6 +145,18 @@ pub struct Robot {
     pub(crate) disabled: Vec<(usize, usize)>,
     pub(crate) self_pairs: Vec<(usize, usize)>,
     pub(crate) geometry: Vec<LinkGeometry>,
+    /// Inactive movable joints that are not mimic joints, with the position each is held at (rad or m).
+    pub(crate) locked: Vec<(String, f64)>,
+    /// The URDF text and build options, to rebuild the model with other locked positions.
+    pub(crate) origin: std::sync::Arc<UrdfOrigin>,
+}
+
+/// What a [`Robot`] was built from (see [`Robot::with_locked_positions`]).
+#[derive(Debug)]
+pub(crate) struct UrdfOrigin {
+    pub(crate) xml: String,
+    pub(crate) opts: RobotOptions,
+    pub(crate) mesh_dir: Option<PathBuf>,
 }
 
 impl Robot {

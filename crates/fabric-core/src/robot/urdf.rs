@@ -4,12 +4,13 @@
 use std::collections::HashMap;
 use std::f64::consts::TAU;
 use std::path::Path;
+use std::sync::Arc;
 
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use urdf_rs::{Geometry, JointType, Pose};
 
 use super::geometry::{resolve_mesh_path, GeometryKind, LinkGeometry};
-use super::model::{Motion, Robot, RobotOptions, TreeJoint};
+use super::model::{Motion, Robot, RobotOptions, TreeJoint, UrdfOrigin};
 use super::spheres::CollisionSphere;
 use super::tree::{default_ee, is_movable, reroot, urdf_err, Graph, Rooted};
 use crate::error::{FabricError, Result};
@@ -441,6 +442,14 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
     let (lower, upper, velocity_limits) = limits(&g, &active)?;
     let joints = tree_joints(&g, &t, &drive)?;
     let (spheres, geometry) = collisions(&g, &t, mesh_dir)?;
+    let locked = g
+        .urdf
+        .joints
+        .iter()
+        .zip(&drive)
+        .filter(|(j, d)| is_movable(&j.joint_type) && j.mimic.is_none() && d.0.is_none())
+        .map(|(j, d)| (j.name.clone(), d.2))
+        .collect();
 
     let n = t.order.len();
     let (mut bodies, mut cols) = (vec![0; n], vec![0; n]);
@@ -477,9 +486,46 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
         disabled: Vec::new(),
         self_pairs: Vec::new(),
         geometry,
+        locked,
+        origin: Arc::new(UrdfOrigin {
+            xml: xml.to_string(),
+            opts: opts.clone(),
+            mesh_dir: mesh_dir.map(Path::to_path_buf),
+        }),
     };
     robot.recompute_self_pairs();
     Ok(robot)
+}
+
+impl Robot {
+    /// The inactive movable joints (not mimic joints) and the position each is held at (rad or m): the
+    /// `locked_positions` of [`RobotOptions`], else 0 clamped into the joint's limits.
+    pub fn locked_positions(&self) -> &[(String, f64)] {
+        &self.locked
+    }
+
+    /// A copy with some inactive joints held elsewhere (e.g. a gripper opened as a planning request's start
+    /// state says): rebuilt from the same URDF and options, keeping this model's collision spheres,
+    /// SRDF-disabled link pairs and self-collision pairs. Positions may lie outside the joint's URDF limits
+    /// (inactive joints are not planned). Errors: those of [`Robot::from_urdf_str`] for a joint that is
+    /// unknown, active, fixed or a mimic joint, or a position that is not finite.
+    pub fn with_locked_positions(&self, positions: &[(String, f64)]) -> Result<Robot> {
+        let mut opts = self.origin.opts.clone();
+        for (name, value) in positions {
+            opts.locked_positions.retain(|(n, _)| n != name);
+            opts.locked_positions.push((name.clone(), *value));
+        }
+        let mut robot = build(
+            &self.origin.xml,
+            &self.source,
+            &opts,
+            self.origin.mesh_dir.as_deref(),
+        )?;
+        robot.spheres = self.spheres.clone();
+        robot.disabled = self.disabled.clone();
+        robot.self_pairs = self.self_pairs.clone();
+        Ok(robot)
+    }
 }
 
 #[cfg(test)]
@@ -520,6 +566,48 @@ mod tests {
         let (s, c) = 0.4_f64.sin_cos();
         assert!((tp.x - Vector3::new(0.2 * c, 0.2 * s, 0.1)).norm() < 1e-15);
         assert!((tp.jac.column(0) - Vector3::new(-0.2 * s, 0.2 * c, 0.0)).norm() < 1e-15);
+    }
+
+    #[test]
+    fn relocking_moves_the_held_joint_and_keeps_spheres_and_pairs() {
+        let opts = RobotOptions {
+            active_joints: Some(vec!["j1".into()]),
+            ..Default::default()
+        };
+        let mut robot = Robot::from_urdf_str(CHAIN, "chain", &opts).unwrap();
+        robot
+            .set_spheres(vec![
+                CollisionSphere {
+                    link: 0,
+                    center: Vector3::zeros(),
+                    radius: 0.05,
+                },
+                CollisionSphere {
+                    link: 2,
+                    center: Vector3::new(0.0, 0.1, 0.0),
+                    radius: 0.05,
+                },
+            ])
+            .unwrap();
+        assert_eq!(robot.locked_positions(), [("j2".to_string(), 0.3)]);
+        // Outside j2's limits [0.3, 1] on purpose: a held joint is not planned.
+        let moved = robot.with_locked_positions(&[("j2".into(), 1.5)]).unwrap();
+        assert_eq!(moved.locked_positions(), [("j2".to_string(), 1.5)]);
+        assert_eq!(
+            (moved.spheres(), moved.self_collision_pairs()),
+            (robot.spheres(), robot.self_collision_pairs())
+        );
+        let expect = Isometry3::from_parts(
+            Translation3::new(0.2, 0.0, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1.5),
+        );
+        let j2 = moved.joints[2].as_ref().unwrap();
+        assert!((j2.pre.to_homogeneous() - expect.to_homogeneous()).norm() < 1e-15);
+        assert!(robot.with_locked_positions(&[("j1".into(), 0.1)]).is_err()); // active
+        assert!(robot.with_locked_positions(&[("j3".into(), 0.1)]).is_err()); // unknown
+        assert!(robot
+            .with_locked_positions(&[("j2".into(), f64::NAN)])
+            .is_err());
     }
 
     #[test]
