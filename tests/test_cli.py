@@ -3,6 +3,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from gfcs import cli
@@ -165,6 +166,34 @@ def test_a_suite_leaves_out_problems_outside_the_joint_limits(tmp_path, capsys):
     assert [p.name for p in suite] == ["box/0001"]
     err = capsys.readouterr().err
     assert "left out 1 problem(s)" in err and "'box/0002': goal: joint panda_joint4" in err
+
+
+def test_failure_hints_name_a_goal_inside_the_margin_and_a_start_in_collision():
+    from types import SimpleNamespace
+
+    import gfcs
+    from gfcs import generators
+
+    p = generators.generate("bookshelf_small", 1, seed=0, robot=gfcs.Robot.panda())[0]
+    result = SimpleNamespace(fabric_config=None)
+    assert cli._endpoint_hints(result, p) == []  # generated goals keep 1 cm
+    robot = p.robot
+    radii = np.asarray(robot.sphere_radii)
+    for what, q, other in (("goal", p.goal, p.q0), ("start", p.q0, p.goal)):
+        here, there = np.asarray(robot.sphere_centers(q)), np.asarray(robot.sphere_centers(other))
+        # the sphere of q farthest from every sphere of the other configuration
+        gap = np.linalg.norm(here[:, None] - there[None], axis=2) - radii[None]
+        scene = p.scene.copy()
+        scene.add_sphere(here[int(np.argmax(gap.min(axis=1)))], 0.01)
+        hints = cli._endpoint_hints(result, p.with_scene(scene))
+        assert len(hints) == 1 and f"the {what}'s collision spheres overlap the obstacles by" in hints[0], hints
+    # a goal 1 mm clear is inside the default 2 mm margin
+    center = np.asarray(robot.sphere_centers(p.goal))
+    k = int(np.argmax(center[:, 2]))  # the highest sphere: nothing of the arm above it
+    scene = p.scene.copy()
+    scene.add_sphere(center[k] + [0.0, 0.0, radii[k] + 0.011], 0.01)
+    hints = cli._endpoint_hints(result, p.with_scene(scene))
+    assert len(hints) == 1 and "the goal's collision spheres are 1.00 mm from the obstacles" in hints[0], hints
 
 
 def test_one_batch_row_is_a_one_batch_solve_sharing_the_first_batch():

@@ -203,6 +203,28 @@ def _fmt(v: float, unit: str = "", digits: int = 3) -> str:
     return "NA" if v is None or not math.isfinite(v) else f"{v:.{digits}g}{unit}"
 
 
+def _endpoint_hints(result: Any, problem: Any) -> List[str]:
+    """Lines explaining a failure by the problem itself, under the robot's collision-sphere model: a start
+    in collision (every motion from it collides), or a goal closer to the obstacles than the fabric's margin
+    (the barrier keeps the arm out, so no motion reaches it)."""
+    import gfcs
+    from gfcs import metrics
+
+    config = gfcs.FabricConfig.from_dict(result.fabric_config) if result.fabric_config else gfcs.FabricConfig()
+    margin = float(config.to_dict()["obstacles"]["margin"])
+    lines = []
+    for what, q, limit, why in (
+            ("start", problem.q0, 0.0, "every motion from it collides under this model"),
+            ("goal", problem.goal, margin, f"the fabric keeps {margin * 1000:.3g} mm, so no motion reaches it")):
+        clearance = float(metrics.obstacle_clearance(problem.robot, problem.scene, q[None])[0])
+        if clearance < limit:
+            where = (f"overlap the obstacles by {-clearance * 1000:.2f} mm" if clearance < 0
+                     else f"are {clearance * 1000:.2f} mm from the obstacles")
+            lines.append(f"hint      the {what}'s collision spheres {where}: {why} (a model with tighter "
+                         "spheres may do)")
+    return lines
+
+
 def summary_text(result: Any, problem: Any) -> str:
     """A short human summary of a :class:`gfcs.results.SolveResult`."""
     m = result.metrics
@@ -228,6 +250,8 @@ def summary_text(result: Any, problem: Any) -> str:
     lines.append(f"result    {verdict}: cost {_fmt(result.cost, ' s')} "
                  f"(t* = {t_stars} s), goal error {_fmt(m['final_error'], ' rad')}, "
                  f"reached {result.reached}")
+    if not result.success:
+        lines.extend(_endpoint_hints(result, problem))
     lines.append(f"quality   EE length {_fmt(m['ee_length'], ' m')}, C-space length "
                  f"{_fmt(m['cspace_length'], ' rad')}, EE-LDJ {_fmt(m['ee_ldj'])}, C-space-LDJ "
                  f"{_fmt(m['cspace_ldj'])}, min clearance {_fmt(m['min_clearance'], ' m')}")
