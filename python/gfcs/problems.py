@@ -103,8 +103,8 @@ def _check_within_limits(robot: Any, q: np.ndarray, what: str) -> None:
     outside = np.flatnonzero((q < lower - DEFAULT_LIMIT_TOL) | (q > upper + DEFAULT_LIMIT_TOL))
     if outside.size:
         j = int(outside[0])
-        raise InvalidValueError(f"{what}: joint {robot.joint_names[j]} = {q[j]:.6g} rad lies outside its limits "
-                         f"[{lower[j]:.6g}, {upper[j]:.6g}]")
+        raise InvalidValueError(f"{what}: joint {robot.joint_names[j]} = {q[j]:.6g} rad lies outside its "
+                                f"limits [{lower[j]:.6g}, {upper[j]:.6g}]")
 
 
 @dataclass
