@@ -250,8 +250,7 @@ impl PyRobot {
         py: Python<'_>,
         positions: std::collections::HashMap<String, f64>,
     ) -> PyResult<Self> {
-        let mut list: Vec<(String, f64)> = positions.into_iter().collect();
-        list.sort_by(|a, b| a.0.cmp(&b.0));
+        let list: Vec<(String, f64)> = positions.into_iter().collect();
         let robot = &self.inner;
         let out = guarded(py, || robot.with_locked_positions(&list))?;
         Ok(PyRobot::new(out))

@@ -50,26 +50,47 @@ impl Default for IkOptions {
 
 impl IkOptions {
     fn check(&self) -> Result<()> {
-        let bad = |what: &str, message: String| {
-            Err(FabricError::Value {
-                what: what.into(),
-                message,
-            })
-        };
-        if !(self.damping.is_finite() && self.damping > 0.0) {
-            return bad("damping", format!("must be > 0, got {}", self.damping));
-        }
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            return bad("tolerance", format!("must be > 0, got {}", self.tolerance));
-        }
-        if !(self.axis_weight.is_finite() && self.axis_weight >= 0.0) {
-            return bad(
-                "axis_weight",
-                format!("must be >= 0, got {}", self.axis_weight),
-            );
-        }
-        Ok(())
+        check_settings(self.damping, self.tolerance, self.axis_weight)
     }
+}
+
+/// `Err(Value)` naming the setting unless damping and tolerance are finite and > 0 and the axis weight
+/// finite and ≥ 0 (the settings both IK functions share).
+fn check_settings(damping: f64, tolerance: f64, axis_weight: f64) -> Result<()> {
+    let bad = |what: &str, message: String| {
+        Err(FabricError::Value {
+            what: what.into(),
+            message,
+        })
+    };
+    if !(damping.is_finite() && damping > 0.0) {
+        return bad("damping", format!("must be > 0, got {damping}"));
+    }
+    if !(tolerance.is_finite() && tolerance > 0.0) {
+        return bad("tolerance", format!("must be > 0, got {tolerance}"));
+    }
+    if !(axis_weight.is_finite() && axis_weight >= 0.0) {
+        return bad("axis_weight", format!("must be >= 0, got {axis_weight}"));
+    }
+    Ok(())
+}
+
+/// Clip `q` into [`lower`, `upper`] element-wise.
+fn clip(q: &mut [f64], lower: &[f64], upper: &[f64]) {
+    for ((v, l), u) in q.iter_mut().zip(lower).zip(upper) {
+        *v = v.clamp(*l, *u);
+    }
+}
+
+/// The damped least-squares step Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e (λ = `damping` > 0, which makes J Jᵀ + λ I
+/// symmetric positive definite); None if its Cholesky factorisation fails all the same.
+fn damped_step(jac: &DMatrix<f64>, err: &DVector<f64>, damping: f64) -> Option<DVector<f64>> {
+    let mut gram = jac * jac.transpose();
+    for i in 0..gram.nrows() {
+        gram[(i, i)] += damping;
+    }
+    let chol = gram.cholesky()?;
+    Some(jac.transpose() * chol.solve(err))
 }
 
 /// Inverse kinematics of `link` for N targets: row i starts at `q_init` row i (N × dof, row-major, rad
@@ -136,12 +157,7 @@ fn solve_one(
     tp: &mut TaskPoint,
 ) {
     let (lo, up) = (robot.lower(), robot.upper());
-    let clip = |q: &mut [f64]| {
-        for ((v, l), u) in q.iter_mut().zip(lo).zip(up) {
-            *v = v.clamp(*l, *u);
-        }
-    };
-    clip(q);
+    clip(q, lo, up);
     let dof = q.len();
     let rows = if axes.is_some() { 9 } else { 3 };
     let w = options.axis_weight;
@@ -163,17 +179,13 @@ fn solve_one(
         if err.norm() < options.tolerance {
             return;
         }
-        let mut gram = &jac * jac.transpose();
-        for i in 0..rows {
-            gram[(i, i)] += options.damping;
-        }
-        // J Jᵀ + λ I is symmetric positive definite for λ > 0.
-        let Some(chol) = gram.cholesky() else { return };
-        let step = jac.transpose() * chol.solve(&err);
+        let Some(step) = damped_step(&jac, &err, options.damping) else {
+            return;
+        };
         for (v, s) in q.iter_mut().zip(step.iter()) {
             *v += s;
         }
-        clip(q);
+        clip(q, lo, up);
     }
 }
 
@@ -261,21 +273,7 @@ pub fn point_ik(
         ));
     }
     let o = options;
-    if !(o.damping.is_finite() && o.damping > 0.0) {
-        return Err(value("damping", format!("must be > 0, got {}", o.damping)));
-    }
-    if !(o.tolerance.is_finite() && o.tolerance > 0.0) {
-        return Err(value(
-            "tolerance",
-            format!("must be > 0, got {}", o.tolerance),
-        ));
-    }
-    if !(o.axis_weight.is_finite() && o.axis_weight >= 0.0) {
-        return Err(value(
-            "axis_weight",
-            format!("must be >= 0, got {}", o.axis_weight),
-        ));
-    }
+    check_settings(o.damping, o.tolerance, o.axis_weight)?;
     if !(o.max_step.is_finite() && o.max_step > 0.0) {
         return Err(value(
             "max_step",
@@ -296,12 +294,7 @@ pub fn point_ik(
             Some((a.normalize(), cos_cone))
         }
     };
-    let clip = |q: &mut [f64]| {
-        for ((v, l), u) in q.iter_mut().zip(lower).zip(upper) {
-            *v = v.clamp(*l, *u);
-        }
-    };
-    clip(q);
+    clip(q, lower, upper);
     let rows = if approach.is_some() { 6 } else { 3 };
     let w = o.axis_weight;
     let (mut ws, mut tp) = (KinematicsWorkspace::new(robot), TaskPoint::new(dof));
@@ -323,15 +316,9 @@ pub fn point_ik(
         if position_error.norm() < o.tolerance && inside {
             return Ok(true);
         }
-        let mut gram = &jac * jac.transpose();
-        for i in 0..rows {
-            gram[(i, i)] += o.damping;
-        }
-        // J Jᵀ + λ² I is symmetric positive definite for λ² > 0.
-        let Some(chol) = gram.cholesky() else {
+        let Some(mut step) = damped_step(&jac, &err, o.damping) else {
             return Ok(false);
         };
-        let mut step = jac.transpose() * chol.solve(&err);
         let norm = step.norm();
         if norm > o.max_step {
             step *= o.max_step / norm;
@@ -339,7 +326,7 @@ pub fn point_ik(
         for (v, s) in q.iter_mut().zip(step.iter()) {
             *v += s;
         }
-        clip(q);
+        clip(q, lower, upper);
     }
     Ok(false)
 }
