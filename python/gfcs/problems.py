@@ -214,7 +214,15 @@ def load_mbm(
         gfcs.LinkError: a joint of the robot is missing from the request's start state or goal (the
             message names the joint and the file).
         gfcs.IoError / gfcs.FormatError: unreadable or malformed files (from the core).
+        gfcs.InvalidValueError: the request's start or goal lies outside the robot's joint limits.
     """
+    return Problem(**_mbm_fields(scene_yaml, request_yaml, robot, name, cls, mesh_checker))
+
+
+def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: Optional[str],
+                cls: Optional[str], mesh_checker: Any) -> Dict[str, Any]:
+    """The :class:`Problem` fields of :func:`load_mbm` (all its file reading and checks but the
+    problem's own, which :class:`Problem` makes)."""
     import gfcs
 
     robot = gfcs.Robot.panda() if robot is None else robot
@@ -238,7 +246,7 @@ def load_mbm(
         values[part] = np.array([table[j] for j in robot.joint_names], dtype=np.float64)
     folder = scene_path.resolve().parent.name
     number = re.sub(r"\D", "", scene_path.stem) or scene_path.stem
-    return Problem(
+    return dict(
         name=name if name is not None else f"{folder}/{number}",
         robot=robot,
         scene=scene,
@@ -355,10 +363,10 @@ def load_mbm_dir(
                             if (class_dir / f"request{digits}{ext}").is_file()), None)
             if request is None:
                 raise FileNotFoundError(f"{scene_path}: no matching request{digits}.yaml")
-            try:
-                problems.append(load_mbm(scene_path, request, robot=robot,
-                                         name=f"{class_dir.name}/{digits}", cls=class_dir.name,
-                                         mesh_checker=mesh_checker))
+            fields = _mbm_fields(scene_path, request, robot, f"{class_dir.name}/{digits}", class_dir.name,
+                                 mesh_checker)
+            try:  # Problem raises InvalidValueError only for a start or goal outside the joint limits
+                problems.append(Problem(**fields))
             except gfcs.InvalidValueError as e:
                 if invalid is None:
                     raise
