@@ -87,14 +87,26 @@ def test_solve_takes_the_spheres_of_the_spherized_model_beside_a_mesh_robot(tmp_
     """--robot X.urdf without spheres, X_spherized.urdf beside it (MotionBenchMaker's layout): the fabric
     avoids obstacles with the twin's spheres (said on stderr) and X's own geometry validates the motion."""
     mesh_model = tmp_path / "arm.urdf"
-    mesh_model.write_text(panda_with('<box size="0.1 0.2 0.1"/>'))
-    r = run("solve", "--method", "gf", "--class", "box", "--robot", str(mesh_model))
+    other_arm = tmp_path / "other_arm.urdf"  # not a Panda: its forearm is 1 cm longer
+    other_arm.write_text(panda_with('<box size="0.1 0.2 0.1"/>').replace('xyz="0.0825 0 0"', 'xyz="0.0925 0 0"', 1))
+    r = run("solve", "--method", "gf", "--class", "box", "--robot", str(other_arm))
     assert r.returncode == 2 and "no collision spheres" in r.stderr  # no twin: the one-line refusal
+    mesh_model.write_text(panda_with('<box size="0.1 0.2 0.1"/>'))
     (tmp_path / "arm_spherized.urdf").write_text(panda_with('<sphere radius="0.05"/>'))
     r = run("solve", "--method", "gf", "--class", "box", "--robot", str(mesh_model))
     assert r.returncode in (0, 1), r.stderr
     assert "uses those of" in r.stderr and "arm_spherized.urdf" in r.stderr
     assert "checked   collision meshes" in r.stdout
+
+
+def test_a_panda_with_meshes_only_gets_the_shipped_spheres_and_its_own_validation(tmp_path):
+    """--robot X.urdf, a Panda with collision geometry but no spheres and no twin (e.g. a Franka
+    description): the fabric uses the shipped Panda's spheres (said on stderr), X's geometry validates."""
+    mesh_model = tmp_path / "franka.urdf"
+    mesh_model.write_text(panda_with('<box size="0.1 0.2 0.1"/>'))
+    r = run("solve", "--method", "gf", "--class", "box", "--robot", str(mesh_model))
+    assert r.returncode in (0, 1), r.stderr
+    assert "shipped Panda's spheres" in r.stderr and "checked   collision meshes" in r.stdout
 
 
 def test_solve_gf_summary(tmp_path):
@@ -166,6 +178,20 @@ def test_a_suite_leaves_out_problems_outside_the_joint_limits(tmp_path, capsys):
     assert [p.name for p in suite] == ["box/0001"]
     err = capsys.readouterr().err
     assert "left out 1 problem(s)" in err and "'box/0002': goal: joint panda_joint4" in err
+    # gfcs bench: the left-out problem is a row of its own in the JSON lines and a line of the totals
+    rows_file = tmp_path / "rows.jsonl"
+    assert cli.main(["bench", "--problems", str(tmp_path), "--method", "gf", "--json", str(rows_file),
+                     "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    rows = read_rows(rows_file.read_text().splitlines())
+    assert rows[0]["problem"] == "box/0002" and rows[0]["class"] == "box"
+    assert "goal: joint panda_joint4" in rows[0]["left_out"] and set(rows[0]) == {"problem", "class", "left_out"}
+    assert [(r["problem"], r["label"]) for r in rows[1:]] == [("box/0001", "GF")]
+    assert "GF: " in out and "/1 solved" in out and "left out (start or goal not valid for the robot): 1" in out
+    # a suite whose every problem is left out says so
+    (tmp_path / "box" / "scene0001.yaml").unlink()
+    with pytest.raises(ValueError, match="every MotionBenchMaker problem .* outside the joint limits of robot"):
+        cli.load_mbm_suite(str(tmp_path), None, None, robot)
 
 
 def test_failure_hints_name_a_goal_inside_the_margin_and_a_start_in_collision():

@@ -203,3 +203,44 @@ def test_load_mbm_bookshelf_small_with_both_robots(panda, shared_dir):
     suite = problems.load_mbm_dir(root / "mbm", classes=["single_shelf"], limit=3, robot=mbm)
     assert [s.name for s in suite] == [f"bookshelf_small/000{k}" for k in (1, 2, 3)]
     assert all(s.robot is mbm for s in suite)
+
+
+# --------------------------------------------------------------------------- shipped spheres for a Panda
+def test_a_panda_without_spheres_gets_the_shipped_ones(panda):
+    bare = gfcs.Robot.from_urdf(gfcs.panda_urdf(), ee_link="panda_hand")  # the shipped URDF: no collisions
+    assert len(bare.sphere_radii) == 0
+    fitted = problems.with_shipped_panda_spheres(bare)
+    np.testing.assert_array_equal(fitted.sphere_radii, panda.sphere_radii)
+    assert fitted.sphere_links == panda.sphere_links
+    # the shipped SRDF prunes the pairs as for Robot.panda() (fingers at the URDF's 0 m there: same pairs)
+    np.testing.assert_array_equal(fitted.self_collision_pairs, panda.self_collision_pairs)
+    q = np.random.default_rng(3).uniform(panda.lower, panda.upper, (4, 7))
+    held = panda.with_locked_positions(bare.locked_positions)  # the fingers where the bare robot holds them
+    np.testing.assert_allclose(fitted.sphere_centers(q), held.sphere_centers(q), atol=1e-12)
+    assert problems.with_shipped_panda_spheres(panda) is None  # it has spheres of its own
+    longer = gfcs.Robot.from_urdf(gfcs.panda_urdf().replace('xyz="0.0825 0 0"', 'xyz="0.0835 0 0"', 1))
+    assert problems.with_shipped_panda_spheres(longer) is None  # link 4 on: 1 mm off, not a Panda
+    renamed = gfcs.Robot.from_urdf(gfcs.panda_urdf().replace("panda_joint7", "wrist_joint"))
+    assert problems.with_shipped_panda_spheres(renamed) is None
+
+
+def test_the_mbm_mesh_panda_gets_the_shipped_spheres(mbm_panda_dir, panda):
+    mesh_model = gfcs.Robot.from_urdf(mbm_panda_dir / "panda.urdf", ee_link="panda_hand", mesh_dir=mbm_panda_dir)
+    fitted = problems.with_shipped_panda_spheres(mesh_model, mbm_panda_dir / "panda.srdf")
+    assert fitted is not None and len(fitted.sphere_radii) == len(panda.sphere_radii)
+    np.testing.assert_array_equal(fitted.lower, mesh_model.lower)  # its own limits (joint 4 to 0.0873 rad)
+    assert mesh_model.locked_positions == {}  # its fingers are fixed joints, at another opening
+    q = np.random.default_rng(4).uniform(panda.lower, panda.upper, (4, 7))
+    arm = [k for k, link in enumerate(panda.sphere_links) if "finger" not in link]
+    np.testing.assert_allclose(fitted.sphere_centers(q)[:, arm], panda.sphere_centers(q)[:, arm], atol=1e-9)
+    # they cover its meshes, fingers included: no obstacle comes nearer the meshes than the spheres
+    checker = problems.urdf_mesh_checker(mbm_panda_dir / "panda.urdf", fitted, srdf=mbm_panda_dir / "panda.srdf")
+    rng = np.random.default_rng(5)
+    for qk in q:
+        for link in ("panda_link5", "panda_hand", "panda_leftfinger"):
+            k = rng.choice([i for i, name in enumerate(fitted.sphere_links) if name == link])
+            centre = fitted.sphere_centers(qk[None])[0, k]
+            scene = gfcs.Scene()
+            scene.add_sphere(centre + rng.normal(size=3) * 0.1, 0.02)
+            spheres = scene.signed_distance(fitted.sphere_centers(qk[None])[0]) - fitted.sphere_radii
+            assert spheres.min() <= checker.min_clearance(scene, qk[None]) + 1e-6

@@ -72,6 +72,9 @@ def _raise_core_error(variant: str) -> None:
 def panda_urdf() -> str:
     """The URDF text of the shipped Panda (``Robot.panda()``; its fingers are locked at 0.04 m there)."""
 
+def panda_srdf() -> str:
+    """The SRDF text of the shipped Panda: the self-collision pairs ``Robot.panda()`` disables."""
+
 class Robot:
     """Immutable robot model: URDF kinematic tree, active joints (q order), limits, collision spheres
     (centres in link frames) and self-collision sphere pairs."""

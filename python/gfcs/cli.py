@@ -147,7 +147,7 @@ def _robot(args: argparse.Namespace) -> Any:
 
             return mbm_panda()
         return gfcs.Robot.panda()
-    from gfcs.problems import spherized_urdf_for, with_gap_spheres
+    from gfcs.problems import spherized_urdf_for, with_gap_spheres, with_shipped_panda_spheres
 
     robot = gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
                                  srdf=args.srdf, spheres=args.spheres)
@@ -157,6 +157,11 @@ def _robot(args: argparse.Namespace) -> Any:
         robot = robot.with_spheres(list(zip(twin.sphere_links, twin.sphere_centers_local, twin.sphere_radii)))
         print(f"gfcs: {args.robot} has no collision spheres; the fabric uses those of {sibling}",
               file=sys.stderr)
+    shipped = with_shipped_panda_spheres(robot, args.srdf)
+    if shipped is not None:  # a Panda description with meshes only (e.g. franka_description's)
+        print(f"gfcs: {args.robot} has no collision spheres; its links move as the shipped Panda's, so the "
+              "fabric uses the shipped Panda's spheres (they cover the Franka collision meshes)", file=sys.stderr)
+        return shipped
     return with_gap_spheres(robot)  # MotionBenchMaker's panda_spherized.urdf gets --robot mbm's spheres
 
 
@@ -354,9 +359,13 @@ def _register_solve(sub: Any) -> None:
 
 # --------------------------------------------------------------------------------------------- bench
 def load_mbm_suite(folder: str, classes: Optional[Sequence[str]], limit: Optional[int], robot: Any,
-                   skip: int = 0) -> List[Any]:
+                   skip: int = 0, left_out: Optional[List[Tuple[str, str]]] = None) -> List[Any]:
     """:func:`gfcs.problems.load_mbm_dir`, leaving out (and listing on stderr) the problems whose start or
-    goal lies outside the robot's joint limits: one such problem does not stop a whole suite."""
+    goal lies outside the robot's joint limits: one such problem does not stop a whole suite.
+
+    Args:
+        left_out: when a list, (problem name, reason) of each problem left out is appended to it.
+    """
     from gfcs import problems
 
     invalid: List[Tuple[str, str]] = []
@@ -365,15 +374,19 @@ def load_mbm_suite(folder: str, classes: Optional[Sequence[str]], limit: Optiona
         print(f"gfcs: left out {len(invalid)} problem(s) not valid for this robot:", file=sys.stderr)
         for _, message in invalid:
             print(f"  {message}", file=sys.stderr)
+    if left_out is not None:
+        left_out.extend(invalid)
     return suite
 
 
-def load_problems(args: argparse.Namespace, robot: Any) -> List[Any]:
-    """The suite of ``gfcs bench``: a MotionBenchMaker folder, or generated problems."""
+def load_problems(args: argparse.Namespace, robot: Any,
+                  left_out: Optional[List[Tuple[str, str]]] = None) -> List[Any]:
+    """The suite of ``gfcs bench``: a MotionBenchMaker folder, or generated problems (``left_out``: see
+    :func:`load_mbm_suite`; a generated suite leaves none out)."""
     from gfcs import generators, problems
 
     if args.problems:
-        return load_mbm_suite(args.problems, args.classes, args.limit, robot, args.skip)
+        return load_mbm_suite(args.problems, args.classes, args.limit, robot, args.skip, left_out)
     classes = args.classes or list(problems.CLASSES)
     n = args.limit if args.limit is not None else 10
     suite: List[Any] = []
@@ -439,20 +452,23 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
               threads: Optional[int] = None, settings: Any = None, jsonl: Optional[str] = None,
               rrd_dir: Optional[str] = None, progress: bool = True, retry: bool = True,
               solve_options: Optional[Dict[str, Any]] = None,
-              results_dir: Optional[str] = None) -> List[Dict[str, Any]]:
+              results_dir: Optional[str] = None,
+              left_out: Sequence[Tuple[str, str]] = ()) -> List[Dict[str, Any]]:
     """Benchmark ``methods`` on ``problems``; rows are appended to ``jsonl`` as they are produced (rows:
     :func:`bench_problem`). With ``results_dir``, the returned result of every method on every problem
     (with its trajectory, as ``gfcs solve --json`` writes it) goes to ``<results_dir>/<class>_<NNNN>.<method>.json``,
-    for validators of your own (e.g. ``tools/check_trajectories.py``).
+    for validators of your own (e.g. ``tools/check_trajectories.py``). ``left_out``: (name, reason) of the
+    suite's problems that were not run (:func:`load_mbm_suite`); each becomes a
+    :func:`gfcs.results.left_out_row`, written first.
 
     Returns:
-        All rows (see :mod:`gfcs.results` for the row format).
+        All rows, the left-out ones first (see :mod:`gfcs.results` for the row format).
     """
     from tqdm.auto import tqdm
 
-    from gfcs.results import _enc
+    from gfcs.results import _enc, left_out_row
 
-    rows: List[Dict[str, Any]] = []
+    rows: List[Dict[str, Any]] = [left_out_row(name, reason) for name, reason in left_out]
     if rrd_dir:
         _viz()  # fail before the first problem when the extra is missing
     for folder in (rrd_dir, results_dir):
@@ -460,6 +476,9 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
             Path(folder).mkdir(parents=True, exist_ok=True)
     out = open(jsonl, "w") if jsonl else None
     try:
+        if out is not None:
+            for r in rows:
+                out.write(json.dumps(r) + "\n")
         bar = tqdm(problems, desc="bench", unit="problem", disable=not progress)
         for problem in bar:
             bar.set_postfix_str(problem.name)
@@ -487,12 +506,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from gfcs.results import format_table, format_totals, summarize
 
     robot = _robot(args)
-    suite = _with_mesh_checker(args, load_problems(args, robot))
+    left_out: List[Tuple[str, str]] = []
+    suite = _with_mesh_checker(args, load_problems(args, robot, left_out))
     rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
                      n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
                      threads=args.threads, settings=_settings(args), jsonl=args.json, rrd_dir=args.rrd_dir,
                      progress=not args.no_progress, retry=not args.no_retry,
-                     solve_options=_solve_options(args), results_dir=args.results_dir)
+                     solve_options=_solve_options(args), results_dir=args.results_dir, left_out=left_out)
     summary = summarize(rows)
     totals = format_totals(rows) if rows else ""
     print(format_table(summary, markdown=False) + "\n" + totals, end="")

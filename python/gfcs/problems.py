@@ -43,6 +43,7 @@ __all__ = [
     "mesh_checker_for",
     "mesh_urdf_for",
     "urdf_mesh_checker",
+    "with_shipped_panda_spheres",
     "shared_dir",
 ]
 
@@ -332,7 +333,7 @@ def load_mbm_dir(
     Raises:
         FileNotFoundError: ``directory`` does not exist, or a scene has no matching request.
         gfcs.InvalidValueError: a start or goal outside the joint limits (without ``invalid``).
-        ValueError: no problems found (the message says where it looked).
+        ValueError: no problems found (the message says where it looked), or every one left out.
     """
     import gfcs
 
@@ -350,6 +351,7 @@ def load_mbm_dir(
                 pass
     robot = gfcs.Robot.panda() if robot is None else robot
     problems: List[Problem] = []
+    left_out: List[str] = []
     for class_dir in _class_dirs(root):
         if wanted is not None and class_dir.name not in wanted:
             continue
@@ -371,6 +373,10 @@ def load_mbm_dir(
                 if invalid is None:
                     raise
                 invalid.append((f"{class_dir.name}/{digits}", str(e)))
+                left_out.append(str(e))
+    if not problems and left_out:
+        raise ValueError(f"every MotionBenchMaker problem under {root} has its start or goal outside the joint "
+                         f"limits of robot '{robot.name}' ({len(left_out)} problem(s); first: {left_out[0]})")
     if not problems:
         raise ValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
                          + (f" for classes {sorted(wanted)}" if wanted else ""))
@@ -547,6 +553,48 @@ def spherized_urdf_for(urdf: PathLike) -> Optional[Path]:
         return None
     sibling = path.with_name(path.stem + "_spherized" + path.suffix)
     return sibling if sibling.is_file() else None
+
+
+def with_shipped_panda_spheres(robot: Any, srdf: Optional[Union[PathLike, str]] = None,
+                               samples: int = 8, tol: float = 1e-6) -> Optional[Any]:
+    """``robot`` with the collision spheres of :meth:`gfcs.Robot.panda`, when it has none of its own and is
+    a Panda: the same active joints, every link that carries a shipped sphere, and those links move exactly
+    as the shipped Panda's do (link poses within ``tol`` m and rad at ``samples`` seeded configurations
+    inside both robots' joint limits). The fingers are exempt from the pose check: the shipped spheres sit
+    in their link frames, wherever a URDF holds or fixes the finger joints. Otherwise None.
+
+    The shipped spheres cover the Franka collision meshes (``tools/fit_spheres.py``, every vertex inside),
+    so such a URDF (e.g. a Franka description with meshes and no spherized twin) runs the fabric on them
+    and is validated on its own meshes. Self-collision pairs: pruned by ``srdf`` (path or XML text) when
+    given, else by the shipped Panda's SRDF (:func:`gfcs.panda_srdf`).
+    """
+    import gfcs
+
+    if len(robot.sphere_radii) > 0:
+        return None
+    shipped = gfcs.Robot.panda()
+    if list(robot.joint_names) != list(shipped.joint_names):
+        return None
+    links = sorted(set(shipped.sphere_links))
+    if not set(links) <= set(robot.link_names):
+        return None
+    # the links that move with the shipped Panda's locked joints (the fingers): exempt from the check
+    opened = shipped.with_locked_positions({j: v - 0.01 for j, v in shipped.locked_positions.items()})
+    zero = np.zeros((1, shipped.dof))
+    moves = np.abs(opened.link_poses(zero)[0] - shipped.link_poses(zero)[0]).max(axis=(1, 2)) > tol
+    links = [link for link in links if not moves[shipped.link_index(link)]]
+    lower = np.maximum(robot.lower, shipped.lower)
+    upper = np.minimum(robot.upper, shipped.upper)
+    if np.any(lower > upper):
+        return None
+    q = np.random.default_rng(0).uniform(lower, upper, size=(samples, len(lower)))
+    mine, theirs = robot.link_poses(q), shipped.link_poses(q)
+    for link in links:
+        if np.max(np.abs(mine[:, robot.link_index(link)] - theirs[:, shipped.link_index(link)])) > tol:
+            return None
+    spheres = [(link, [float(x) for x in c], float(r))
+               for link, c, r in zip(shipped.sphere_links, shipped.sphere_centers_local, shipped.sphere_radii)]
+    return robot.with_spheres(spheres).with_srdf(gfcs.panda_srdf() if srdf is None else srdf)
 
 
 def mesh_checker_for(robot: Any) -> Any:

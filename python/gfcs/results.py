@@ -18,6 +18,11 @@ and validation of the returned motion, retries), ``cost`` (GFCS eq. 4), ``ee_len
 validated against collision meshes also ``mesh_clearance`` and ``mesh_self_clearance`` [m] (the smallest
 mesh distance to the obstacles and between non-adjacent links; ``inf``: none within the checker's
 ``max_distance``).
+
+A problem of the suite that was not run (its start or goal outside the robot's joint limits, see
+:func:`gfcs.cli.load_mbm_suite`) has one row of its own, :func:`left_out_row`: ``problem``, ``class`` and
+``left_out`` (str, the reason) and no other key. :func:`summarize` leaves such rows out of the tables and
+:func:`format_totals` counts them on a line of their own.
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ __all__ = [
     "Trajectory",
     "SolveResult",
     "bench_row",
+    "left_out_row",
     "summarize",
     "format_table",
     "format_totals",
@@ -342,6 +348,16 @@ def bench_row(
     }
 
 
+def left_out_row(problem: str, reason: str) -> Dict[str, Any]:
+    """The row of a problem ``"<class>/<NNNN>"`` that a suite left out, and why (see the module docstring)."""
+    return {"problem": problem, "class": problem.split("/")[0], "left_out": reason}
+
+
+def _run(rows: Iterable[Dict[str, Any]]) -> List[Dict[str, Any]]:
+    """The rows of problems that were run (without :func:`left_out_row` rows)."""
+    return [r for r in rows if "left_out" not in r]
+
+
 def summarize(rows: Iterable[Dict[str, Any]]) -> Dict[str, Dict[str, Dict[str, Any]]]:
     """Per class and label: n, % success, and (mean, std) of each Table I column over successful rows.
 
@@ -354,7 +370,7 @@ def summarize(rows: Iterable[Dict[str, Any]]) -> Dict[str, Dict[str, Dict[str, A
         and labels in first-seen order; a column is None when no successful row has a finite value.
     """
     groups: Dict[str, Dict[str, List[Dict[str, Any]]]] = {}
-    for r in rows:
+    for r in _run(rows):
         groups.setdefault(str(r["class"]), {}).setdefault(str(r["label"]), []).append(r)
     out: Dict[str, Dict[str, Dict[str, Any]]] = {}
     for c, by_label in groups.items():
@@ -407,9 +423,11 @@ def format_table(summary: Dict[str, Dict[str, Dict[str, Any]]], markdown: bool =
 
 def format_totals(rows: Iterable[Dict[str, Any]]) -> str:
     """One line per label over every class: problems solved, and the median over all its problems of
-    ``time`` (the optimisation, GFCS Table I's measure) and of ``wall_time`` (the whole solve), in s."""
+    ``time`` (the optimisation, GFCS Table I's measure) and of ``wall_time`` (the whole solve), in s;
+    then how many problems were left out (:func:`left_out_row`), when any were."""
+    rows = list(rows)
     by_label: Dict[str, List[Dict[str, Any]]] = {}
-    for r in rows:
+    for r in _run(rows):
         by_label.setdefault(str(r["label"]), []).append(r)
     lines = []
     for label, rs in by_label.items():
@@ -418,6 +436,9 @@ def format_totals(rows: Iterable[Dict[str, Any]]) -> str:
         wall = np.median([_dec_float(r["wall_time"]) for r in rs])
         lines.append(f"{label}: {solved}/{len(rs)} solved ({100.0 * solved / len(rs):.1f} %), median time "
                      f"{time:.3f} s, whole solve {wall:.3f} s")
+    n_left = len(rows) - len(_run(rows))
+    if n_left:
+        lines.append(f"left out (start or goal not valid for the robot): {n_left} problem(s)")
     return "\n".join(lines) + "\n"
 
 

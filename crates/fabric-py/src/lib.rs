@@ -27,6 +27,13 @@ fn panda_urdf() -> &'static str {
     include_str!("../../fabric-core/assets/panda.urdf")
 }
 
+/// The shipped Panda SRDF text (the self-collision pairs `Robot.panda()` disables, same asset file), e.g. to
+/// give another Panda URDF the shipped collision spheres with their pruned pairs (`Robot.with_srdf`).
+#[pyfunction]
+fn panda_srdf() -> &'static str {
+    include_str!("../../fabric-core/assets/panda.srdf")
+}
+
 /// The compiled module `gfcs._core`.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -35,6 +42,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(errors::_raise_internal_panic, m)?)?;
     m.add_function(wrap_pyfunction!(errors::_raise_core_error, m)?)?;
     m.add_function(wrap_pyfunction!(panda_urdf, m)?)?;
+    m.add_function(wrap_pyfunction!(panda_srdf, m)?)?;
     m.add_function(wrap_pyfunction!(scene::load_motion_plan_request, m)?)?;
     m.add_function(wrap_pyfunction!(particle::particle_acceleration, m)?)?;
     m.add_function(wrap_pyfunction!(particle::particle_rollout, m)?)?;
