@@ -272,6 +272,32 @@ def test_gil_released_during_evaluate(fabric):
     assert max_gap < 0.5 * elapsed["t"], f"main thread blocked {max_gap:.3f}s of {elapsed['t']:.3f}s"
 
 
+def test_per_sphere_obstacle_margins(robot, scene):
+    """with_obstacle_margins: a copy; margins all equal to m act as the configured margin m (same q̈ to the
+    bit); lower margins on the spheres near the obstacle change q̈; bad margins name the problem."""
+    config = gfcs.FabricConfig.defaults()
+    plain = gfcs.Fabric(robot, scene, config)
+    s = len(robot.sphere_radii)
+    margin = plain.config.to_dict()["obstacles"]["margin"]
+    same = plain.with_obstacle_margins(np.full(s, margin))
+    assert plain.obstacle_margins is None and same.obstacle_margins.shape == (s,)
+    wide = gfcs.Fabric(robot, scene, config.replace({"obstacles": {"margin": 0.03}}))
+    as_wide = plain.with_obstacle_margins(np.full(s, 0.03))
+    q, qd = Q0, np.full(7, 0.3)
+    np.testing.assert_array_equal(same.acceleration(q, qd, GOAL), plain.acceleration(q, qd, GOAL))
+    np.testing.assert_array_equal(as_wide.acceleration(q, qd, GOAL), wide.acceleration(q, qd, GOAL))
+    assert not np.array_equal(as_wide.acceleration(q, qd, GOAL), plain.acceleration(q, qd, GOAL))
+    assert as_wide.with_obstacle_margins(None).obstacle_margins is None
+    with pytest.raises(gfcs.ShapeError, match="margins"):
+        plain.with_obstacle_margins(np.zeros(s - 1))
+    with pytest.raises(gfcs.NonFiniteError, match="margins"):
+        plain.with_obstacle_margins(np.full(s, np.nan))
+    deep = np.zeros(s)
+    deep[5] = -robot.sphere_radii[5]
+    with pytest.raises(gfcs.InvalidValueError, match=f"sphere 5 on link '{robot.sphere_links[5]}'"):
+        plain.with_obstacle_margins(deep)
+
+
 def test_bad_inputs(fabric, robot):
     with pytest.raises(gfcs.ShapeError, match=r"q: expected shape \(7,\), got \(6,\)"):
         fabric.acceleration(np.zeros(6), np.zeros(7), GOAL)

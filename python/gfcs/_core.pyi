@@ -396,6 +396,13 @@ class Fabric:
         """Replace the scene (copied); the same check as the constructor."""
     def update_obstacle(self, id: int, pose: Optional[Pose] = None, velocity: Optional[ArrayLike] = None) -> None:
         """Move / set the velocity of an obstacle of the fabric's scene."""
+    def with_obstacle_margins(self, margins: Optional[ArrayLike]) -> Fabric:
+        """A copy (same robot, configuration, scene) whose obstacle barrier uses one margin per robot sphere:
+        ``margins`` (S,) m in the order of ``robot.sphere_radii``, each > −radius (negative: the sphere may
+        sink into obstacles by that much), replacing ``config.obstacles.margin``; None: the configured one."""
+    @property
+    def obstacle_margins(self) -> Optional[FloatArray]:
+        """(S,) m of :meth:`with_obstacle_margins`, or None (the configured margin for every sphere)."""
     def acceleration(
         self, q: ArrayLike, qd: ArrayLike, command: ArrayLike, ee_target: Optional[Pose] = None
     ) -> FloatArray:

@@ -106,7 +106,9 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                         "model validates it (default 0.001; 0: contact only)")
     g.add_argument("--no-retry", action="store_true",
                    help="do not retry a failed solve (with the default sampler: with one more command; "
-                        "after a collision of the meshes only: with a 2 mm wider obstacle margin)")
+                        "after a collision of the meshes only: with a 2 mm wider obstacle margin; when the "
+                        "goal's spheres overlap obstacles its meshes clear: with those spheres' margins "
+                        "lowered to the goal's)")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
     r.add_argument("--dt", type=float, default=0.01, help="integration step, s (default 0.01)")
     r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
@@ -244,17 +246,25 @@ def summary_text(result: Any, problem: Any) -> str:
     else:
         lines.append("method    gf: local geometric fabric toward the goal")
     t_stars = " + ".join(f"{t:.2f}" for t in result.t_stars)
+    contact = result.settings.get("goal_contact")
+    floor = contact["clearance_floor"] if contact else 0.0
+    mesh_margin = float(result.settings.get("mesh_margin", 0.0))
     why = [text for bad, text in ((not result.reached, "goal not reached"),
-                                  (m["min_clearance"] < 0, "collision with obstacles"),
+                                  (m["min_clearance"] < floor, "collision with obstacles"),
                                   (m["min_self_clearance"] < 0, "self-collision"),
                                   (not m["within_limits"], "joint limits violated"),
-                                  (m.get("mesh_clearance", math.inf) <= 0, "mesh collision with obstacles"),
-                                  (m.get("mesh_self_clearance", math.inf) <= 0, "mesh self-collision"))
+                                  (m.get("mesh_clearance", math.inf) <= mesh_margin,
+                                   "mesh collision with obstacles"),
+                                  (m.get("mesh_self_clearance", math.inf) <= mesh_margin, "mesh self-collision"))
            if bad]
     verdict = "SUCCESS" if result.success else f"FAILURE ({', '.join(why) or 'goal tolerance'})"
     lines.append(f"result    {verdict}: cost {_fmt(result.cost, ' s')} "
                  f"(t* = {t_stars} s), goal error {_fmt(m['final_error'], ' rad')}, "
                  f"reached {result.reached}")
+    if contact:
+        lines.append(f"contact   the goal's collision spheres come within the fabric's margin of the obstacles: "
+                     f"solved with those spheres' margins lowered to the goal's, spheres allowed down to "
+                     f"{floor * 1000:.2f} mm, the collision meshes judging the contact")
     if not result.success:
         lines.extend(_endpoint_hints(result, problem))
     lines.append(f"quality   EE length {_fmt(m['ee_length'], ' m')}, C-space length "
@@ -307,8 +317,8 @@ def _record(problem: Any, results: Any, path: str) -> None:
 
 
 def _no_retry(n_commands: int) -> Dict[str, Any]:
-    """Keyword arguments of :func:`gfcs.optimize.solve` that turn both of its retries off."""
-    return {"max_commands": n_commands, "mesh_retry_margin": 0.0}
+    """Keyword arguments of :func:`gfcs.optimize.solve` that turn all of its retries off."""
+    return {"max_commands": n_commands, "mesh_retry_margin": 0.0, "goal_contact_slack": 0.0}
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
@@ -407,7 +417,8 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     seed, whose batch is the first batch of the longer solve) and "Ours (B b)" (after all B batches);
     with ``retry`` (and the default sampler) a third row, "Ours (B b, retry)", is what
     :func:`gfcs.optimize.solve` returns by default: the same unless that failed, then its retries (n + 1
-    commands; a wider obstacle margin after a mesh-only collision; time = every attempt). GF yields
+    commands; a wider obstacle margin after a mesh-only collision; lowered margins for a goal in sphere
+    contact that the meshes clear; time = every attempt). GF yields
     "GF". ``solve_options``: further keyword arguments of :func:`gfcs.optimize.solve` for every method
     (e.g. ``mesh_margin``; GF ignores the GFCS-only ones such as ``length_slack``).
     """

@@ -32,6 +32,7 @@ __all__ = [
     "dimensionless_jerk",
     "log_dimensionless_jerk",
     "within_limits",
+    "sphere_clearances",
     "obstacle_clearance",
     "self_clearance",
     "mesh_clearance",
@@ -172,11 +173,11 @@ def within_limits(q: Any, lower: Any, upper: Any, tol: float = DEFAULT_LIMIT_TOL
     return bool(np.all(qa >= lo - tol) and np.all(qa <= up + tol))
 
 
-def obstacle_clearance(robot: Any, scene: Any, q: Any) -> np.ndarray:
-    """Per-sample clearance of the robot's collision spheres to the obstacles.
+def sphere_clearances(robot: Any, scene: Any, q: Any) -> np.ndarray:
+    """Clearance of each of the robot's collision spheres to the obstacles, per sample.
 
-    clearance_k = min_i ( d(c_i(q_k)) − r_i ), with d the scene's signed distance (positive outside) and
-    c_i, r_i the centres and radii of the robot's collision spheres. Negative means penetration.
+    clearance_ki = d(c_i(q_k)) − r_i, with d the scene's signed distance (positive outside) and c_i, r_i
+    the centres and radii of the robot's collision spheres. Negative means penetration.
 
     Args:
         robot: a :class:`gfcs.Robot`.
@@ -184,16 +185,26 @@ def obstacle_clearance(robot: Any, scene: Any, q: Any) -> np.ndarray:
         q: (T, dof) joint positions.
 
     Returns:
-        (T,) clearances [m]; +inf for every sample when the scene is empty or the robot has no spheres.
+        (T, S) clearances [m] for the S spheres; +inf everywhere when the scene is empty.
     """
     qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
     radii = np.asarray(robot.sphere_radii, dtype=np.float64)
     if len(scene) == 0 or radii.size == 0 or qa.shape[0] == 0:
-        return np.full(qa.shape[0], math.inf)
+        return np.full((qa.shape[0], radii.size), math.inf)
     centers = np.asarray(robot.sphere_centers(qa), dtype=np.float64).reshape(qa.shape[0], -1, 3)
     d = np.asarray(scene.signed_distance(centers.reshape(-1, 3)), dtype=np.float64)
-    d = d.reshape(qa.shape[0], radii.size) - radii[None, :]
-    return d.min(axis=1)
+    return d.reshape(qa.shape[0], radii.size) - radii[None, :]
+
+
+def obstacle_clearance(robot: Any, scene: Any, q: Any) -> np.ndarray:
+    """Per-sample clearance of the robot's collision spheres to the obstacles: the minimum over the spheres
+    of :func:`sphere_clearances`.
+
+    Returns:
+        (T,) clearances [m]; +inf for every sample when the scene is empty or the robot has no spheres.
+    """
+    d = sphere_clearances(robot, scene, q)
+    return d.min(axis=1) if d.shape[1] else np.full(d.shape[0], math.inf)
 
 
 def self_clearance(robot: Any, q: Any) -> np.ndarray:
@@ -290,6 +301,7 @@ def trajectory_metrics(
     ee: Optional[Any] = None,
     mesh_checker: Optional[Any] = None,
     mesh_margin: float = DEFAULT_MESH_MARGIN,
+    clearance_floor: float = 0.0,
 ) -> Dict[str, Any]:
     """Everything GFCS Table I reports about one trajectory, plus the success criterion.
 
@@ -305,11 +317,16 @@ def trajectory_metrics(
         mesh_checker: optional :class:`gfcs.MeshChecker` of the robot's collision meshes (e.g.
             ``problem.mesh_checker``); when given, every sample is checked against the meshes too.
         mesh_margin: with a checker, the mesh clearances (obstacles and self) must exceed this [m], ≥ 0.
+        clearance_floor: the sphere clearance to the obstacles must stay ≥ this [m], ≤ 0 (default 0: no
+            penetration). Below 0 only with a checker, whose meshes then judge the contact: for a goal at
+            which conservative spheres overlap an obstacle that the meshes clear (:func:`gfcs.optimize.solve`'s
+            goal-contact attempt).
 
     Returns:
         dict with keys ``success`` (bool: ``sphere_success`` and, with a checker, mesh clearances >
         ``mesh_margin``),
-        ``sphere_success`` (bool: final error ≤ tol, min sphere clearance ≥ 0 against obstacles and self,
+        ``sphere_success`` (bool: final error ≤ tol, min sphere clearance ≥ ``clearance_floor`` against
+        obstacles and ≥ 0 against the robot itself,
         limits respected: the verdict of the sphere model alone), ``final_error`` [rad], ``min_clearance``
         [m] (obstacles, spheres), ``min_self_clearance`` [m], ``within_limits`` (bool), ``duration`` [s],
         ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``, ``cspace_ldj`` (NaN when undefined),
@@ -327,6 +344,12 @@ def trajectory_metrics(
     if qa.shape[0] == 0:
         raise ValueError("q: expected at least one sample, got shape (0, dof)")
     mesh_margin = _non_negative("mesh_margin", mesh_margin, " [m]")
+    floor = float(clearance_floor)
+    if not (math.isfinite(floor) and floor <= 0):
+        raise ValueError(f"clearance_floor must be a finite number ≤ 0 [m], got {clearance_floor}")
+    if floor < 0 and mesh_checker is None:
+        raise ValueError(f"clearance_floor {floor} m < 0 needs a mesh_checker: the spheres alone cannot "
+                         "judge a contact")
     ee_a = (
         np.asarray(robot.ee_position(qa), dtype=np.float64).reshape(qa.shape[0], 3)
         if ee is None
@@ -345,7 +368,7 @@ def trajectory_metrics(
         mesh_clear, mesh_self, mesh_ok = mesh_verdict(mesh_checker, scene, qa, mesh_margin)
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
-    sphere_ok = bool(final_error <= tol and clear >= 0.0 and self_clear >= 0.0 and limits_ok)
+    sphere_ok = bool(final_error <= tol and clear >= floor and self_clear >= 0.0 and limits_ok)
     return {
         "success": sphere_ok and mesh_ok,
         "sphere_success": sphere_ok,

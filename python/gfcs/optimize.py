@@ -72,6 +72,7 @@ __all__ = [
     "solve_gfcop",
     "solve",
     "combine_attempts",
+    "goal_contact",
     "replay",
     "make_fabric",
     "rollout_commands",
@@ -582,7 +583,7 @@ def _settings_dict(settings: RolloutSettings, **extra: Any) -> Dict[str, Any]:
 def _select_candidate(
     fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
     mesh_checker: Any, mesh_candidates: int, length_slack: float = 0.0, threads: Optional[int] = None,
-    mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
+    mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN, clearance_floor: float = 0.0,
 ) -> Tuple[np.ndarray, Trajectory, float, bool, np.ndarray, Dict[str, Any]]:
     """The candidate :func:`solve` returns, rolled out: (commands (n, dof), trajectory, cost, reached,
     t_stars, metrics).
@@ -592,6 +593,7 @@ def _select_candidate(
     (after the lowest-cost one only those that reached the goal); at most ``mesh_candidates`` are
     considered. Without a mesh checker the first of that order is returned; with one, the first whose
     trajectory succeeds with meshes included, or, if none does, the first of the order.
+    ``clearance_floor``: see :func:`gfcs.metrics.trajectory_metrics`.
     """
     robot, scene = problem.robot, problem.scene
     dof = int(robot.dof)
@@ -626,7 +628,7 @@ def _select_candidate(
     for checked, k in enumerate(keep, start=1):
         commands, traj, cost, reached, t_stars = roll(k)
         met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, goal, mesh_checker=mesh_checker,
-                                          mesh_margin=mesh_margin)
+                                          mesh_margin=mesh_margin, clearance_floor=clearance_floor)
         met["selection_rank"] = int(np.flatnonzero(order == k)[0])
         if mesh_checker is not None:
             met["mesh_candidates_checked"] = checked
@@ -662,6 +664,7 @@ def solve(
     max_commands: Optional[int] = None,
     mesh_retry_margin: float = 0.002,
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
+    goal_contact_slack: float = 0.002,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1) or with the local fabric alone (``method="gf"``).
 
@@ -711,6 +714,16 @@ def solve(
             to succeed (:func:`gfcs.metrics.trajectory_metrics`); candidates closer than that are passed
             over like colliding ones. Default :data:`gfcs.metrics.DEFAULT_MESH_MARGIN` (1 mm); 0: contact
             only.
+        goal_contact_slack: the goal-contact attempt [m], ≥ 0 (0: none). When every attempt failed, the
+            problem has a mesh checker, the goal's meshes clear the obstacles and each other by more than
+            ``mesh_margin``, and some collision spheres at the goal come nearer the obstacles than the
+            fabric's margin plus this slack (conservative spheres overlapping an object the meshes clear,
+            e.g. a grasp), solve once more with those spheres' obstacle margins lowered to their goal
+            clearance minus the slack (:meth:`gfcs.Fabric.with_obstacle_margins`; possibly negative), so
+            that the goal keeps the barrier ``slack`` away, and judge the spheres against the obstacles down
+            to the goal's deepest overlap minus the slack (``clearance_floor`` of
+            :func:`gfcs.metrics.trajectory_metrics`); the meshes judge the rest. ``settings["goal_contact"]``
+            of that attempt holds the margins and the floor.
 
     Returns:
         :class:`gfcs.results.SolveResult` (trajectory of the best sequence, metrics, per-batch data;
@@ -764,13 +777,15 @@ def solve(
         raise ValueError("max_commands > n_commands needs the default sampler: a sampler of your own "
                          f"proposes {n_commands} command(s) per candidate")
     mesh_retry_margin = _metrics._non_negative("mesh_retry_margin", mesh_retry_margin, " [m]")
+    goal_contact_slack = _metrics._non_negative("goal_contact_slack", goal_contact_slack, " [m]")
     options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
                    length_slack=length_slack, mesh_margin=mesh_margin,
                    callback=callback)
-    def attempt(n: int, fab: Any = fabric, info: Dict[str, Any] = common) -> SolveResult:
+    def attempt(n: int, fab: Any = fabric, info: Dict[str, Any] = common, floor: float = 0.0) -> SolveResult:
         return _solve_commands(problem, fab, mesh_checker, info, n,
-                               sampler if sampler is not None else ApproachSampler(n), **options)
+                               sampler if sampler is not None else ApproachSampler(n), clearance_floor=floor,
+                               **options)
 
     attempts: List[SolveResult] = []
     for n in range(n_commands, max_commands + 1):
@@ -781,7 +796,38 @@ def solve(
         margin = float(common["fabric_config"]["obstacles"]["margin"]) + mesh_retry_margin
         wider = make_fabric(problem, fabric.config.replace({"obstacles": {"margin": margin}}))
         attempts.append(attempt(n_commands, wider, {**common, "fabric_config": wider.config.to_dict()}))
+    contact = None
+    if not attempts[-1].success and goal_contact_slack > 0 and mesh_checker is not None:
+        contact = goal_contact(problem, fabric, goal_contact_slack, mesh_checker, mesh_margin)
+    if contact is not None:
+        margins, floor = contact
+        attempts.append(attempt(n_commands, fabric.with_obstacle_margins(margins), floor=floor))
     return done(combine_attempts(attempts))
+
+
+def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
+                 mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN) -> Optional[Tuple[np.ndarray, float]]:
+    """Per-sphere obstacle margins for a goal at which collision spheres come nearer the obstacles than
+    ``fabric``'s margin (see ``goal_contact_slack`` of :func:`solve`): (margins (S,) m, clearance floor m),
+    or None when no sphere does, when the goal's meshes do not clear the obstacles and each other by more
+    than ``mesh_margin``, or when a sphere's centre lies within ``slack`` of an obstacle's inside (the sphere
+    model cannot describe that contact).
+
+    margin_i = min(m, c_i − slack) with m = ``obstacles.margin`` and c_i the clearance of sphere i at the
+    goal; floor = min(0, min_i c_i) − slack.
+    """
+    goal = np.asarray(problem.goal, dtype=np.float64)
+    robot, scene = problem.robot, problem.scene
+    clearance = _metrics.sphere_clearances(robot, scene, goal[None])[0]
+    margin = float(fabric.config.to_dict()["obstacles"]["margin"])
+    margins = np.minimum(margin, clearance - slack)
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    if not np.any(margins < margin) or np.any(margins <= -radii):
+        return None
+    if (mesh_checker.min_clearance(scene, goal[None]) <= mesh_margin
+            or mesh_checker.min_self_clearance(goal[None]) <= mesh_margin):
+        return None
+    return margins, float(min(0.0, clearance.min()) - slack)
 
 
 def _mesh_collision_only(result: SolveResult) -> bool:
@@ -816,6 +862,7 @@ def _solve_commands(
     *, batches: int, population: int, seed: int, threads: Optional[int], progress: bool,
     settings: RolloutSettings, top_m: int, sigma0: float, mesh_candidates: int, length_slack: float,
     mesh_margin: float, callback: Optional[Callable[[BatchInfo], Optional[bool]]],
+    clearance_floor: float = 0.0,
 ) -> SolveResult:
     """GFCS with exactly ``n_commands`` free commands (the body of :func:`solve`)."""
     robot = problem.robot
@@ -863,7 +910,10 @@ def _solve_commands(
 
     commands, traj, cost, reached, t_stars, met = _select_candidate(
         fabric, problem, opt, n_commands, settings, mesh_checker, mesh_candidates, length_slack, threads,
-        mesh_margin)
+        mesh_margin, clearance_floor)
+    contact = {} if fabric.obstacle_margins is None else {
+        "goal_contact": {"clearance_floor": clearance_floor,
+                         "obstacle_margins": np.asarray(fabric.obstacle_margins).tolist()}}
     return SolveResult(
         method="gfcs",
         commands=commands,
@@ -882,7 +932,7 @@ def _solve_commands(
         settings=_settings_dict(settings, batches=int(batches), population=int(population),
                                 n_commands=n_commands, sigma0=float(sigma0), top_m=int(top_m),
                                 length_slack=float(length_slack), mesh_margin=mesh_margin,
-                                sampler=type(sampler).__name__),
+                                sampler=type(sampler).__name__, **contact),
         **common,
     )
 

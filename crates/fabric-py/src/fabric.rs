@@ -193,6 +193,45 @@ impl PyFabric {
         self.dof()
     }
 
+    /// A copy of this fabric (same robot, configuration and scene) whose obstacle barrier uses one margin
+    /// per robot sphere: `margins` (S,) m in the order of `robot.sphere_radii`, each > −radius (negative:
+    /// the sphere may sink into obstacles by that much), replacing `config.obstacles.margin`; None: the
+    /// configured margin. `ShapeError` / `NonFiniteError` / `InvalidValueError` (naming the sphere).
+    #[pyo3(signature = (margins))]
+    fn with_obstacle_margins(
+        &self,
+        py: Python<'_>,
+        margins: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let n = self.fabric.robot().spheres().len();
+        let margins = margins
+            .filter(|m| !m.is_none())
+            .map(|m| convert::vector(m, "margins", n))
+            .transpose()?;
+        let fabric = (*self.fabric).clone();
+        let fabric = guarded(py, || fabric.with_obstacle_margins(margins))?;
+        let ws = Mutex::new(FabricWorkspace::new(&fabric));
+        Ok(PyFabric {
+            fabric: Arc::new(fabric),
+            robot: self.robot.clone_ref(py),
+            scene: RwLock::new(self.scene_snapshot()),
+            last: Mutex::new(None),
+            ws,
+        })
+    }
+
+    /// The per-sphere obstacle margins (S,) m of `with_obstacle_margins`, or None (the configured margin).
+    #[getter]
+    fn obstacle_margins<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+        self.fabric
+            .obstacle_margins()
+            .map(|m| output(py, m.to_vec(), &[m.len()]))
+            .transpose()
+    }
+
     /// A copy of the scene the fabric evaluates in.
     #[getter]
     fn scene(&self) -> PyScene {

@@ -296,6 +296,9 @@ pub struct Fabric {
     joint_limits: Barrier,
     self_collision: Barrier,
     obstacles: Barrier,
+    /// Per-sphere obstacle margins (m), replacing `config.obstacles.margin` for each robot sphere; None:
+    /// the configured margin for all. See [`Fabric::with_obstacle_margins`].
+    obstacle_margins: Option<Arc<[f64]>>,
 }
 
 /// Per-thread scratch of a [`Fabric`]; create once with [`FabricWorkspace::new`] and reuse.
@@ -396,11 +399,47 @@ impl Fabric {
             joint_limits: Barrier::from_config(&config.joint_limits),
             self_collision: Barrier::from_config(&config.self_collision),
             obstacles: Barrier::from_config(&config.obstacles),
+            obstacle_margins: None,
             groups,
             self_pairs,
             robot,
             config,
         })
+    }
+
+    /// This fabric with an obstacle margin per robot sphere (m, in the order of [`Robot::spheres`]),
+    /// replacing `config.obstacles.margin` in the obstacle barrier x = d(c) − r − margin; None restores the
+    /// configured margin. A margin may be negative (down to, not including, −r): the barrier then lets that
+    /// sphere sink into obstacles by up to −margin, e.g. for a goal at which conservative spheres overlap an
+    /// obstacle that the robot's meshes clear (`gfcs.optimize.solve`'s goal-contact retry).
+    ///
+    /// Errors: `Shape` unless there is one margin per sphere, `NonFinite` for NaN or ±inf, `Value` naming
+    /// the sphere and its link for a margin ≤ −radius.
+    pub fn with_obstacle_margins(mut self, margins: Option<Vec<f64>>) -> Result<Fabric> {
+        if let Some(m) = &margins {
+            let spheres = self.robot.spheres();
+            check_len("obstacle_margins", m.len(), spheres.len())?;
+            check_finite("obstacle_margins", m)?;
+            for (k, (&mk, sphere)) in m.iter().zip(spheres).enumerate() {
+                if mk <= -sphere.radius {
+                    return Err(FabricError::Value {
+                        what: format!("obstacle_margins[{k}]"),
+                        message: format!(
+                            "{mk} m is at or below minus the radius ({} m) of sphere {k} on link '{}'",
+                            sphere.radius,
+                            self.robot.link_names()[sphere.link]
+                        ),
+                    });
+                }
+            }
+        }
+        self.obstacle_margins = margins.map(Arc::from);
+        Ok(self)
+    }
+
+    /// The per-sphere obstacle margins (m) set by [`Fabric::with_obstacle_margins`], if any.
+    pub fn obstacle_margins(&self) -> Option<&[f64]> {
+        self.obstacle_margins.as_deref()
     }
 
     /// The robot model.
@@ -679,7 +718,12 @@ impl Fabric {
         // 5. obstacles: one broadphase query per link group, then exact distances per sphere
         let ob = &self.config.obstacles;
         if ob.enabled && !scene.is_empty() {
-            let reach = ob.margin + ob.influence;
+            let margins = self.obstacle_margins.as_deref();
+            // the culling bounds hold for the largest margin of any sphere
+            let widest = margins.map_or(ob.margin, |m| {
+                m.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+            });
+            let reach = widest + ob.influence;
             for (gi, g) in self.groups.iter().enumerate() {
                 let gc = ws.group_centers[gi];
                 ws.near.clear();
@@ -705,7 +749,7 @@ impl Fabric {
                         let leaf = obstacle_leaf(
                             &ws.spheres[k],
                             r,
-                            ob.margin,
+                            margins.map_or(ob.margin, |m| m[k]),
                             &sample,
                             ob.min_curvature_radius,
                             &mut ws.jrow,
@@ -919,40 +963,7 @@ mod tests {
         for g in &mut unculled.groups {
             g.radius = f64::INFINITY;
         }
-        let mut scene = Scene::new();
-        let pose = |x: f64, y: f64, z: f64| Isometry3::translation(x, y, z);
-        let shapes = [
-            (
-                Shape::Cuboid {
-                    half_extents: Vector3::new(0.3, 0.3, 0.02),
-                },
-                pose(0.5, 0.0, 0.2),
-            ),
-            (
-                Shape::Cuboid {
-                    half_extents: Vector3::new(0.02, 0.3, 0.3),
-                },
-                pose(0.75, 0.0, 0.5),
-            ),
-            (
-                Shape::Cylinder {
-                    half_height: 0.1,
-                    radius: 0.03,
-                },
-                pose(0.45, 0.15, 0.3),
-            ),
-            (Shape::Sphere { radius: 0.05 }, pose(0.3, -0.3, 0.6)),
-            (
-                Shape::Capsule {
-                    half_height: 0.2,
-                    radius: 0.03,
-                },
-                pose(0.2, 0.4, 0.4),
-            ),
-        ];
-        for (k, (shape, p)) in shapes.into_iter().enumerate() {
-            scene.add(Obstacle::new(format!("o{k}"), shape, p)).unwrap();
-        }
+        let scene = obstacle_scene();
         let (mut ws, mut ws_ref) = (
             FabricWorkspace::new(&fabric),
             FabricWorkspace::new(&unculled),
@@ -989,5 +1000,103 @@ mod tests {
             }
         }
         assert!(with_leaves > 50, "{with_leaves} states near obstacles");
+    }
+
+    /// Five obstacles around the Panda's workspace (boxes, cylinder, sphere, capsule).
+    fn obstacle_scene() -> Scene {
+        let mut scene = Scene::new();
+        let pose = |x: f64, y: f64, z: f64| Isometry3::translation(x, y, z);
+        let shapes = [
+            (
+                Shape::Cuboid {
+                    half_extents: Vector3::new(0.3, 0.3, 0.02),
+                },
+                pose(0.5, 0.0, 0.2),
+            ),
+            (
+                Shape::Cuboid {
+                    half_extents: Vector3::new(0.02, 0.3, 0.3),
+                },
+                pose(0.75, 0.0, 0.5),
+            ),
+            (
+                Shape::Cylinder {
+                    half_height: 0.1,
+                    radius: 0.03,
+                },
+                pose(0.45, 0.15, 0.3),
+            ),
+            (Shape::Sphere { radius: 0.05 }, pose(0.3, -0.3, 0.6)),
+            (
+                Shape::Capsule {
+                    half_height: 0.2,
+                    radius: 0.03,
+                },
+                pose(0.2, 0.4, 0.4),
+            ),
+        ];
+        for (k, (shape, p)) in shapes.into_iter().enumerate() {
+            scene.add(Obstacle::new(format!("o{k}"), shape, p)).unwrap();
+        }
+        scene
+    }
+
+    /// Per-sphere obstacle margins: all equal to m, q̈ is bit for bit that of the configured margin m
+    /// (culling included); None restores the configured margin; bad margins are refused, naming the sphere.
+    #[test]
+    fn per_sphere_obstacle_margins_act_as_the_configured_margin() {
+        let robot = Arc::new(Robot::panda());
+        let mut cfg = FabricConfig::default();
+        (cfg.obstacles.margin, cfg.obstacles.influence) = (0.02, 0.3);
+        let wide = Fabric::new(robot.clone(), cfg.clone()).unwrap();
+        cfg.obstacles.margin = 0.002;
+        let narrow = Fabric::new(robot.clone(), cfg).unwrap();
+        let s = robot.spheres().len();
+        let per_sphere = narrow
+            .clone()
+            .with_obstacle_margins(Some(vec![0.02; s]))
+            .unwrap();
+        assert_eq!(per_sphere.obstacle_margins(), Some(&vec![0.02; s][..]));
+        let restored = per_sphere.clone().with_obstacle_margins(None).unwrap();
+        assert!(restored.obstacle_margins().is_none());
+        let scene = obstacle_scene();
+        let mut ws = FabricWorkspace::new(&narrow);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let command = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+        let mut qdd = [[0.0; 7]; 4];
+        let mut differ = 0;
+        for _ in 0..300 {
+            let (q, qd) = random_state(&robot, &mut rng);
+            let fabrics = [&wide, &per_sphere, &narrow, &restored];
+            let ok: Vec<bool> = fabrics
+                .iter()
+                .zip(qdd.iter_mut())
+                .map(|(f, out)| {
+                    f.acceleration(&scene, &q, &qd, &command, &mut ws, out)
+                        .is_ok()
+                })
+                .collect();
+            if ok.iter().all(|&o| o) {
+                assert_eq!(qdd[0], qdd[1], "q = {q:?}");
+                assert_eq!(qdd[2], qdd[3], "q = {q:?}");
+                differ += (qdd[0] != qdd[2]) as usize;
+            }
+        }
+        assert!(differ > 20, "{differ} states where the margin matters");
+        let err = |m: Vec<f64>| narrow.clone().with_obstacle_margins(Some(m)).unwrap_err();
+        assert!(matches!(err(vec![0.0; s - 1]), FabricError::Shape { .. }));
+        let mut nan = vec![0.0; s];
+        nan[3] = f64::NAN;
+        assert!(matches!(err(nan), FabricError::NonFinite { .. }));
+        let mut deep = vec![0.0; s];
+        deep[s - 1] = -robot.spheres()[s - 1].radius;
+        let message = err(deep).to_string();
+        assert!(
+            message.contains(&format!("sphere {}", s - 1)) && message.contains("panda_"),
+            "{message}"
+        );
+        let mut shallow = vec![0.0; s];
+        shallow[s - 1] = -0.9 * robot.spheres()[s - 1].radius;
+        assert!(narrow.clone().with_obstacle_margins(Some(shallow)).is_ok());
     }
 }
