@@ -59,7 +59,7 @@ def test_goal_contact_margins(robot, checker):
     margins, floor = optimize.goal_contact(Problem("p", robot, scene, q0=Q0, goal=GOAL), fabric, 0.002, checker)
     clearance = metrics.sphere_clearances(robot, scene, GOAL[None])[0]
     np.testing.assert_allclose(margins, np.minimum(margin, clearance - 0.002))
-    assert margins[k] == pytest.approx(-0.003) and floor == pytest.approx(-0.003)
+    assert margins[k] == pytest.approx(-0.003) and floor == pytest.approx(-0.005)
     assert np.count_nonzero(margins < margin) >= 1 and np.all(margins <= margin)
     far = gfcs.Scene()
     far.add_sphere([-0.6, -0.6, 0.3], 0.1)
@@ -79,7 +79,7 @@ def test_solve_reaches_a_goal_in_contact_only_with_the_goal_contact_attempt(robo
     res = optimize.solve(problem, **SMALL)
     assert res.success and res.settings["commands_tried"] == [1, 2, 1]
     contact = res.settings["goal_contact"]
-    assert contact["clearance_floor"] == pytest.approx(-0.003)
+    assert contact["clearance_floor"] == pytest.approx(-0.005)
     assert contact["clearance_floor"] <= res.metrics["min_clearance"] < 0 and res.metrics["mesh_clearance"] > 0.001
     assert np.linalg.norm(res.trajectory.q[-1] - GOAL) <= metrics.DEFAULT_SUCCESS_TOL
     with pytest.raises(ValueError, match="goal_contact_slack"):
