@@ -227,8 +227,10 @@ def _endpoint_hints(result: Any, problem: Any) -> List[str]:
         if clearance < limit:
             where = (f"overlap the obstacles by {-clearance * 1000:.2f} mm" if clearance < 0
                      else f"are {clearance * 1000:.2f} mm from the obstacles")
-            lines.append(f"hint      the {what}'s collision spheres {where}: {why} (a model with tighter "
-                         "spheres may do)")
+            remedy = "a model with tighter spheres may do"
+            if what == "goal" and getattr(problem, "mesh_checker", None) is None:
+                remedy += ", or one with collision meshes: solve then tries the goal's own contact"
+            lines.append(f"hint      the {what}'s collision spheres {where}: {why} ({remedy})")
     return lines
 
 
