@@ -24,14 +24,14 @@ use pyo3::prelude::*;
 /// file for other URDF tools. Its finger joints are locked at 0.04 m by `Robot.panda()`.
 #[pyfunction]
 fn panda_urdf() -> &'static str {
-    include_str!("../../fabric-core/assets/panda.urdf")
+    fabric_core::robot::PANDA_URDF
 }
 
 /// The shipped Panda SRDF text (the self-collision pairs `Robot.panda()` disables, same asset file), e.g. to
 /// give another Panda URDF the shipped collision spheres with their pruned pairs (`Robot.with_srdf`).
 #[pyfunction]
 fn panda_srdf() -> &'static str {
-    include_str!("../../fabric-core/assets/panda.srdf")
+    fabric_core::robot::PANDA_SRDF
 }
 
 /// The compiled module `gfcs._core`.

@@ -25,4 +25,5 @@ pub use geometry::{GeometryKind, LinkGeometry};
 pub use ik::{inverse_kinematics, point_ik, IkOptions, IkTarget, PointIkOptions, PointTarget};
 pub use kinematics::{KinematicsWorkspace, TaskPoint};
 pub use model::{Robot, RobotOptions};
+pub use panda::{PANDA_SRDF, PANDA_URDF};
 pub use spheres::CollisionSphere;

@@ -4,9 +4,11 @@
 
 use super::model::{Robot, RobotOptions};
 
-const PANDA_URDF: &str = include_str!("../../assets/panda.urdf");
+/// The shipped Panda URDF text (`assets/panda.urdf`): kinematics and limits, no collision elements.
+pub const PANDA_URDF: &str = include_str!("../../assets/panda.urdf");
 const PANDA_SPHERES: &str = include_str!("../../assets/panda_spheres.json");
-const PANDA_SRDF: &str = include_str!("../../assets/panda.srdf");
+/// The shipped Panda SRDF text (`assets/panda.srdf`): the self-collision link pairs it disables.
+pub const PANDA_SRDF: &str = include_str!("../../assets/panda.srdf");
 
 impl Robot {
     /// The shipped Panda: base `panda_link0`, end-effector `panda_hand` (the flange frame rotated by
