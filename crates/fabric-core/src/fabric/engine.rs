@@ -299,6 +299,8 @@ pub struct Fabric {
     /// Per-sphere obstacle margins (m), replacing `config.obstacles.margin` for each robot sphere; None:
     /// the configured margin for all. See [`Fabric::with_obstacle_margins`].
     obstacle_margins: Option<Arc<[f64]>>,
+    /// The largest obstacle margin of any sphere (m), for the culling bounds: set with the margins.
+    widest_obstacle_margin: f64,
 }
 
 /// Per-thread scratch of a [`Fabric`]; create once with [`FabricWorkspace::new`] and reuse.
@@ -400,6 +402,7 @@ impl Fabric {
             self_collision: Barrier::from_config(&config.self_collision),
             obstacles: Barrier::from_config(&config.obstacles),
             obstacle_margins: None,
+            widest_obstacle_margin: config.obstacles.margin,
             groups,
             self_pairs,
             robot,
@@ -433,6 +436,9 @@ impl Fabric {
                 }
             }
         }
+        self.widest_obstacle_margin = margins.as_ref().map_or(self.config.obstacles.margin, |m| {
+            m.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+        });
         self.obstacle_margins = margins.map(Arc::from);
         Ok(self)
     }
@@ -720,10 +726,7 @@ impl Fabric {
         if ob.enabled && !scene.is_empty() {
             let margins = self.obstacle_margins.as_deref();
             // the culling bounds hold for the largest margin of any sphere
-            let widest = margins.map_or(ob.margin, |m| {
-                m.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
-            });
-            let reach = widest + ob.influence;
+            let reach = self.widest_obstacle_margin + ob.influence;
             for (gi, g) in self.groups.iter().enumerate() {
                 let gc = ws.group_centers[gi];
                 ws.near.clear();
