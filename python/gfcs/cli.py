@@ -488,20 +488,22 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
         if folder:
             Path(folder).mkdir(parents=True, exist_ok=True)
     out = open(jsonl, "w") if jsonl else None
-    try:
+
+    def write(new: List[Dict[str, Any]]) -> None:
         if out is not None:
-            for r in rows:
-                out.write(json.dumps(r) + "\n")
+            for r in new:
+                out.write(json.dumps(_enc(r), allow_nan=False) + "\n")
+            out.flush()
+
+    try:
+        write(rows)
         bar = tqdm(problems, desc="bench", unit="problem", disable=not progress)
         for problem in bar:
             bar.set_postfix_str(problem.name)
             new, results = bench_problem(problem, methods, batches, population, seed, n_commands, sampler,
                                          fabric_config, threads, settings, retry, solve_options)
             rows.extend(new)
-            if out is not None:
-                for r in new:
-                    out.write(json.dumps(_enc(r), allow_nan=False) + "\n")
-                out.flush()
+            write(new)
             stem = problem.name.replace("/", "_")
             if rrd_dir:
                 _record(problem, results, str(Path(rrd_dir) / (stem + ".rrd")))
