@@ -1,6 +1,7 @@
 """tools/check_trajectories.py, the validator that shares no code with gfcs (yourdfpy, trimesh, FCL, PyYAML):
-closed-form distances on a one-joint robot, its failure modes, its exact branch-and-bound minimum, and its
-agreement with what gfcs reports on MotionBenchMaker problems (skip without ../shared, fail under CI=true)."""
+closed-form distances on a one-joint robot, its failure modes, its exact branch-and-bound minimum, MoveIt pose
+goals on a three-joint arm (poses from yourdfpy), and its agreement with what gfcs reports on MotionBenchMaker
+problems (skip without ../shared, fail under CI=true)."""
 
 from __future__ import annotations
 
@@ -12,8 +13,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 pytest.importorskip("fcl", reason="python-fcl (the 'test' extra) is the validator's distance library")
+trimesh = pytest.importorskip("trimesh")
+yourdfpy = pytest.importorskip("yourdfpy")
 
 TOOL = Path(__file__).resolve().parent.parent / "tools" / "check_trajectories.py"
 spec = importlib.util.spec_from_file_location("check_trajectories", TOOL)
@@ -65,10 +69,10 @@ def slider(tmp_path):
     return tmp_path / "problems", tmp_path / "robot.urdf", write
 
 
-def run(slider, files, *extra):
+def run(slider, files, *extra, ee="link"):
     problems, urdf, _ = slider
     out = Path(files[0]).parent / "checked.jsonl"
-    code = ct.main(["--problems", str(problems), "--urdf", str(urdf), "--ee-link", "link", "--jobs", "1",
+    code = ct.main(["--problems", str(problems), "--urdf", str(urdf), "--ee-link", ee, "--jobs", "1",
                     "--json", str(out), *map(str, files), *extra])
     return code, [json.loads(line) for line in out.read_text().splitlines()]
 
@@ -163,3 +167,219 @@ def test_agrees_with_gfcs_on_motionbenchmaker(mbm_dir, mbm_panda_dir, tmp_path, 
         # (all 700 motions of Table I)
         assert r["clearance"] == pytest.approx(max(m["mesh_clearance"], 0.0), abs=2e-5)
         assert r["self_clearance"] == pytest.approx(max(m["mesh_self_clearance"], 0.0), abs=2e-5)
+
+
+# ------------------------------------------------------------------------------------------ pose goals
+# Three revolute joints (z, y, x) and a fixed, tilted `tool`; small spheres keep the links apart, the scene
+# is empty. Goal poses come from yourdfpy's forward kinematics, not from the validator's.
+ARM = """<robot name="arm"><link name="base"/>
+  <link name="l1"><collision><geometry><sphere radius="0.02"/></geometry></collision></link>
+  <link name="l2"><collision><geometry><sphere radius="0.02"/></geometry></collision></link>
+  <link name="l3"><collision><geometry><sphere radius="0.02"/></geometry></collision></link>
+  <link name="tool"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 0.1"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="10" effort="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 0.3" rpy="0.1 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" velocity="10" effort="1"/></joint>
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/><origin xyz="0.3 0 0"/>
+    <axis xyz="1 0 0"/><limit lower="-3" upper="3" velocity="10" effort="1"/></joint>
+  <joint name="mount" type="fixed"><parent link="l3"/><child link="tool"/><origin xyz="0.1 0 0" rpy="0 0.3 0.2"/></joint>
+</robot>"""
+ARM_JOINTS = ["j1", "j2", "j3"]
+Q_GOAL = np.array([0.4, -0.3, 0.7])
+OFFSET = np.array([0.05, -0.02, 0.03])  # the constrained point in the tool frame
+
+
+@pytest.fixture
+def arm(tmp_path):
+    """(problems folder, URDF path, write(number, final q, goal constraints, success) -> result file); the
+    motion goes in 10 states from 0 (the request's start) to the final q."""
+    (tmp_path / "arm.urdf").write_text(ARM)
+    folder = tmp_path / "problems" / "reach"
+    folder.mkdir(parents=True)
+
+    def write(number: str, q_final, goal: dict, success: bool = True) -> Path:
+        (folder / f"scene{number}.yaml").write_text("world:\n  collision_objects: []\n")
+        req = {"start_state": {"joint_state": {"name": ARM_JOINTS, "position": [0.0, 0.0, 0.0]}},
+               "goal_constraints": [goal]}
+        (folder / f"request{number}.yaml").write_text(yaml.safe_dump(req))
+        q = np.linspace(np.zeros(3), np.asarray(q_final, dtype=float), 10)
+        result = {"problem": f"reach/{number}", "method": "gfcs", "success": success,
+                  "trajectory": {"t": (0.1 * np.arange(len(q))).tolist(), "q": q.tolist()}}
+        out = tmp_path / "results" / f"reach_{number}.gfcs.json"
+        out.parent.mkdir(exist_ok=True)
+        out.write_text(json.dumps(result))
+        return out
+
+    return tmp_path / "problems", tmp_path / "arm.urdf", write
+
+
+def tool_pose(urdf: Path, q) -> np.ndarray:
+    """The tool's world pose by yourdfpy."""
+    robot = yourdfpy.URDF.load(str(urdf), load_meshes=False, build_collision_scene_graph=False,
+                               load_collision_meshes=False)
+    robot.update_cfg(dict(zip(ARM_JOINTS, map(float, q))))
+    return robot.get_transform("tool", robot.base_link)
+
+
+def xyzw(R: np.ndarray) -> list:
+    w, x, y, z = trimesh.transformations.quaternion_from_matrix(R)
+    return [float(x), float(y), float(z), float(w)]
+
+
+def rotation(axis, angle: float) -> np.ndarray:
+    return trimesh.transformations.rotation_matrix(angle, np.asarray(axis, dtype=float))[:3, :3]
+
+
+def position_constraint(primitives, poses, offset=OFFSET, frame="world") -> dict:
+    return {"link_name": "tool", "header": {"frame_id": frame}, "weight": 1.0,
+            "target_point_offset": dict(zip("xyz", map(float, offset))),
+            "constraint_region": {"primitives": primitives, "primitive_poses": poses}}
+
+
+def orientation_constraint(R: np.ndarray, tol=(0.01, 0.01, 0.01), parameterization=None, frame="world") -> dict:
+    c = {"link_name": "tool", "header": {"frame_id": frame}, "orientation": xyzw(R), "weight": 1.0,
+         **{f"absolute_{a}_axis_tolerance": float(t) for a, t in zip("xyz", tol)}}
+    if parameterization is not None:
+        c["parameterization"] = parameterization
+    return c
+
+
+BOX_TURN = rotation([0, 0, 1], math.radians(30))  # the box region is turned 30 degrees about z
+
+
+def full_pose_goal(urdf: Path) -> dict:
+    """Position (a 1 cm box about the offset point of the tool at Q_GOAL, or a far sphere) and orientation
+    (the tool's, 0.01 rad per axis)."""
+    T = tool_pose(urdf, Q_GOAL)
+    centre = T[:3, :3] @ OFFSET + T[:3, 3] + [0.002, 0, 0]
+    box = {"position": dict(zip("xyz", map(float, centre))), "orientation": dict(zip("xyzw", xyzw(BOX_TURN)))}
+    far = {"position": [1.0, 1.0, 1.0], "orientation": [0, 0, 0, 1]}
+    return {"position_constraints": [position_constraint([{"type": "box", "dimensions": [0.01] * 3},
+                                                          {"type": 2, "dimensions": [0.1]}], [box, far])],
+            "orientation_constraints": [orientation_constraint(T[:3, :3])], "joint_constraints": []}
+
+
+def test_pose_goal_with_offset_and_orientation_is_reached(arm):
+    f = arm[2]("0001", Q_GOAL, full_pose_goal(arm[1]))
+    code, [r] = run(arm, [f], ee="tool")
+    assert code == 0 and r["valid"] and r["goal_reached"], r
+    assert r["goal_kind"] == "pose" and r["goal_link"] == "tool" and r["goal_error"] is None
+    assert r["goal_position_error"] == 0.0 and r["goal_orientation_error"] == 0.0
+    assert np.abs(r["goal_orientation_components"]).max() < 1e-9
+    assert r["fk_error"] < 1e-12 and r["start_error"] == 0.0 and r["clearance"] == math.inf
+
+
+def test_perturbed_final_state_misses_the_pose_goal(arm, capsys):
+    q = Q_GOAL + [0.05, 0.0, 0.0]
+    f = arm[2]("0002", q, full_pose_goal(arm[1]))
+    code, [r] = run(arm, [f], ee="tool")
+    assert code == 1 and not r["valid"] and not r["goal_reached"] and r["claimed_success"]
+    # expected miss from yourdfpy: the offset point against the turned box (the far sphere is farther)
+    T, T_goal = tool_pose(arm[1], q), tool_pose(arm[1], Q_GOAL)
+    p = T[:3, :3] @ OFFSET + T[:3, 3]
+    centre = T_goal[:3, :3] @ OFFSET + T_goal[:3, 3] + [0.002, 0, 0]
+    outside = np.maximum(np.abs(BOX_TURN.T @ (p - centre)) - 0.005, 0)
+    assert r["goal_position_error"] == pytest.approx(np.linalg.norm(outside), abs=1e-9)
+    assert r["goal_position_error"] > 0.005
+    # 0.05 rad about the world z: at least 0.05/sqrt(3) about one of the target's axes
+    assert 0.015 < r["goal_orientation_error"] < 0.05
+    err = capsys.readouterr().err
+    assert "1 claim success, 0 of them valid here, 1 not" in err and "max pose goal error" in err
+    assert f"NOT VALID: {f}: start_error=0, goal_position_error=" in err
+    # not claimed: no fault of the run
+    assert run(arm, [arm[2]("0003", q, full_pose_goal(arm[1]), success=False)], ee="tool")[0] == 0
+
+
+@pytest.mark.parametrize("primitive, pose, shift, expected", [
+    ({"type": "SPHERE", "dimensions": [0.004]}, [0, 0, 0, 1], [0, 0, 0.003], 0.0),
+    ({"type": "sphere", "dimensions": [0.004]}, [0, 0, 0, 1], [0, 0, 0.007], 0.003),
+    # a cylinder (height 2 cm, radius 4 mm) whose axis is turned from z to x
+    ({"type": 3, "dimensions": [0.02, 0.004]}, xyzw(rotation([0, 1, 0], math.pi / 2)), [0.009, 0, 0], 0.0),
+    ({"type": "Cylinder", "dimensions": [0.02, 0.004]}, xyzw(rotation([0, 1, 0], math.pi / 2)), [0.012, 0, 0], 0.002),
+    ({"type": 3, "dimensions": [0.02, 0.004]}, xyzw(rotation([0, 1, 0], math.pi / 2)), [0, 0.006, 0], 0.002),
+    ({"type": 1, "dimensions": [0.01, 0.02, 0.04]}, [0, 0, 0, 1], [0.004, -0.009, 0.019], 0.0),
+])
+def test_position_only_goal(arm, primitive, pose, shift, expected):
+    T = tool_pose(arm[1], Q_GOAL)
+    offset = [0.0, 0.1, 0.0]
+    centre = T[:3, :3] @ offset + T[:3, 3] - np.asarray(shift)  # the point is `shift` from the centre
+    goal = {"position_constraints": [position_constraint([primitive], [{"position": centre.tolist(),
+                                                                        "orientation": pose}], offset, frame="")]}
+    code, [r] = run(arm, [arm[2]("0004", Q_GOAL, goal)], ee="tool")
+    assert r["goal_kind"] == "pose" and r["goal_orientation_error"] == 0.0
+    assert r["goal_orientation_components"] is None
+    assert r["goal_position_error"] == pytest.approx(expected, abs=1e-9)
+    assert r["goal_reached"] == r["valid"] == (expected == 0.0) and code == (0 if expected == 0.0 else 1)
+
+
+@pytest.mark.parametrize("tol, reached, error", [((0.065, 0.001, 0.085), True, 0.0),
+                                                 ((0.055, 0.001, 0.085), False, 0.005)])
+def test_rotation_vector_parameterization(arm, tol, reached, error):
+    # target R* = R · Rot(a, 0.1)ᵀ, so D = R*ᵀ R = Rot(a, 0.1), whose rotation vector is 0.1 · a
+    T = tool_pose(arm[1], Q_GOAL)
+    axis = np.array([0.6, 0.0, 0.8])
+    target = T[:3, :3] @ rotation(axis, 0.1).T
+    point = T[:3, :3] @ OFFSET + T[:3, 3]
+    goal = {"position_constraints": [position_constraint([{"type": "sphere", "dimensions": [0.001]}],
+                                                         [{"position": point.tolist(), "orientation": [0, 0, 0, 1]}])],
+            "orientation_constraints": [orientation_constraint(target, tol, parameterization=1, frame="base")]}
+    code, [r] = run(arm, [arm[2]("0005", Q_GOAL, goal)], ee="tool")
+    assert r["goal_orientation_components"] == pytest.approx([0.06, 0.0, 0.08], abs=1e-9)
+    assert r["goal_position_error"] == 0.0
+    assert r["goal_orientation_error"] == pytest.approx(error, abs=1e-9)
+    assert r["goal_reached"] == r["valid"] == reached and code == (0 if reached else 1)
+
+
+def test_unsupported_pose_goals_are_errors_for_their_result(arm):
+    write, good = arm[2], full_pose_goal(arm[1])
+    frame = json.loads(json.dumps(good))
+    frame["orientation_constraints"][0]["header"]["frame_id"] = "panda_link0"
+    two = json.loads(json.dumps(good))
+    two["position_constraints"] *= 2
+    link = json.loads(json.dumps(good))
+    for c in link["position_constraints"] + link["orientation_constraints"]:
+        c["link_name"] = "gripper"
+    both = {**good, "joint_constraints": [{"joint_name": "j1", "position": 0.4}]}
+    files = [write("0006", Q_GOAL, frame), write("0007", Q_GOAL, two), write("0008", Q_GOAL, link),
+             write("0009", Q_GOAL, both), write("0010", Q_GOAL, good)]
+    code, rows = run(arm, files, ee="tool")
+    assert code == 2
+    assert "frame 'panda_link0' is not supported" in rows[0]["error"]
+    assert "orientation_constraints[0].header.frame_id" in rows[0]["error"]
+    assert "one position constraint is supported, got 2" in rows[1]["error"]
+    assert "goal link 'gripper' is not a link" in rows[2]["error"]
+    assert "joint constraints together with position or orientation constraints" in rows[3]["error"]
+    assert "error" not in rows[4] and rows[4]["valid"]
+
+
+def rx(a):
+    return rotation([1, 0, 0], a)
+
+
+def ry(a):
+    return rotation([0, 1, 0], a)
+
+
+def rz(a):
+    return rotation([0, 0, 1], a)
+
+
+def test_xyz_euler_angles_of_known_rotations():
+    # a small rotation: its own angles
+    assert ct.xyz_euler(rx(0.03) @ ry(-0.02) @ rz(0.05)) == pytest.approx([0.03, -0.02, 0.05], abs=1e-12)
+    # |b| > pi/2: (a + pi, pi - b, c + pi) is the other representation, larger here
+    assert ct.xyz_euler(rx(0.1) @ ry(2.0) @ rz(-0.2)) == pytest.approx([0.1, 2.0, -0.2], abs=1e-12)
+    # (2.5, 0.3, -2.9) is the larger of the two: the smaller one is returned, and gives the same rotation
+    D = rx(2.5) @ ry(0.3) @ rz(-2.9)
+    a, b, c = ct.xyz_euler(D)
+    assert [a, b, c] == pytest.approx([2.5 - math.pi, math.pi - 0.3, -2.9 + math.pi], abs=1e-12)
+    assert rx(a) @ ry(b) @ rz(c) == pytest.approx(D, abs=1e-12)
+
+
+def test_rotation_vector_of_known_rotations():
+    axis = np.array([2.0, -1.0, 0.5]) / np.linalg.norm([2.0, -1.0, 0.5])
+    for angle in (0.0, 1e-8, 0.1, 3.0):
+        assert ct.rotation_vector(rotation(axis, angle)) == pytest.approx(angle * axis, abs=1e-12)
+    v = ct.rotation_vector(rotation(axis, math.pi))  # either sign at pi
+    assert np.abs(v) == pytest.approx(math.pi * np.abs(axis), abs=1e-9)

@@ -10,7 +10,25 @@ For every result file (the JSON of ``gfcs solve --json`` or of ``gfcs bench --re
 state of its trajectory:
 
 * start: the first state against the request's start state [rad];
-* goal: ‖q_T − q_g‖ against the request's joint goal [rad] (reached when ≤ ``--goal-tol``);
+* goal (``goal_kind``): for a joint goal (``joint``), ``goal_error`` = ‖q_T − q_g‖ [rad], reached when
+  ≤ ``--goal-tol``; for a pose goal (``pose``: ``goal_constraints[0]`` holds one ``position_constraints``
+  entry, at most one ``orientation_constraints`` entry on the same link, no joint constraints), the final
+  state's link pose against MoveIt's constraints, in the world frame of the FK (``header.frame_id`` "",
+  absent, ``world``, ``/world`` or the URDF root; another frame, more than one constraint of a kind, mesh
+  regions, or joint and pose constraints together are an error for that result):
+
+  - ``goal_position_error`` [m]: how far the point p = T_link(q_T) · ``target_point_offset`` lies outside
+    the nearest primitive of the ``constraint_region`` (box: full sizes; sphere: radius; cylinder: height,
+    radius about the local z), 0 inside one; the constraint holds when ≤ 1e-6 m;
+  - ``goal_orientation_error`` [rad]: max over x, y, z of |component| − ``absolute_<axis>_axis_tolerance``,
+    clipped below at 0, where the components (``goal_orientation_components``) are those of
+    D = R*ᵀ R (R*: the target rotation, R: the link's) as XYZ Euler angles, D = Rx(a) Ry(b) Rz(c), of the
+    two representations the one of smaller norm (``parameterization`` 0 or absent), or as its rotation
+    vector, angle in [0, π] (``parameterization`` 1); the constraint holds when ≤ 1e-6 rad; 0 (and
+    components null) without an orientation constraint;
+
+  ``goal_reached`` is the verdict of either kind; ``goal_error`` is null for pose goals, the pose fields
+  null for joint goals;
 * joint limits: the smallest distance to the URDF position limits [rad] (< 0: outside), and the largest
   ratio of the finite-difference joint speed to the URDF velocity limit;
 * obstacles: the smallest FCL distance between a link's collision geometry and an obstacle [m]
@@ -64,12 +82,39 @@ def quat_xyzw_to_matrix(q: Sequence[float]) -> np.ndarray:
     ])
 
 
-def pose_matrix(pose: Optional[Dict[str, Any]]) -> np.ndarray:
-    """4x4 transform of a MoveIt pose ``{position: [x, y, z], orientation: [x, y, z, w]}`` (identity: None)."""
+def components(value: Any, keys: str, where: str, default: Optional[Sequence[float]] = None) -> np.ndarray:
+    """A MoveIt vector or quaternion given as a mapping (keys ``keys``, e.g. "xyzw"; a missing key takes
+    its ``default``) or as a list, as floats; ``value`` None gives ``default`` (an error without one)."""
+    if value is None and default is not None:
+        return np.asarray(default, dtype=np.float64)
+    if isinstance(value, dict):
+        missing = [k for k in keys if k not in value]
+        if missing and default is None:
+            raise ValueError(f"{where}: no {', '.join(missing)}")
+        value = [value[k] if k in value else d for k, d in zip(keys, default or [None] * len(keys))]
+    if not isinstance(value, (list, tuple)) or len(value) != len(keys):
+        raise ValueError(f"{where}: expected a mapping {{{', '.join(keys)}}} or a list of {len(keys)}, got {value!r}")
+    out = np.asarray([float(v) for v in value], dtype=np.float64)
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"{where}: not finite: {value!r}")
+    return out
+
+
+def quaternion_matrix(value: Any, where: str, default: Optional[Sequence[float]] = None) -> np.ndarray:
+    """Rotation matrix of a MoveIt quaternion (x, y, z, w), as a mapping or a list; zero: an error."""
+    q = components(value, "xyzw", where, default)
+    if np.linalg.norm(q) < 1e-9:
+        raise ValueError(f"{where}: zero quaternion")
+    return quat_xyzw_to_matrix(q)
+
+
+def pose_matrix(pose: Optional[Dict[str, Any]], where: str = "pose") -> np.ndarray:
+    """4x4 transform of a MoveIt pose ``{position: [x, y, z], orientation: [x, y, z, w]}`` (lists or
+    mappings; identity: None)."""
     T = np.eye(4)
     if pose:
-        T[:3, :3] = quat_xyzw_to_matrix(pose.get("orientation", [0, 0, 0, 1]))
-        T[:3, 3] = np.asarray(pose.get("position", [0, 0, 0]), dtype=np.float64)
+        T[:3, :3] = quaternion_matrix(pose.get("orientation"), f"{where}.orientation", (0, 0, 0, 1))
+        T[:3, 3] = components(pose.get("position"), "xyz", f"{where}.position", (0, 0, 0))
     return T
 
 
@@ -144,13 +189,132 @@ def load_scene(path: Path) -> List[Obstacle]:
     return objects
 
 
-def load_request(path: Path) -> Tuple[Dict[str, float], Dict[str, float]]:
-    """(start joint positions, joint goal) by joint name, from a MoveIt MotionPlanRequest YAML."""
+@dataclass
+class Region:
+    """One primitive of a position constraint's region: MoveIt kind, dimensions, world pose T (4x4)."""
+    kind: str
+    dims: List[float]
+    T: np.ndarray
+
+
+@dataclass
+class PoseGoal:
+    """A MoveIt pose goal on ``link``: the point ``offset`` (link frame) must lie in one of ``regions``;
+    with a ``rotation`` (target R*, 3x3), D = R*ᵀ R must be within ``tolerance`` per component, as XYZ
+    Euler angles or (``rotation_vector``) as a rotation vector."""
+    link: str
+    offset: np.ndarray
+    regions: List[Region]
+    rotation: Optional[np.ndarray] = None
+    tolerance: Optional[np.ndarray] = None
+    rotation_vector: bool = False
+
+
+PRIMITIVE_KINDS = {1: "box", 2: "sphere", 3: "cylinder"}  # shape_msgs/SolidPrimitive
+PRIMITIVE_DIMS = {"box": 3, "sphere": 1, "cylinder": 2}
+GOAL_SLACK = 1e-6  # m for positions, rad for orientations
+
+
+def load_request(path: Path, root: Optional[str] = None) -> Tuple[Dict[str, float], Any]:
+    """(start joint positions by joint name, goal) from a MoveIt MotionPlanRequest YAML: the goal of
+    ``goal_constraints[0]`` is a joint goal (joint name -> position) or a :class:`PoseGoal` whose frames
+    must be the world (or ``root``, the URDF root link)."""
     doc = yaml.safe_load(path.read_text())
     js = doc["start_state"]["joint_state"]
     start = dict(zip(js["name"], map(float, js["position"])))
-    goal = {c["joint_name"]: float(c["position"]) for c in doc["goal_constraints"][0]["joint_constraints"]}
-    return start, goal
+    where = f"{path}: goal_constraints[0]"
+    c = (doc.get("goal_constraints") or [None])[0]
+    if not isinstance(c, dict):
+        raise ValueError(f"{where}: missing")
+    joints = c.get("joint_constraints") or []
+    positions, orientations = c.get("position_constraints") or [], c.get("orientation_constraints") or []
+    if joints and (positions or orientations):
+        raise ValueError(f"{where}: joint constraints together with position or orientation constraints "
+                         "are not supported")
+    if joints:
+        return start, {j["joint_name"]: float(j["position"]) for j in joints}
+    if not positions:
+        raise ValueError(f"{where}: no joint constraints and no position constraint"
+                         + (" (an orientation constraint needs one)" if orientations else ""))
+    return start, parse_pose_goal(positions, orientations, where, root)
+
+
+def parse_pose_goal(positions: List[Any], orientations: List[Any], where: str, root: Optional[str]) -> PoseGoal:
+    """The :class:`PoseGoal` of one position constraint and at most one orientation constraint."""
+    for items, what in ((positions, "position"), (orientations, "orientation")):
+        if len(items) > 1:
+            raise ValueError(f"{where}.{what}_constraints: one {what} constraint is supported, got {len(items)}")
+    pc, w = positions[0], f"{where}.position_constraints[0]"
+    link = constraint_link(pc, w)
+    check_frame(pc, w, root)
+    offset = components(pc.get("target_point_offset"), "xyz", f"{w}.target_point_offset", (0, 0, 0))
+    goal = PoseGoal(link, offset, parse_region(pc.get("constraint_region"), f"{w}.constraint_region"))
+    if orientations:
+        oc, w = orientations[0], f"{where}.orientation_constraints[0]"
+        if constraint_link(oc, w) != link:
+            raise ValueError(f"{w}.link_name: {oc['link_name']!r} is not the position constraint's {link!r}")
+        check_frame(oc, w, root)
+        goal.rotation = quaternion_matrix(oc.get("orientation"), f"{w}.orientation")
+        goal.tolerance = np.array([tolerance(oc, f"absolute_{a}_axis_tolerance", w) for a in "xyz"])
+        kind = oc.get("parameterization", 0)
+        if kind not in (0, 1) or isinstance(kind, bool):
+            raise ValueError(f"{w}.parameterization: expected 0 (XYZ Euler angles) or 1 (rotation vector), "
+                             f"got {kind!r}")
+        goal.rotation_vector = kind == 1
+    return goal
+
+
+def constraint_link(c: Any, where: str) -> str:
+    if not isinstance(c, dict) or not isinstance(c.get("link_name"), str) or not c["link_name"]:
+        raise ValueError(f"{where}.link_name: missing")
+    return c["link_name"]
+
+
+def check_frame(c: Dict[str, Any], where: str, root: Optional[str]) -> None:
+    """A constraint's ``header.frame_id`` must name the world frame of the FK."""
+    frame = (c.get("header") or {}).get("frame_id") or ""
+    if frame not in ("", "world", "/world") and frame != root:
+        raise ValueError(f"{where}.header.frame_id: frame {frame!r} is not supported (only the world frame: "
+                         f"'', 'world', '/world' or the URDF root {root!r})")
+
+
+def tolerance(c: Dict[str, Any], key: str, where: str) -> float:
+    if key not in c:
+        raise ValueError(f"{where}.{key}: missing")
+    value = float(c[key])
+    if not value >= 0:
+        raise ValueError(f"{where}.{key}: must be ≥ 0, got {value}")
+    return value
+
+
+def parse_region(region: Any, where: str) -> List[Region]:
+    """The primitives of a ``constraint_region`` in the world frame (meshes are not supported)."""
+    region = region or {}
+    if region.get("meshes"):
+        raise ValueError(f"{where}.meshes: mesh regions are not supported (only box, sphere, cylinder)")
+    prims, poses = region.get("primitives") or [], region.get("primitive_poses") or []
+    if not prims:
+        raise ValueError(f"{where}.primitives: missing or empty")
+    if len(prims) != len(poses):
+        raise ValueError(f"{where}: {len(prims)} primitives and {len(poses)} primitive_poses")
+    out = []
+    for k, (prim, pose) in enumerate(zip(prims, poses)):
+        w = f"{where}.primitives[{k}]"
+        kind = primitive_kind(prim.get("type"), f"{w}.type")
+        dims = [float(v) for v in prim.get("dimensions") or []]
+        if len(dims) != PRIMITIVE_DIMS[kind] or min(dims) < 0:
+            raise ValueError(f"{w}.dimensions: {kind} needs {PRIMITIVE_DIMS[kind]} sizes ≥ 0, got {dims}")
+        out.append(Region(kind, dims, pose_matrix(pose, f"{where}.primitive_poses[{k}]")))
+    return out
+
+
+def primitive_kind(value: Any, where: str) -> str:
+    """"box", "sphere" or "cylinder" of a SolidPrimitive type (a name, any case, or 1, 2, 3)."""
+    if isinstance(value, str) and value.lower() in PRIMITIVE_DIMS:
+        return value.lower()
+    if isinstance(value, int) and not isinstance(value, bool) and value in PRIMITIVE_KINDS:
+        return PRIMITIVE_KINDS[value]
+    raise ValueError(f"{where}: unsupported primitive type {value!r} (box/1, sphere/2, cylinder/3)")
 
 
 def allowed_pairs(scene_path: Path) -> set:
@@ -177,7 +341,8 @@ class RobotModel:
         self.actuated = [j.name for j in robot.joints if j.type in ("revolute", "continuous", "prismatic")
                          and j.mimic is None]
         self.ee_link = ee_link
-        if ee_link not in {l.name for l in robot.links}:
+        self.links = {l.name for l in robot.links}
+        if ee_link not in self.links:
             raise ValueError(f"{urdf}: no link {ee_link!r}")
         self.parts = [self._part(link.name, c, root) for link in robot.links for c in link.collisions]
         disabled = set()
@@ -284,6 +449,65 @@ def obstacle_sdf(kind: str, dims: Sequence[float], T: np.ndarray, p: np.ndarray)
     return np.linalg.norm(x, axis=-1) - d[0]
 
 
+def xyz_euler(D: np.ndarray) -> np.ndarray:
+    """Angles (a, b, c) with D = Rx(a) · Ry(b) · Rz(c) (Eigen's ``eulerAngles(0, 1, 2)`` convention), of
+    the two representations the one of smaller norm, each angle in [−π, π)."""
+    cos_b = math.hypot(D[1, 2], D[2, 2])
+    b = math.atan2(D[0, 2], cos_b)
+    if cos_b > 1e-12:
+        a, c = math.atan2(-D[1, 2], D[2, 2]), math.atan2(-D[0, 1], D[0, 0])
+    else:  # gimbal lock: only a ± c is defined, take a = 0
+        a, c = 0.0, math.atan2(D[1, 0], D[1, 1])
+    first = np.array([a, b, c])
+    second = (first + np.array([math.pi, math.pi - 2 * b, math.pi]) + math.pi) % (2 * math.pi) - math.pi
+    return first if np.linalg.norm(first) <= np.linalg.norm(second) else second
+
+
+def rotation_vector(D: np.ndarray) -> np.ndarray:
+    """Axis · angle of the rotation D, angle in [0, π] (through its quaternion, Shepperd's method)."""
+    trace = float(np.trace(D))
+    k = int(np.argmax([D[0, 0], D[1, 1], D[2, 2], trace]))
+    q = np.empty(4)  # x, y, z, w
+    if k == 3:
+        q[3] = math.sqrt(1 + trace) / 2
+        q[:3] = np.array([D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1]]) / (4 * q[3])
+    else:  # the largest of x, y, z is q[k]
+        i, j, l = k, (k + 1) % 3, (k + 2) % 3
+        s = 2 * math.sqrt(max(1 + D[i, i] - D[j, j] - D[l, l], 0.0))  # 4 q[i]
+        q[i], q[j], q[l], q[3] = s / 4, (D[j, i] + D[i, j]) / s, (D[l, i] + D[i, l]) / s, (D[l, j] - D[j, l]) / s
+    q = q / np.linalg.norm(q) * (1 if q[3] >= 0 else -1)
+    v, w = q[:3], q[3]
+    sine = float(np.linalg.norm(v))  # sin(angle / 2)
+    if sine < 1e-12:
+        return 2 * v
+    return v / sine * 2 * math.atan2(sine, w)
+
+
+def region_distance(regions: Sequence[Region], p: np.ndarray) -> float:
+    """How far the point p (3,) lies outside the nearest region primitive [m]; 0 inside one."""
+    return max(min(float(obstacle_sdf(r.kind, r.dims, r.T, p)) for r in regions), 0.0)
+
+
+def pose_goal_errors(goal: PoseGoal, T: np.ndarray) -> Dict[str, Any]:
+    """The goal fields of a pose goal for the link's world pose T (4x4): errors and verdict."""
+    position = region_distance(goal.regions, T[:3, :3] @ goal.offset + T[:3, 3])
+    if goal.rotation is None:
+        angles, orientation = None, 0.0
+    else:
+        D = goal.rotation.T @ T[:3, :3]
+        angles = rotation_vector(D) if goal.rotation_vector else xyz_euler(D)
+        orientation = max(float((np.abs(angles) - goal.tolerance).max()), 0.0)
+    return {
+        "goal_kind": "pose",
+        "goal_error": None,
+        "goal_link": goal.link,
+        "goal_position_error": position,
+        "goal_orientation_error": orientation,
+        "goal_orientation_components": None if angles is None else [float(v) for v in angles],
+        "goal_reached": bool(position <= GOAL_SLACK and orientation <= GOAL_SLACK),
+    }
+
+
 def smallest(bounds: np.ndarray, exact: Any) -> Tuple[float, Tuple[int, ...]]:
     """The minimum of ``exact(*index)`` over every index of ``bounds``, an array of lower bounds of it:
     indices are visited in increasing bound and the search stops at the first bound ≥ the smallest exact
@@ -309,18 +533,27 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
     names = list(traj.get("joint_names") or result.get("joint_names") or model.actuated)
     if q.ndim != 2 or q.shape[1] != len(names) or q.shape[0] != t.shape[0] or q.shape[0] == 0:
         raise ValueError(f"trajectory: q {q.shape} and t {t.shape} do not match {len(names)} joints")
-    start, goal = load_request(request_path)
+    start, goal = load_request(request_path, model.base)
     q_start = np.array([start[n] for n in names])
-    q_goal = np.array([goal[n] for n in names])
+    pose_goal = isinstance(goal, PoseGoal)
+    if pose_goal and goal.link not in model.links:
+        raise ValueError(f"{request_path}: goal link {goal.link!r} is not a link of {model.path}")
     lo, up, vel = model.limits(names)
     n = q.shape[0]
     cfg = {name: q[:, k] for k, name in enumerate(names)}
-    poses = model.fk(cfg, set(model.parts_links()) | {model.ee_link}, n)
+    links = set(model.parts_links()) | {model.ee_link} | ({goal.link} if pose_goal else set())
+    poses = model.fk(cfg, links, n)
 
-    # the recomputed kinematics against yourdfpy's own, first state
-    model.urdf.update_cfg({name: float(v) for name, v in zip(names, q[0])})
-    fk_error = max(float(np.abs(model.urdf.get_transform(l, model.base) - poses[l][0]).max())
-                   for l in set(model.parts_links()) | {model.ee_link})
+    # the recomputed kinematics against yourdfpy's own: first state, and a pose goal's link at the last
+    fk_error = fk_difference(model, names, q[0], {l: poses[l][0] for l in links})
+    if pose_goal:
+        fk_error = max(fk_error, fk_difference(model, names, q[-1], {goal.link: poses[goal.link][-1]}))
+        goal_fields = pose_goal_errors(goal, poses[goal.link][-1])
+    else:
+        error = float(np.linalg.norm(q[-1] - np.array([goal[n] for n in names])))
+        goal_fields = {"goal_kind": "joint", "goal_error": error, "goal_link": None, "goal_position_error": None,
+                       "goal_orientation_error": None, "goal_orientation_components": None,
+                       "goal_reached": bool(error <= goal_tol)}
 
     parts = model.parts
     world = [poses[p.link] @ p.origin for p in parts]  # (n, 4, 4) per part
@@ -360,7 +593,7 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
         "claimed_success": bool(result.get("success")),
         "n_states": int(n),
         "start_error": float(np.abs(q[0] - q_start).max()),
-        "goal_error": float(np.linalg.norm(q[-1] - q_goal)),
+        **goal_fields,
         "limit_margin": float(min((q - lo).min(), (up - q).min())),
         "speed_ratio": speed_ratio,
         "clearance": clear,
@@ -373,7 +606,7 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
         "cspace_length": float(np.linalg.norm(dq, axis=1).sum()),
         "fk_error": fk_error,
     }
-    out["valid"] = bool(out["start_error"] <= 1e-6 and out["goal_error"] <= goal_tol and out["limit_margin"] >= 0
+    out["valid"] = bool(out["start_error"] <= 1e-6 and out["goal_reached"] and out["limit_margin"] >= 0
                         and clear > 0 and self_clear > 0)
     reported = result.get("metrics") or {}
     for key in ("ee_length", "cspace_length"):
@@ -382,6 +615,12 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
     if isinstance(reported.get("mesh_clearance"), (int, float)):
         out["clearance_reported"] = float(reported["mesh_clearance"])
     return out
+
+
+def fk_difference(model: RobotModel, names: Sequence[str], q: np.ndarray, poses: Dict[str, np.ndarray]) -> float:
+    """Largest difference between the recomputed link ``poses`` (4x4) of the configuration q and yourdfpy's."""
+    model.urdf.update_cfg({name: float(v) for name, v in zip(names, q)})
+    return max(float(np.abs(model.urdf.get_transform(l, model.base) - T).max()) for l, T in poses.items())
 
 
 def problem_files(problems: Path, name: str) -> Tuple[Path, Path]:
@@ -431,10 +670,18 @@ def summary(rows: Sequence[Dict[str, Any]]) -> str:
     lines = [f"{len(rows)} results, {len(rows) - len(ok)} unreadable, {len(claimed)} claim success, "
              f"{len(claimed) - len(bad)} of them valid here, {len(bad)} not"]
     if claimed:
-        lines.append("claimed successes: min obstacle clearance %.2f mm, min self clearance %.2f mm, max goal "
-                     "error %.2e rad, min limit margin %.4f rad, max speed/limit %.3f, max FK difference %.1e"
+        joint = [r for r in claimed if r["goal_kind"] == "joint"]
+        pose = [r for r in claimed if r["goal_kind"] == "pose"]
+        goals = []
+        if joint:
+            goals.append("max goal error %.2e rad" % max(r["goal_error"] for r in joint))
+        if pose:
+            goals.append("max pose goal error %.2e m, %.2e rad beyond the tolerances"
+                         % (max(r["goal_position_error"] for r in pose), max(r["goal_orientation_error"] for r in pose)))
+        lines.append("claimed successes: min obstacle clearance %.2f mm, min self clearance %.2f mm, %s, min limit "
+                     "margin %.4f rad, max speed/limit %.3f, max FK difference %.1e"
                      % (1e3 * min(r["clearance"] for r in claimed), 1e3 * min(r["self_clearance"] for r in claimed),
-                        max(r["goal_error"] for r in claimed), min(r["limit_margin"] for r in claimed),
+                        ", ".join(goals), min(r["limit_margin"] for r in claimed),
                         max(r["speed_ratio"] for r in claimed), max(r["fk_error"] for r in claimed)))
         diffs = [(abs(r["ee_length"] - r["ee_length_reported"]), abs(r["clearance"] - r["clearance_reported"]))
                  for r in claimed if "ee_length_reported" in r and "clearance_reported" in r
@@ -448,8 +695,8 @@ def summary(rows: Sequence[Dict[str, Any]]) -> str:
 
 
 def _why(r: Dict[str, Any]) -> str:
-    return ", ".join(f"{k}={r[k]:.4g}" for k in ("start_error", "goal_error", "limit_margin", "clearance",
-                                                 "self_clearance"))
+    goal = ("goal_error",) if r["goal_kind"] == "joint" else ("goal_position_error", "goal_orientation_error")
+    return ", ".join(f"{k}={r[k]:.4g}" for k in ("start_error", *goal, "limit_margin", "clearance", "self_clearance"))
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -461,7 +708,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--srdf", help="SRDF whose disabled collisions are not checked")
     p.add_argument("--mesh-dir", help="folder resolving package:// mesh paths (default: the URDF's folder)")
     p.add_argument("--ee-link", default="panda_hand", help="end-effector link (default panda_hand)")
-    p.add_argument("--goal-tol", type=float, default=0.01, help="goal tolerance, rad (default 0.01)")
+    p.add_argument("--goal-tol", type=float, default=0.01, help="joint goal tolerance, rad (default 0.01)")
     p.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     p.add_argument("--json", help="write one JSON line per result here (default: stdout)")
     args = p.parse_args(argv)

@@ -574,7 +574,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     total = 0
     for c in classes:
         suite = generators.generate(c, args.n, seed=args.seed, robot=robot)
-        generators.write_problems(suite, args.out)
+        generators.write_problems(suite, args.out, pose_goals=args.pose_goals)
         total += len(suite)
     print(f"wrote {total} problems ({', '.join(problems.canonical_class(c) for c in classes)}) to {args.out}")
     return 0
@@ -590,6 +590,9 @@ def _register_generate(sub: Any) -> None:
     p.add_argument("--classes", nargs="+", metavar="CLASS", help="classes (default: all)")
     p.add_argument("--n", type=int, default=10, help="problems per class (default 10)")
     p.add_argument("--seed", type=int, default=0, help="generator seed (default 0)")
+    p.add_argument("--pose-goals", action="store_true",
+                   help="write each goal as the hand TCP's pose (position within 1 mm, orientation within "
+                        "0.01 rad; MoveIt position and orientation constraints) instead of joint positions")
     _add_robot_options(p)
     p.set_defaults(func=cmd_generate)
 

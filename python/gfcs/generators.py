@@ -45,6 +45,7 @@ import numpy as np
 
 from gfcs import metrics as _metrics
 from gfcs.problems import CLASSES, Problem, canonical_class, mesh_checker_for
+from gfcs.pose_goal import quaternion_xyzw
 
 __all__ = [
     "Primitive",
@@ -380,9 +381,49 @@ def request_yaml(joint_names: Sequence[str], q0: Sequence[float], goal: Sequence
     return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
 
 
-def write_problems(problems: Sequence[Problem], directory: Any) -> List[Path]:
+def pose_request_yaml(robot: Any, q0: Sequence[float], goal: Sequence[float], link: Any = None,
+                      offset: Sequence[float] = PANDA_TCP, position_tolerance: float = 1e-3,
+                      angle_tolerance: float = 0.01, group: str = "panda_arm") -> str:
+    """MoveIt MotionPlanRequest YAML with a pose goal: the pose that ``goal`` (dof,) [rad] gives ``link``
+    (default the end-effector link), as a position constraint on the point ``offset`` (3,) [m] of the link
+    (a sphere of radius ``position_tolerance`` [m] around it) and an orientation constraint with
+    ``angle_tolerance`` [rad] about each axis (XYZ Euler angles), in the robot's root frame."""
+    import yaml
+
+    index = robot.link_index(robot.ee_link if link is None else link)
+    name = robot.link_names[index]
+    pose = np.asarray(robot.link_poses(np.asarray(goal, dtype=np.float64)), dtype=np.float64)[index]
+    point = pose[:3, :3] @ np.asarray(offset, dtype=np.float64) + pose[:3, 3]
+    header = {"frame_id": robot.link_names[0]}
+    doc = {
+        "start_state": {"joint_state": {"name": list(robot.joint_names), "position": [float(v) for v in q0]}},
+        "goal_constraints": [{
+            "joint_constraints": [],
+            "position_constraints": [{
+                "header": header, "link_name": name,
+                "target_point_offset": dict(zip("xyz", (float(v) for v in offset))),
+                "constraint_region": {
+                    "primitives": [{"type": "sphere", "dimensions": [float(position_tolerance)]}],
+                    "primitive_poses": [{"position": [float(v) for v in point], "orientation": [0.0, 0.0, 0.0, 1.0]}],
+                },
+                "weight": 1.0,
+            }],
+            "orientation_constraints": [{
+                "header": header, "link_name": name,
+                "orientation": [float(v) for v in quaternion_xyzw(pose[:3, :3])],
+                **{f"absolute_{a}_axis_tolerance": float(angle_tolerance) for a in "xyz"},
+                "parameterization": 0, "weight": 1.0,
+            }],
+        }],
+        "group_name": group,
+    }
+    return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+
+
+def write_problems(problems: Sequence[Problem], directory: Any, pose_goals: bool = False) -> List[Path]:
     """Write generated problems as MotionBenchMaker files: ``<directory>/<cls>/sceneNNNN.yaml`` and
-    ``requestNNNN.yaml`` (NNNN = 0001, 0002, ... per class, in list order).
+    ``requestNNNN.yaml`` (NNNN = 0001, 0002, ... per class, in list order). ``pose_goals``: the requests
+    hold the pose of the hand's TCP at the goal (:func:`pose_request_yaml`) instead of the joint goal.
 
     Returns:
         The class folders written. Raises ValueError for a problem without ``meta["primitives"]``.
@@ -403,7 +444,9 @@ def write_problems(problems: Sequence[Problem], directory: Any) -> List[Path]:
         number = f"{counts[cls]:04d}"
         prim_objs = [Primitive(**d) if isinstance(d, dict) else d for d in prims]
         (folder / f"scene{number}.yaml").write_text(scene_yaml(prim_objs, p.name))
-        (folder / f"request{number}.yaml").write_text(request_yaml(p.robot.joint_names, p.q0, p.goal))
+        request = (pose_request_yaml(p.robot, p.q0, p.goal) if pose_goals
+                   else request_yaml(p.robot.joint_names, p.q0, p.goal))
+        (folder / f"request{number}.yaml").write_text(request)
     return folders
 
 

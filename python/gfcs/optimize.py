@@ -752,7 +752,8 @@ def solve(
     mesh_checker = getattr(problem, "mesh_checker", None)
     common = dict(problem=str(problem.name), cls=str(getattr(problem, "cls", "")), seed=int(seed),
                   q0=q0, qd0=qd0, goal=goal, fabric_config=fabric.config.to_dict(), robot=robot,
-                  joint_names=list(robot.joint_names))
+                  joint_names=list(robot.joint_names),
+                  pose_goal=(getattr(problem, "meta", None) or {}).get("pose_goal"))
 
     if method == "gf":
         start = time.perf_counter()

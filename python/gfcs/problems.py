@@ -28,6 +28,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
+from gfcs import pose_goal as _pose_goal
+from gfcs.pose_goal import PoseGoalError
+
 import numpy as np
 
 __all__ = [
@@ -196,7 +199,9 @@ def load_mbm(
     Args:
         scene_yaml: MoveIt PlanningScene YAML (``sceneNNNN.yaml``).
         request_yaml: MoveIt MotionPlanRequest YAML (``requestNNNN.yaml``): start joint state and a
-            joint-space goal.
+            joint-space goal, or a pose goal (position and orientation constraints on a link), which
+            becomes the joint goal :func:`gfcs.pose_goal.goal_configuration` finds by inverse kinematics
+            (``meta["pose_goal"]`` keeps the constraints).
         robot: the robot (default :meth:`gfcs.Robot.panda`); its active joints are looked up by name in
             the request's start state and goal constraints. For the MotionBenchMaker files prefer
             :func:`mbm_panda`: their goals sit 1-3 cm from the obstacles for that robot's spheres, and
@@ -216,6 +221,8 @@ def load_mbm(
             message names the joint and the file).
         gfcs.IoError / gfcs.FormatError: unreadable or malformed files (from the core).
         gfcs.InvalidValueError: the request's start or goal lies outside the robot's joint limits.
+        ValueError: a pose goal in a frame other than the robot's root, on an unknown link, or without a
+            valid inverse-kinematics solution.
     """
     return Problem(**_mbm_fields(scene_yaml, request_yaml, robot, name, cls, mesh_checker))
 
@@ -235,7 +242,8 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
     if checker is not None:
         checker = held_as_requested(checker, request["start"])
     values = {}
-    for part in ("start", "goal"):
+    pose_goal = request.get("pose_goal")
+    for part in ("start", "goal") if pose_goal is None else ("start",):
         table = request[part]
         missing = [j for j in robot.joint_names if j not in table]
         if missing:
@@ -245,6 +253,12 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
                 f"{', '.join(sorted(table)) or 'nothing'})"
             )
         values[part] = np.array([table[j] for j in robot.joint_names], dtype=np.float64)
+    meta = {"scene_file": str(scene_path), "request_file": str(request_path),
+            "group": request.get("group", ""), "start_state": dict(request["start"])}
+    if pose_goal is not None:
+        values["goal"] = _pose_goal.goal_configuration(robot, scene, values["start"], pose_goal,
+                                                       mesh_checker=checker, source=str(request_path))
+        meta["pose_goal"] = _pose_goal.to_json(pose_goal)
     folder = scene_path.resolve().parent.name
     number = re.sub(r"\D", "", scene_path.stem) or scene_path.stem
     return dict(
@@ -254,8 +268,7 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
         q0=values["start"],
         goal=values["goal"],
         cls=cls if cls is not None else folder,
-        meta={"scene_file": str(scene_path), "request_file": str(request_path),
-              "group": request.get("group", ""), "start_state": dict(request["start"])},
+        meta=meta,
         mesh_checker=checker,
     )
 
@@ -326,13 +339,15 @@ def load_mbm_dir(
         mesh_checker: shared by all problems (default: as :func:`load_mbm`).
         skip: leave out the first ``skip`` problems of each class (by number), e.g. ``skip=40`` keeps the
             test problems 41-50 of the GFCS split (train on 1-40, test on 41-50).
-        invalid: when a list, problems whose start or goal lies outside ``robot``'s joint limits are left
+        invalid: when a list, problems whose start or goal lies outside ``robot``'s joint limits, or whose
+            pose goal has no valid joint configuration (:class:`gfcs.pose_goal.PoseGoalError`), are left
             out and appended to it as (name, message) instead of raising (MotionBenchMaker's URDF lets
             joint 4 of the Panda reach 0.0873 rad, Franka's limits and :meth:`gfcs.Robot.panda` -0.0698).
 
     Raises:
         FileNotFoundError: ``directory`` does not exist, or a scene has no matching request.
         gfcs.InvalidValueError: a start or goal outside the joint limits (without ``invalid``).
+        gfcs.pose_goal.PoseGoalError: a pose goal without a valid joint configuration (without ``invalid``).
         ValueError: no problems found (the message says where it looked), or every one left out.
     """
     import gfcs
@@ -365,18 +380,18 @@ def load_mbm_dir(
                             if (class_dir / f"request{digits}{ext}").is_file()), None)
             if request is None:
                 raise FileNotFoundError(f"{scene_path}: no matching request{digits}.yaml")
-            fields = _mbm_fields(scene_path, request, robot, f"{class_dir.name}/{digits}", class_dir.name,
-                                 mesh_checker)
             try:  # Problem raises InvalidValueError only for a start or goal outside the joint limits
-                problems.append(Problem(**fields))
-            except gfcs.InvalidValueError as e:
+                problems.append(Problem(**_mbm_fields(scene_path, request, robot, f"{class_dir.name}/{digits}",
+                                                      class_dir.name, mesh_checker)))
+            except (gfcs.InvalidValueError, PoseGoalError) as e:
                 if invalid is None:
                     raise
                 invalid.append((f"{class_dir.name}/{digits}", str(e)))
                 left_out.append(str(e))
     if not problems and left_out:
         raise ValueError(f"every MotionBenchMaker problem under {root} has its start or goal outside the joint "
-                         f"limits of robot '{robot.name}' ({len(left_out)} problem(s); first: {left_out[0]})")
+                         f"limits of robot '{robot.name}', or a pose goal it cannot take ({len(left_out)} "
+                         f"problem(s); first: {left_out[0]})")
     if not problems:
         raise ValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
                          + (f" for classes {sorted(wanted)}" if wanted else ""))

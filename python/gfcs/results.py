@@ -183,6 +183,8 @@ class SolveResult:
         fabric_config: the fabric configuration as a dict (None: the defaults).
         joint_names: the robot's joint names, the order of every (dof,) vector and of the trajectory's
             columns ([] when unknown: results from before this field).
+        pose_goal: the request's pose goal when the problem had one (``problem.meta["pose_goal"]``, see
+            :mod:`gfcs.pose_goal`; ``goal`` is the joint goal found for it), else None.
     """
 
     problem: str
@@ -209,6 +211,7 @@ class SolveResult:
     settings: Dict[str, Any] = field(default_factory=dict)
     fabric_config: Optional[Dict[str, Any]] = None
     joint_names: List[str] = field(default_factory=list)
+    pose_goal: Optional[Dict[str, Any]] = None
     #: The robot the result was solved with (in memory only, not serialised); used by
     #: :func:`gfcs.optimize.replay`.
     robot: Any = field(default=None, repr=False, compare=False)
@@ -250,6 +253,8 @@ class SolveResult:
             "fabric_config": _enc(self.fabric_config),
             "joint_names": list(self.joint_names),
         }
+        if self.pose_goal is not None:
+            d["pose_goal"] = self.pose_goal
         if include_trajectory:
             d["trajectory"] = self.trajectory.to_dict()
         return d
@@ -294,6 +299,7 @@ class SolveResult:
             settings=_dec_value(d.get("settings", {})),
             fabric_config=_dec_value(d.get("fabric_config")),
             joint_names=[str(n) for n in d.get("joint_names", [])],
+            pose_goal=d.get("pose_goal"),
         )
 
     @classmethod

@@ -379,6 +379,11 @@ fn bad_requests_name_the_field() {
         (
             "  - joint_constraints:",
             "  - position_constraints:",
+            "goal_constraints[0].position_constraints",
+        ),
+        (
+            "  - joint_constraints:",
+            "  - other_constraints:",
             "goal_constraints[0].joint_constraints",
         ),
         (
@@ -405,5 +410,176 @@ fn bad_requests_name_the_field() {
     assert!(matches!(
         parse_request_str(empty_goals, "r.yaml"),
         Err(FabricError::Format { field, .. }) if field == "goal_constraints"
+    ));
+}
+
+const POSE_REQUEST: &str = r#"
+group_name: panda_arm
+goal_constraints:
+  - name: pose
+    joint_constraints: []
+    position_constraints:
+      - header: {frame_id: panda_link0}
+        link_name: panda_hand
+        target_point_offset: {x: 0, y: 0, z: 0.1034}
+        constraint_region:
+          primitives:
+            - type: 2
+              dimensions: [0.001]
+            - {type: box, dimensions: [0.02, 0.04, 0.06]}
+          primitive_poses:
+            - position: {x: 0.5, y: -0.1, z: 0.4}
+              orientation: {x: 0, y: 0, z: 0, w: 1}
+            - position: [0.5, -0.1, 0.4]
+              orientation: [0, 0, 0.7071067811865476, 0.7071067811865476]
+        weight: 1
+    orientation_constraints:
+      - header: {frame_id: panda_link0}
+        link_name: panda_hand
+        orientation: {x: 1, y: 0, z: 0, w: 0}
+        absolute_x_axis_tolerance: 0.01
+        absolute_y_axis_tolerance: 0.02
+        absolute_z_axis_tolerance: 0.03
+        parameterization: 1
+        weight: 1
+start_state:
+  joint_state:
+    position: [0.1, 0.2]
+    name: [panda_joint1, panda_joint2]
+"#;
+
+#[test]
+fn pose_goal_requests_parse() {
+    let req = parse_request_str(POSE_REQUEST, "pose.yaml").unwrap();
+    assert!(req.goal.is_empty());
+    let g = req.pose_goal.expect("a pose goal");
+    assert_eq!(
+        (g.link.as_str(), g.frame.as_str()),
+        ("panda_hand", "panda_link0")
+    );
+    assert_eq!(g.offset, Vector3::new(0.0, 0.0, 0.1034));
+    assert_eq!(g.region.len(), 2);
+    assert!(matches!(g.region[0].0, Shape::Sphere { radius } if radius == 0.001));
+    match &g.region[1].0 {
+        Shape::Cuboid { half_extents } => {
+            assert_eq!(*half_extents, Vector3::new(0.01, 0.02, 0.03))
+        }
+        other => panic!("expected a box, got {other:?}"),
+    }
+    assert_eq!(
+        g.region[1].1.translation.vector,
+        Vector3::new(0.5, -0.1, 0.4)
+    );
+    let o = g.orientation.expect("an orientation");
+    assert!(o.rotation_vector);
+    assert_eq!(o.tolerance, Vector3::new(0.01, 0.02, 0.03));
+    // quaternion (x, y, z, w) = (1, 0, 0, 0): a half turn about x
+    let r = o.rotation.to_rotation_matrix();
+    assert!((r * Vector3::y() + Vector3::y()).norm() < 1e-12);
+
+    // position only, no header, no offset: the point is the link origin in the planning frame ""
+    let start = POSE_REQUEST.find("    orientation_constraints:").unwrap();
+    let end = POSE_REQUEST.find("start_state:").unwrap();
+    let position_only = format!("{}{}", &POSE_REQUEST[..start], &POSE_REQUEST[end..])
+        .replace(
+            "      - header: {frame_id: panda_link0}\n        link_name",
+            "      - link_name",
+        )
+        .replace("        target_point_offset: {x: 0, y: 0, z: 0.1034}\n", "");
+    let g = parse_request_str(&position_only, "p.yaml")
+        .unwrap()
+        .pose_goal
+        .unwrap();
+    assert_eq!((g.frame.as_str(), g.offset), ("", Vector3::zeros()));
+    assert!(g.orientation.is_none());
+}
+
+#[test]
+fn bad_pose_goals_name_the_field() {
+    let cases = [
+        (
+            "    joint_constraints: []",
+            "    joint_constraints: [{joint_name: panda_joint1, position: 0.1}]",
+            "goal_constraints[0]",
+        ),
+        (
+            "        link_name: panda_hand\n        orientation:",
+            "        link_name: panda_link7\n        orientation:",
+            "goal_constraints[0].orientation_constraints[0].link_name",
+        ),
+        (
+            "      - header: {frame_id: panda_link0}\n        link_name: panda_hand\n        orientation:",
+            "      - header: {frame_id: world}\n        link_name: panda_hand\n        orientation:",
+            "goal_constraints[0].orientation_constraints[0].header.frame_id",
+        ),
+        (
+            "absolute_y_axis_tolerance: 0.02",
+            "absolute_y_axis_tolerance: -0.02",
+            "goal_constraints[0].orientation_constraints[0].absolute_y_axis_tolerance",
+        ),
+        (
+            "        absolute_z_axis_tolerance: 0.03\n",
+            "",
+            "goal_constraints[0].orientation_constraints[0].absolute_z_axis_tolerance",
+        ),
+        (
+            "parameterization: 1",
+            "parameterization: 2",
+            "goal_constraints[0].orientation_constraints[0].parameterization",
+        ),
+        (
+            "orientation: {x: 1, y: 0, z: 0, w: 0}",
+            "orientation: {x: 0, y: 0, z: 0, w: 0}",
+            "goal_constraints[0].orientation_constraints[0].orientation",
+        ),
+        (
+            "            - type: 2\n              dimensions: [0.001]",
+            "            - type: 4\n              dimensions: [0.001, 0.1]",
+            "goal_constraints[0].position_constraints[0].constraint_region.primitives[0].type",
+        ),
+        (
+            "            - position: [0.5, -0.1, 0.4]",
+            "            - position: [0.5, -0.1]",
+            "goal_constraints[0].position_constraints[0].constraint_region.primitive_poses[1].position",
+        ),
+        (
+            "target_point_offset: {x: 0, y: 0, z: 0.1034}",
+            "target_point_offset: {x: 0, y: 0}",
+            "goal_constraints[0].position_constraints[0].target_point_offset.z",
+        ),
+        (
+            "    position_constraints:\n",
+            "    other_constraints:\n",
+            "goal_constraints[0].position_constraints",
+        ),
+    ];
+    for (from, to, field) in cases {
+        assert!(POSE_REQUEST.contains(from), "{from}");
+        match parse_request_str(&POSE_REQUEST.replacen(from, to, 1), "pose.yaml") {
+            Err(FabricError::Format { file, field: f, .. }) => {
+                assert_eq!((file.as_str(), f.as_str()), ("pose.yaml", field));
+            }
+            other => panic!("expected Format on {field}, got {other:?}"),
+        }
+    }
+    // two position constraints
+    let pc = POSE_REQUEST.find("      - header: {frame_id: panda_link0}\n        link_name: panda_hand\n        target").unwrap();
+    let oc = POSE_REQUEST.find("    orientation_constraints:").unwrap();
+    let twice = format!("{}{}", &POSE_REQUEST[..oc], &POSE_REQUEST[pc..]);
+    assert!(matches!(
+        parse_request_str(&twice, "pose.yaml"),
+        Err(FabricError::Format { field, message, .. })
+            if field == "goal_constraints[0].position_constraints" && message.contains("one position")
+    ));
+    // mesh regions
+    let meshy = POSE_REQUEST.replacen(
+        "        constraint_region:\n",
+        "        constraint_region:\n          meshes: [{vertices: [], triangles: []}]\n",
+        1,
+    );
+    assert!(matches!(
+        parse_request_str(&meshy, "pose.yaml"),
+        Err(FabricError::Format { field, .. })
+            if field == "goal_constraints[0].position_constraints[0].constraint_region.meshes"
     ));
 }

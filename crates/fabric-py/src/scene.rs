@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use fabric_core::scene::{
-    meshio, moveit, DistanceSample, Obstacle, ObstacleId, PointCloud, Scene, Shape,
+    meshio, moveit, DistanceSample, Obstacle, ObstacleId, PointCloud, PoseGoal, Scene, Shape,
 };
 use fabric_core::FabricError;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
@@ -565,7 +565,12 @@ fn obstacle_dict<'py>(py: Python<'py>, id: u64, o: &Obstacle) -> PyResult<Bound<
 }
 
 /// Read a MoveIt MotionPlanRequest YAML file (MotionBenchMaker `requestNNNN.yaml`): a dict with `group`
-/// (str), `start` (dict joint name -> position, rad or m) and `goal` (dict joint name -> position).
+/// (str), `start` (dict joint name -> position, rad or m), `goal` (dict joint name -> position; empty for
+/// a pose goal) and `pose_goal`: None, or for position (and orientation) constraints a dict with `link`,
+/// `frame` (`header.frame_id`, "" when absent), `offset` (3,) m in the link frame, `region` (list of
+/// dicts `type` "box" | "sphere" | "cylinder", `size` as `Scene.obstacles` gives it, `pose` (4, 4) in
+/// `frame`) and `orientation`: None or a dict `quaternion` (4,) [x, y, z, w] (normalised), `tolerance`
+/// (3,) rad, `parameterization` "xyz_euler" | "rotation_vector".
 #[pyfunction]
 pub fn load_motion_plan_request<'py>(
     py: Python<'py>,
@@ -585,5 +590,47 @@ pub fn load_motion_plan_request<'py>(
     }
     d.set_item("start", start)?;
     d.set_item("goal", goal)?;
+    let pose_goal = match &req.pose_goal {
+        Some(g) => Some(pose_goal_dict(py, g)?),
+        None => None,
+    };
+    d.set_item("pose_goal", pose_goal)?;
+    Ok(d)
+}
+
+/// The dict of a request's pose goal (see `load_motion_plan_request`).
+fn pose_goal_dict<'py>(py: Python<'py>, g: &PoseGoal) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("link", &g.link)?;
+    d.set_item("frame", &g.frame)?;
+    d.set_item("offset", output_vec3(py, &g.offset)?)?;
+    let region = PyList::empty(py);
+    for (shape, pose) in &g.region {
+        let r = PyDict::new(py);
+        let size = shape_size(shape);
+        let n = size.len();
+        r.set_item("type", shape.kind())?;
+        r.set_item("size", output(py, size, &[n])?)?;
+        r.set_item("pose", output_pose(py, pose)?)?;
+        region.append(r)?;
+    }
+    d.set_item("region", region)?;
+    let orientation = match &g.orientation {
+        Some(o) => {
+            let od = PyDict::new(py);
+            let q = o.rotation.quaternion();
+            od.set_item("quaternion", output(py, vec![q.i, q.j, q.k, q.w], &[4])?)?;
+            od.set_item("tolerance", output_vec3(py, &o.tolerance)?)?;
+            let kind = if o.rotation_vector {
+                "rotation_vector"
+            } else {
+                "xyz_euler"
+            };
+            od.set_item("parameterization", kind)?;
+            Some(od)
+        }
+        None => None,
+    };
+    d.set_item("orientation", orientation)?;
     Ok(d)
 }

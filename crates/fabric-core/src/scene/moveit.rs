@@ -16,8 +16,13 @@
 //!   ADD (`0` or `"add"`).
 //! * Everything else (robot state, allowed collision matrix, headers) is ignored.
 //!
-//! Request: `group_name`, `start_state.joint_state.{name, position}` and
-//! `goal_constraints[0].joint_constraints[*].{joint_name, position}`.
+//! Request: `group_name`, `start_state.joint_state.{name, position}` and the goal of
+//! `goal_constraints[0]`: either `joint_constraints[*].{joint_name, position}` (a joint goal, as
+//! MotionBenchMaker writes) or a pose goal ([`PoseGoal`]): one `position_constraints` entry
+//! (`link_name`, `target_point_offset`, `constraint_region` box / sphere / cylinder primitives with their
+//! poses, `header.frame_id`) and at most one `orientation_constraints` entry on the same link
+//! (`orientation`, `absolute_{x,y,z}_axis_tolerance`, `parameterization`). Joint and pose constraints
+//! together, an orientation without a position, and mesh regions are rejected.
 //!
 //! Every error is [`FabricError::Format`] naming the file and the field path, e.g.
 //! `world.collision_objects[3].primitives[0].dimensions`.
@@ -34,14 +39,51 @@ use crate::error::{FabricError, Result};
 
 /// A joint-space planning problem: the group, the start joint state and the joint goal, as
 /// `(joint name, position)` pairs in file order (rad or m).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct MotionPlanRequest {
     /// `group_name` (e.g. `panda_arm`).
     pub group: String,
     /// `start_state.joint_state` names and positions (may include joints outside the group, e.g. fingers).
     pub start: Vec<(String, f64)>,
-    /// `goal_constraints[0].joint_constraints[*]` joint names and positions.
+    /// `goal_constraints[0].joint_constraints[*]` joint names and positions (empty for a pose goal).
     pub goal: Vec<(String, f64)>,
+    /// The pose goal of `goal_constraints[0]`, when it has position (and orientation) constraints
+    /// instead of joint constraints.
+    pub pose_goal: Option<PoseGoal>,
+}
+
+/// A MoveIt pose goal on one link, in the planning frame `frame` (MoveIt `PositionConstraint` and
+/// `OrientationConstraint` semantics): the point `offset` fixed in `link` must lie inside one of the
+/// `region` shapes, and, when `orientation` is set, the link's rotation must match it within the
+/// tolerances. Solving it (inverse kinematics) is left to the caller.
+#[derive(Clone, Debug)]
+pub struct PoseGoal {
+    /// `link_name` of the constraints.
+    pub link: String,
+    /// `header.frame_id` of the position constraint ("" when absent); the orientation constraint's, when
+    /// given, is the same.
+    pub frame: String,
+    /// `target_point_offset`: the constrained point in the link frame (m).
+    pub offset: Vector3<f64>,
+    /// `constraint_region.primitives` with their `primitive_poses` in `frame` (m): the point must lie in
+    /// one of them. At least one.
+    pub region: Vec<(Shape, Isometry3<f64>)>,
+    /// The orientation constraint, if any.
+    pub orientation: Option<OrientationGoal>,
+}
+
+/// A MoveIt orientation constraint: with R* = `rotation` and R the link's rotation in the planning frame,
+/// the error rotation D = R*ᵀ R, expressed as XYZ Euler angles (D = Rx(a) Ry(b) Rz(c); MoveIt's
+/// `parameterization` 0, the default) or as a rotation vector (`parameterization` 1), must lie within
+/// `tolerance` per component (rad).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OrientationGoal {
+    /// Target rotation R* of the link in the planning frame (the `orientation` quaternion, normalised).
+    pub rotation: UnitQuaternion<f64>,
+    /// `absolute_x_axis_tolerance`, `absolute_y_axis_tolerance`, `absolute_z_axis_tolerance` (rad), ≥ 0.
+    pub tolerance: Vector3<f64>,
+    /// `parameterization` 1 (rotation vector) instead of 0 (XYZ Euler angles).
+    pub rotation_vector: bool,
 }
 
 impl MotionPlanRequest {
@@ -109,29 +151,13 @@ pub fn parse_request_str(yaml: &str, source: &str) -> Result<MotionPlanRequest> 
     let first = goals
         .first()
         .ok_or_else(|| doc.err("goal_constraints", "is empty"))?;
-    let jc_path = "goal_constraints[0].joint_constraints";
-    let jcs = doc.seq(
-        doc.field(first, "goal_constraints[0]", "joint_constraints")?,
-        jc_path,
-    )?;
-    if jcs.is_empty() {
-        return Err(doc.err(jc_path, "is empty"));
-    }
-    let mut goal = Vec::with_capacity(jcs.len());
-    for (i, jc) in jcs.iter().enumerate() {
-        let path = format!("{jc_path}[{i}]");
-        let name = doc.string(
-            doc.field(jc, &path, "joint_name")?,
-            &format!("{path}.joint_name"),
-        )?;
-        doc.no_duplicate(&goal, &name, &format!("{path}.joint_name"))?;
-        let v = doc.number(
-            doc.field(jc, &path, "position")?,
-            &format!("{path}.position"),
-        )?;
-        goal.push((name, v));
-    }
-    Ok(MotionPlanRequest { group, start, goal })
+    let (goal, pose_goal) = doc.goal(first)?;
+    Ok(MotionPlanRequest {
+        group,
+        start,
+        goal,
+        pose_goal,
+    })
 }
 
 /// Parse a `MotionPlanRequest` YAML file. `Err(Io)` when it cannot be read.
@@ -202,6 +228,9 @@ pub(crate) fn scene_from_str(yaml: &str, source: &str) -> Result<Scene> {
     }
     Ok(scene)
 }
+
+/// (joint name, position) pairs of a joint goal, in file order.
+type JointGoal = Vec<(String, f64)>;
 
 /// Error context: the file name. Field paths are built by the callers.
 struct Doc<'a> {
@@ -324,6 +353,205 @@ impl Doc<'_> {
             Translation3::new(p[0], p[1], p[2]),
             UnitQuaternion::from_quaternion(quat),
         ))
+    }
+
+    /// The goal of `goal_constraints[0]` (`c`): joint constraints, or a pose goal.
+    fn goal(&self, c: &Value) -> Result<(JointGoal, Option<PoseGoal>)> {
+        const PATH: &str = "goal_constraints[0]";
+        let list = |key: &str| -> Result<&[Value]> {
+            match self.opt(c, key) {
+                Some(v) => self.seq(v, &join(PATH, key)),
+                None => Ok(&[]),
+            }
+        };
+        if !c.is_mapping() {
+            return Err(self.err(PATH, "expected a mapping"));
+        }
+        let (joints, positions, orientations) = (
+            list("joint_constraints")?,
+            list("position_constraints")?,
+            list("orientation_constraints")?,
+        );
+        let pose = !(positions.is_empty() && orientations.is_empty());
+        if !joints.is_empty() && pose {
+            return Err(self.err(
+                PATH,
+                "joint constraints together with position or orientation constraints are not supported",
+            ));
+        }
+        if !joints.is_empty() {
+            return Ok((self.joint_goal(joints)?, None));
+        }
+        if positions.is_empty() {
+            let field = if orientations.is_empty() {
+                "joint_constraints"
+            } else {
+                "position_constraints"
+            };
+            let message = if orientations.is_empty() {
+                "missing or empty (and no position constraint for a pose goal)"
+            } else {
+                "missing: an orientation constraint needs a position constraint on the same link"
+            };
+            return Err(self.err(&join(PATH, field), message));
+        }
+        Ok((Vec::new(), Some(self.pose_goal(positions, orientations)?)))
+    }
+
+    fn joint_goal(&self, jcs: &[Value]) -> Result<JointGoal> {
+        let jc_path = "goal_constraints[0].joint_constraints";
+        let mut goal = Vec::with_capacity(jcs.len());
+        for (i, jc) in jcs.iter().enumerate() {
+            let path = format!("{jc_path}[{i}]");
+            let name = self.string(
+                self.field(jc, &path, "joint_name")?,
+                &format!("{path}.joint_name"),
+            )?;
+            self.no_duplicate(&goal, &name, &format!("{path}.joint_name"))?;
+            let v = self.number(
+                self.field(jc, &path, "position")?,
+                &format!("{path}.position"),
+            )?;
+            goal.push((name, v));
+        }
+        Ok(goal)
+    }
+
+    fn pose_goal(&self, positions: &[Value], orientations: &[Value]) -> Result<PoseGoal> {
+        const PC: &str = "goal_constraints[0].position_constraints";
+        const OC: &str = "goal_constraints[0].orientation_constraints";
+        for (list, path, what) in [
+            (positions, PC, "position"),
+            (orientations, OC, "orientation"),
+        ] {
+            if list.len() > 1 {
+                return Err(self.err(
+                    path,
+                    format!("one {what} constraint is supported, got {}", list.len()),
+                ));
+            }
+        }
+        let pc = &positions[0];
+        let path = format!("{PC}[0]");
+        let link = self.string(
+            self.field(pc, &path, "link_name")?,
+            &join(&path, "link_name"),
+        )?;
+        let frame = self.frame(pc, &path)?;
+        let offset = match self.opt(pc, "target_point_offset") {
+            Some(v) => {
+                let o =
+                    self.components(v, &join(&path, "target_point_offset"), &["x", "y", "z"])?;
+                Vector3::new(o[0], o[1], o[2])
+            }
+            None => Vector3::zeros(),
+        };
+        let rp = join(&path, "constraint_region");
+        let region_value = self.field(pc, &path, "constraint_region")?;
+        if let Some(m) = self.opt(region_value, "meshes") {
+            if !self.seq(m, &join(&rp, "meshes"))?.is_empty() {
+                return Err(self.err(
+                    &join(&rp, "meshes"),
+                    "mesh regions are not supported (use box, sphere or cylinder primitives)",
+                ));
+            }
+        }
+        let mut shapes = Vec::new();
+        self.primitives(region_value, &rp, &mut shapes)?;
+        if shapes.is_empty() {
+            return Err(self.err(&join(&rp, "primitives"), "missing or empty"));
+        }
+        let region = shapes.into_iter().map(|(s, p, _)| (s, p)).collect();
+        let orientation = match orientations.first() {
+            None => None,
+            Some(oc) => {
+                let opath = format!("{OC}[0]");
+                let olink = self.string(
+                    self.field(oc, &opath, "link_name")?,
+                    &join(&opath, "link_name"),
+                )?;
+                if olink != link {
+                    return Err(self.err(
+                        &join(&opath, "link_name"),
+                        format!("'{olink}' differs from the position constraint's link '{link}'"),
+                    ));
+                }
+                let oframe = self.frame(oc, &opath)?;
+                if oframe != frame {
+                    return Err(self.err(
+                        &join(&opath, "header.frame_id"),
+                        format!(
+                            "'{oframe}' differs from the position constraint's frame '{frame}'"
+                        ),
+                    ));
+                }
+                Some(self.orientation_goal(oc, &opath)?)
+            }
+        };
+        Ok(PoseGoal {
+            link,
+            frame,
+            offset,
+            region,
+            orientation,
+        })
+    }
+
+    /// `header.frame_id` of a constraint at `path` ("" when absent).
+    fn frame(&self, c: &Value, path: &str) -> Result<String> {
+        let Some(header) = self.opt(c, "header") else {
+            return Ok(String::new());
+        };
+        let hp = join(path, "header");
+        match self.opt(header, "frame_id") {
+            Some(f) => self.string(f, &join(&hp, "frame_id")),
+            None => Ok(String::new()),
+        }
+    }
+
+    fn orientation_goal(&self, oc: &Value, path: &str) -> Result<OrientationGoal> {
+        let op = join(path, "orientation");
+        let q = self.components(
+            self.field(oc, path, "orientation")?,
+            &op,
+            &["x", "y", "z", "w"],
+        )?;
+        let quat = Quaternion::new(q[3], q[0], q[1], q[2]);
+        if quat.norm() < 1e-9 {
+            return Err(self.err(&op, "zero quaternion"));
+        }
+        let mut tolerance = Vector3::zeros();
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            let key = format!("absolute_{axis}_axis_tolerance");
+            let tp = join(path, &key);
+            let t = self.number(self.field(oc, path, &key)?, &tp)?;
+            if t < 0.0 {
+                return Err(self.err(&tp, format!("must be >= 0, got {t}")));
+            }
+            tolerance[k] = t;
+        }
+        let pp = join(path, "parameterization");
+        let rotation_vector = match self.opt(oc, "parameterization") {
+            None => false,
+            Some(v) => match v.as_i64() {
+                Some(0) => false,
+                Some(1) => true,
+                _ => {
+                    return Err(self.err(
+                        &pp,
+                        format!(
+                            "expected 0 (XYZ Euler angles) or 1 (rotation vector), got {}",
+                            show(v)
+                        ),
+                    ))
+                }
+            },
+        };
+        Ok(OrientationGoal {
+            rotation: UnitQuaternion::from_quaternion(quat),
+            tolerance,
+            rotation_vector,
+        })
     }
 
     fn primitives(

@@ -1,0 +1,289 @@
+"""Pose goals of MoveIt motion plan requests: the constraint check and the joint goal found for them.
+
+A request whose ``goal_constraints[0]`` holds a position constraint (and optionally an orientation
+constraint) on a link instead of joint constraints is a *pose goal* (``gfcs.load_motion_plan_request``
+returns it as ``pose_goal``, see there for the dict). GFCS drives the fabric to a joint configuration, so
+:func:`goal_configuration` turns the pose goal into one by inverse kinematics, before any planning; the
+returned motion ends exactly there, so it satisfies the pose goal.
+
+Semantics (MoveIt's ``PositionConstraint`` / ``OrientationConstraint``), every quantity in the planning
+frame, which must be the robot's root frame (``header.frame_id`` "", "world", "/world" or the root link):
+
+* position: the point ``offset`` [m] fixed in the link lies inside at least one ``region`` primitive (box
+  of full edges ``size``, sphere [radius], cylinder [height, radius] along its local z) with its ``pose``;
+  :func:`position_violation` is the distance [m] from the point to the nearest primitive (0 inside).
+* orientation: with R* the target and R the link's rotation, D = R*ᵀ R expressed as XYZ Euler angles
+  (D = Rx(a) Ry(b) Rz(c), ``"xyz_euler"``, MoveIt's default parameterization) or as a rotation vector
+  (``"rotation_vector"``) stays within the per-axis ``tolerance`` [rad]; :func:`orientation_violation`
+  is the largest excess [rad] (0 when within).
+
+Which configuration: inverse kinematics from the start configuration and from ``attempts − 1`` seeded
+random ones (damped least squares in the core), kept when it satisfies the constraints (to
+:data:`ACCEPT_SLACK`), lies :data:`LIMIT_INSET` inside the joint limits and clears the obstacles and its own
+links by the default fabric margins plus :data:`CLEARANCE_SLACK` with its collision spheres (and by the mesh
+margin with the collision meshes when a mesh checker is given): the fabric's barriers keep the arm out of
+those margins, so a goal inside them could not be reached. With a mesh checker, when no solution keeps the
+spheres that far from the obstacles, solutions whose meshes alone clear them are taken (a grasp: the
+goal-contact attempt of :func:`gfcs.optimize.solve` reaches them). When none of ``attempts`` descents
+gives a valid solution, three times as many more are tried. The nearest valid solutions are then walked
+along their self-motion toward the start (a step toward it, then back onto the constraints by inverse
+kinematics, :data:`REFINE_STEPS` times), and of all valid ones the nearest to the start in joint space
+[rad] is the goal: the fabric's motion time grows with that distance.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Dict, List, Optional
+
+import numpy as np
+
+from gfcs import metrics as _metrics
+
+#: Slack [m or rad] on the constraints when accepting an inverse-kinematics solution (numerical noise).
+ACCEPT_SLACK = 1e-6
+#: Distance [rad] from the joint limits a goal must keep: the fabric's joint-limit margin (0.01 rad by
+#: default) plus 0.01 rad.
+LIMIT_INSET = 0.02
+#: Clearance [m] a goal's collision spheres keep beyond the fabric's obstacle and self-collision margins.
+CLEARANCE_SLACK = 0.001
+#: Solutions walked toward the start, steps and the fraction of the way to it per step (module docstring).
+REFINE_SOLUTIONS, REFINE_STEPS, REFINE_RATE = 8, 20, 0.3
+#: The frames that mean the robot's root frame, besides the root link's own name.
+WORLD_FRAMES = ("", "world", "/world")
+
+
+def _rotation_matrix(quaternion_xyzw: Any) -> np.ndarray:
+    x, y, z, w = np.asarray(quaternion_xyzw, dtype=np.float64) / np.linalg.norm(quaternion_xyzw)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def xyz_euler(d: np.ndarray) -> np.ndarray:
+    """(a, b, c) [rad] with d = Rx(a) Ry(b) Rz(c), b in [−π/2, π/2]."""
+    b = math.asin(max(-1.0, min(1.0, float(d[0, 2]))))
+    return np.array([math.atan2(-d[1, 2], d[2, 2]), b, math.atan2(-d[0, 1], d[0, 0])])
+
+
+def quaternion_xyzw(r: Any) -> np.ndarray:
+    """Unit quaternion [x, y, z, w] of the rotation matrix r (3, 3), w ≥ 0."""
+    d = np.asarray(r, dtype=np.float64)
+    t = np.trace(d)
+    if t > 0.0:  # the branch of the largest component, for accuracy
+        s = 2.0 * math.sqrt(1.0 + t)
+        w, v = 0.25 * s, np.array([d[2, 1] - d[1, 2], d[0, 2] - d[2, 0], d[1, 0] - d[0, 1]]) / s
+    else:
+        i = int(np.argmax(np.diag(d)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(max(1e-300, 1.0 + d[i, i] - d[j, j] - d[k, k]))
+        v = np.zeros(3)
+        v[i] = 0.25 * s
+        v[j] = (d[j, i] + d[i, j]) / s
+        v[k] = (d[k, i] + d[i, k]) / s
+        w = (d[k, j] - d[j, k]) / s
+    q = np.append(v, w)
+    return -q if w < 0.0 else q
+
+
+def rotation_vector(d: np.ndarray) -> np.ndarray:
+    """Axis · angle [rad] of the rotation matrix d, angle in [0, π]."""
+    q = quaternion_xyzw(d)
+    v, w = q[:3], q[3]
+    norm = float(np.linalg.norm(v))
+    return np.zeros(3) if norm == 0.0 else v * (2.0 * math.atan2(norm, w) / norm)
+
+
+def position_violation(pose_goal: Dict[str, Any], point: Any) -> float:
+    """Distance [m] from ``point`` (3,) in the planning frame to the nearest region primitive (0 inside)."""
+    p = np.asarray(point, dtype=np.float64)
+    best = math.inf
+    for r in pose_goal["region"]:
+        pose = np.asarray(r["pose"], dtype=np.float64)
+        local = pose[:3, :3].T @ (p - pose[:3, 3])
+        size = np.asarray(r["size"], dtype=np.float64)
+        if r["type"] == "box":
+            outside = np.maximum(np.abs(local) - 0.5 * size, 0.0)
+            d = float(np.linalg.norm(outside))
+        elif r["type"] == "sphere":
+            d = max(0.0, float(np.linalg.norm(local)) - size[0])
+        else:  # cylinder [height, radius], axis local z
+            radial = max(0.0, float(np.hypot(local[0], local[1])) - size[1])
+            axial = max(0.0, abs(float(local[2])) - 0.5 * size[0])
+            d = math.hypot(radial, axial)
+        best = min(best, d)
+    return best
+
+
+def orientation_violation(pose_goal: Dict[str, Any], rotation: Any) -> float:
+    """Largest excess [rad] of the error rotation's components over their tolerances (0: within; 0 when
+    the goal has no orientation constraint). ``rotation``: (3, 3) the link's rotation in the planning frame."""
+    o = pose_goal.get("orientation")
+    if o is None:
+        return 0.0
+    d = _rotation_matrix(o["quaternion"]).T @ np.asarray(rotation, dtype=np.float64)
+    angles = rotation_vector(d) if o["parameterization"] == "rotation_vector" else xyz_euler(d)
+    return float(max(0.0, np.max(np.abs(angles) - np.asarray(o["tolerance"], dtype=np.float64))))
+
+
+def pose_errors(robot: Any, pose_goal: Dict[str, Any], q: Any) -> np.ndarray:
+    """(position violation [m], orientation violation [rad]) of configuration(s) ``q`` (dof,) -> (2,),
+    (N, dof) -> (N, 2)."""
+    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    link = robot.link_index(pose_goal["link"])
+    poses = np.asarray(robot.link_poses(qa), dtype=np.float64)[:, link]
+    offset = np.asarray(pose_goal["offset"], dtype=np.float64)
+    out = np.array([[position_violation(pose_goal, T[:3, :3] @ offset + T[:3, 3]),
+                     orientation_violation(pose_goal, T[:3, :3])] for T in poses])
+    return out[0] if np.asarray(q).ndim == 1 else out
+
+
+def check_frame(robot: Any, pose_goal: Dict[str, Any], source: str = "") -> None:
+    """ValueError unless the goal's frame is the robot's root frame and its link is the robot's."""
+    where = f"{source}: " if source else ""
+    root = robot.link_names[0]
+    if pose_goal["frame"] not in WORLD_FRAMES + (root,):
+        raise ValueError(f"{where}pose goal frame '{pose_goal['frame']}' is not the planning frame of robot "
+                         f"'{robot.name}' (its root link '{root}', or 'world')")
+    if pose_goal["link"] not in robot.link_names:
+        raise ValueError(f"{where}pose goal link '{pose_goal['link']}' is not a link of robot '{robot.name}'")
+
+
+def goal_configuration(
+    robot: Any,
+    scene: Any,
+    q0: Any,
+    pose_goal: Dict[str, Any],
+    *,
+    mesh_checker: Any = None,
+    fabric_config: Any = None,
+    attempts: int = 64,
+    seed: int = 0,
+    source: str = "",
+) -> np.ndarray:
+    """The joint goal [rad] (dof,) for a pose goal: the valid inverse-kinematics solution nearest to ``q0``
+    (see the module docstring).
+
+    Args:
+        robot: a :class:`gfcs.Robot`; scene: a :class:`gfcs.Scene`; q0: (dof,) start [rad].
+        pose_goal: the ``pose_goal`` dict of ``gfcs.load_motion_plan_request``.
+        mesh_checker: a :class:`gfcs.MeshChecker` whose meshes must clear too (None: the spheres only).
+        fabric_config: the fabric configuration whose margins the goal must clear (None: the defaults).
+        attempts: inverse-kinematics descents (the first from ``q0``), ≥ 1.
+        seed: seed of the other starting configurations.
+        source: the request file, named in errors.
+
+    Raises:
+        ValueError: a frame other than the robot's root or an unknown link.
+        PoseGoalError: no valid solution (a ValueError; the message names the link, the target and what
+            the attempts missed).
+    """
+    import gfcs
+
+    check_frame(robot, pose_goal, source)
+    if int(attempts) < 1:
+        raise ValueError(f"attempts must be >= 1, got {attempts}")
+    q0 = np.asarray(q0, dtype=np.float64)
+    lo = np.asarray(robot.lower, dtype=np.float64) + LIMIT_INSET
+    up = np.asarray(robot.upper, dtype=np.float64) - LIMIT_INSET
+    rng = np.random.default_rng(seed)
+    link = robot.link_index(pose_goal["link"])
+    centre = np.asarray(pose_goal["region"][0]["pose"], dtype=np.float64)[:3, 3]
+    offset = np.asarray(pose_goal["offset"], dtype=np.float64)
+    o = pose_goal.get("orientation")
+    if o is not None:  # the link origin's target follows from the point's and the rotation
+        rot = _rotation_matrix(o["quaternion"])
+        origin, axes = centre - rot @ offset, np.stack([rot[:, 0], rot[:, 2]])
+
+        def ik(qs: np.ndarray) -> np.ndarray:
+            n = qs.shape[0]
+            return np.asarray(robot.inverse_kinematics(
+                qs, np.tile(origin, (n, 1)), link=link, axes=np.tile(axes, (n, 1, 1)), iterations=300,
+                damping=1e-4, tolerance=1e-9), dtype=np.float64)
+    else:
+        def ik(qs: np.ndarray) -> np.ndarray:
+            return np.array([robot.point_ik(s, centre, link=link, point=offset, lower=lo, upper=up,
+                                            iterations=300, damping=1e-4, tolerance=1e-7, max_step=0.3)[0]
+                             for s in qs])
+
+    margins = (gfcs.FabricConfig() if fabric_config is None else fabric_config).to_dict()
+    clear = margins["obstacles"]["margin"] + CLEARANCE_SLACK
+    self_clear = margins["self_collision"]["margin"] + CLEARANCE_SLACK
+    reasons = {"constraints": 0, "limits": 0, "collision": 0}
+
+    def tiers(sols: np.ndarray) -> List[List[np.ndarray]]:
+        """The valid solutions: [clear of the margins, in contact only for the spheres]."""
+        out: List[List[np.ndarray]] = [[], []]
+        for q, err in zip(sols, pose_errors(robot, pose_goal, sols)):
+            if not np.all(err <= ACCEPT_SLACK):
+                reasons["constraints"] += 1
+            elif np.any(q < lo - 1e-12) or np.any(q > up + 1e-12):
+                reasons["limits"] += 1
+            else:
+                tier = _tier(robot, scene, q, clear, self_clear, mesh_checker)
+                if tier is None:
+                    reasons["collision"] += 1
+                else:
+                    out[tier].append(q)
+        return out
+
+    sols = ik(np.vstack([np.clip(q0, lo, up)[None, :], rng.uniform(lo, up, (int(attempts) - 1, q0.shape[0]))]))
+    found = tiers(sols)
+    if not (found[0] or found[1]):  # a second round, three times as many
+        more = ik(rng.uniform(lo, up, (3 * int(attempts), q0.shape[0])))
+        sols = np.vstack([sols, more])
+        found = tiers(more)
+    tier = 0 if found[0] else 1
+    valid = found[tier]
+    if not valid:
+        errors = pose_errors(robot, pose_goal, sols)
+        missed = ", ".join(f"{v} {k}" for k, v in reasons.items() if v)
+        where = f"{source}: " if source else ""
+        raise PoseGoalError(
+            f"{where}no joint configuration found for the pose goal of link '{pose_goal['link']}' (point "
+            f"{np.round(centre, 4).tolist()} m in frame '{pose_goal['frame'] or 'world'}'): of {len(sols)} "
+            f"inverse-kinematics attempts, {missed} (best position error "
+            f"{float(errors[:, 0].min()):.3g} m, orientation excess {float(errors[:, 1].min()):.3g} rad)")
+    # walk the nearest solutions along their self-motion toward q0: a step toward it, then back onto the
+    # constraints, REFINE_STEPS times; the walked ones that stay valid (in the same tier or better) compete
+    valid.sort(key=lambda q: float(np.linalg.norm(q - q0)))
+    walked = np.asarray(valid[:REFINE_SOLUTIONS])
+    for _ in range(REFINE_STEPS):
+        walked = ik(np.clip(walked + REFINE_RATE * (q0 - walked), lo, up))
+    valid += [q for t in tiers(walked)[: tier + 1] for q in t]
+    return min(valid, key=lambda q: float(np.linalg.norm(q - q0))).copy()
+
+
+class PoseGoalError(ValueError):
+    """No joint configuration satisfies a pose goal within the limits and clear of the obstacles."""
+
+
+def _tier(robot: Any, scene: Any, q: np.ndarray, clear: float, self_clear: float, mesh_checker: Any
+          ) -> Optional[int]:
+    """0: the spheres clear the obstacles by ``clear`` and each other by ``self_clear`` (and the meshes
+    by the mesh margin, with a checker); 1: only the meshes clear the obstacles (the goal-contact attempt
+    of :func:`gfcs.optimize.solve` can reach it); None: neither."""
+    qa = q[None, :]
+    if _metrics.self_clearance(robot, qa)[0] < self_clear:
+        return None
+    margin = _metrics.DEFAULT_MESH_MARGIN
+    meshes = mesh_checker is None or (float(mesh_checker.clearance(scene, q)) > margin
+                                      and float(mesh_checker.self_clearance(q)) > margin)
+    if not meshes:
+        return None
+    if _metrics.obstacle_clearance(robot, scene, qa)[0] >= clear:
+        return 0
+    return 1 if mesh_checker is not None else None
+
+
+def to_json(pose_goal: Dict[str, Any]) -> Dict[str, Any]:
+    """The pose goal with its arrays as lists (for a result's JSON)."""
+    def plain(x: Any) -> Any:
+        if isinstance(x, dict):
+            return {k: plain(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [plain(v) for v in x]
+        return np.asarray(x).tolist() if isinstance(x, np.ndarray) else x
+    return plain(pose_goal)
