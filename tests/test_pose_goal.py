@@ -126,7 +126,9 @@ def test_gfcs_solve_takes_a_pose_request(written, tmp_path, capsys):
     code = cli.main(["solve", "--scene", str(root / "box" / "scene0002.yaml"), "--request",
                      str(root / "box" / "request0002.yaml"), "--batches", "1", "--population", "16",
                      "--json", str(out)])
-    assert code == 0, capsys.readouterr()
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "pose goal panda_hand point" in text and "the motion ends 0 m outside the region, 0 rad beyond" in text
     d = json.loads(out.read_text())
     assert d["success"] and d["pose_goal"]["link"] == "panda_hand"
 

@@ -234,6 +234,25 @@ def _endpoint_hints(result: Any, problem: Any) -> List[str]:
     return lines
 
 
+def _pose_goal_line(result: Any, problem: Any) -> str:
+    """The summary line of a pose goal: the constraints and how far the returned motion's end is from them."""
+    import numpy as np
+
+    from gfcs import pose_goal
+
+    g = result.pose_goal
+    centre = np.asarray(g["region"][0]["pose"], dtype=np.float64)[:3, 3]
+    o = g.get("orientation")
+    text = (f"pose goal {g['link']} point {np.round(centre, 4).tolist()} m"
+            + (f", orientation within {np.round(o['tolerance'], 4).tolist()} rad" if o else "")
+            + ": joint goal by inverse kinematics")
+    q = np.asarray(result.trajectory.q, dtype=np.float64)
+    if q.shape[0]:
+        err = pose_goal.pose_errors(problem.robot, g, q[-1])
+        text += f"; the motion ends {_fmt(err[0], ' m')} outside the region, {_fmt(err[1], ' rad')} beyond the tolerances"
+    return text
+
+
 def summary_text(result: Any, problem: Any) -> str:
     """A short human summary of a :class:`gfcs.results.SolveResult`."""
     m = result.metrics
@@ -247,6 +266,8 @@ def summary_text(result: Any, problem: Any) -> str:
                      f"{result.n_commands} free command(s), seed {result.seed}")
     else:
         lines.append("method    gf: local geometric fabric toward the goal")
+    if result.pose_goal is not None:
+        lines.append(_pose_goal_line(result, problem))
     t_stars = " + ".join(f"{t:.2f}" for t in result.t_stars)
     contact = result.settings.get("goal_contact")
     floor = contact["clearance_floor"] if contact else 0.0
