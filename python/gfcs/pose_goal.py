@@ -18,7 +18,8 @@ frame, which must be the robot's root frame (``header.frame_id`` "", "world", "/
   is the largest excess [rad] (0 when within).
 
 Which configuration: inverse kinematics from the start configuration and from ``attempts − 1`` seeded
-random ones (damped least squares in the core), kept when it satisfies the constraints (to
+random ones, half of them around the start (:data:`NEAR_START_SPREAD`), half uniform within the limits
+(damped least squares in the core), kept when it satisfies the constraints (to
 :data:`ACCEPT_SLACK`), lies :data:`LIMIT_INSET` inside the joint limits and clears the obstacles and its own
 links by the default fabric margins plus :data:`CLEARANCE_SLACK` with its collision spheres (and by the mesh
 margin with the collision meshes when a mesh checker is given): the fabric's barriers keep the arm out of
@@ -47,6 +48,8 @@ ACCEPT_SLACK = 1e-6
 LIMIT_INSET = 0.02
 #: Clearance [m] a goal's collision spheres keep beyond the fabric's obstacle and self-collision margins.
 CLEARANCE_SLACK = 0.001
+#: Standard deviation [rad] of the starting configurations drawn around the start (half of them).
+NEAR_START_SPREAD = 0.5
 #: Solutions walked toward the start, steps and the fraction of the way to it per step (module docstring).
 REFINE_SOLUTIONS, REFINE_STEPS, REFINE_RATE = 8, 20, 0.3
 #: The frames that mean the robot's root frame, besides the root link's own name.
@@ -229,7 +232,9 @@ def goal_configuration(
                     out[tier].append(q)
         return out
 
-    sols = ik(np.vstack([np.clip(q0, lo, up)[None, :], rng.uniform(lo, up, (int(attempts) - 1, q0.shape[0]))]))
+    n = int(attempts) - 1
+    near = q0 + rng.normal(0.0, NEAR_START_SPREAD, (n // 2, q0.shape[0]))
+    sols = ik(np.clip(np.vstack([q0[None, :], near, rng.uniform(lo, up, (n - n // 2, q0.shape[0]))]), lo, up))
     found = tiers(sols)
     if not (found[0] or found[1]):  # a second round, three times as many
         more = ik(rng.uniform(lo, up, (3 * int(attempts), q0.shape[0])))
