@@ -48,6 +48,16 @@ def request(start: float, goal: float) -> str:
             f"goal_constraints: [{{joint_constraints: [{{joint_name: x, position: {goal}}}]}}]\n")
 
 
+def write_result(tmp_path: Path, problem: str, method: str, q: np.ndarray, success: bool) -> Path:
+    """A result file as ``gfcs bench --results-dir`` writes it: states ``q`` (T, dof) 0.1 s apart."""
+    result = {"problem": problem, "method": method, "success": success,
+              "trajectory": {"t": (0.1 * np.arange(len(q))).tolist(), "q": q.tolist()}}
+    out = tmp_path / "results" / f"{problem.replace('/', '_')}.{method}.json"
+    out.parent.mkdir(exist_ok=True)
+    out.write_text(json.dumps(result))
+    return out
+
+
 @pytest.fixture
 def slider(tmp_path):
     """(problems folder, URDF path, write(result name, q path, start, goal, success) -> result file)."""
@@ -58,13 +68,7 @@ def slider(tmp_path):
     def write(number: str, q, start: float, goal: float, success: bool = True) -> Path:
         (folder / f"scene{number}.yaml").write_text(SCENE)
         (folder / f"request{number}.yaml").write_text(request(start, goal))
-        q = np.asarray(q, dtype=float).reshape(-1, 1)
-        result = {"problem": f"slide/{number}", "method": "gf", "success": success,
-                  "trajectory": {"t": (0.1 * np.arange(len(q))).tolist(), "q": q.tolist()}}
-        out = tmp_path / "results" / f"slide_{number}.gf.json"
-        out.parent.mkdir(exist_ok=True)
-        out.write_text(json.dumps(result))
-        return out
+        return write_result(tmp_path, f"slide/{number}", "gf", np.asarray(q, dtype=float).reshape(-1, 1), success)
 
     return tmp_path / "problems", tmp_path / "robot.urdf", write
 
@@ -204,12 +208,7 @@ def arm(tmp_path):
                "goal_constraints": [goal]}
         (folder / f"request{number}.yaml").write_text(yaml.safe_dump(req))
         q = np.linspace(np.zeros(3), np.asarray(q_final, dtype=float), 10)
-        result = {"problem": f"reach/{number}", "method": "gfcs", "success": success,
-                  "trajectory": {"t": (0.1 * np.arange(len(q))).tolist(), "q": q.tolist()}}
-        out = tmp_path / "results" / f"reach_{number}.gfcs.json"
-        out.parent.mkdir(exist_ok=True)
-        out.write_text(json.dumps(result))
-        return out
+        return write_result(tmp_path, f"reach/{number}", "gfcs", q, success)
 
     return tmp_path / "problems", tmp_path / "arm.urdf", write
 

@@ -339,6 +339,15 @@ impl Doc<'_> {
     fn pose(&self, v: &Value, path: &str) -> Result<Isometry3<f64>> {
         let pp = join(path, "position");
         let p = self.components(self.field(v, path, "position")?, &pp, &["x", "y", "z"])?;
+        Ok(Isometry3::from_parts(
+            Translation3::new(p[0], p[1], p[2]),
+            self.orientation(v, path)?,
+        ))
+    }
+
+    /// The unit quaternion `orientation` (`[x, y, z, w]` or a mapping) of mapping `v` at `path`,
+    /// normalised; a zero one is an error.
+    fn orientation(&self, v: &Value, path: &str) -> Result<UnitQuaternion<f64>> {
         let op = join(path, "orientation");
         let q = self.components(
             self.field(v, path, "orientation")?,
@@ -349,10 +358,7 @@ impl Doc<'_> {
         if quat.norm() < 1e-9 {
             return Err(self.err(&op, "zero quaternion"));
         }
-        Ok(Isometry3::from_parts(
-            Translation3::new(p[0], p[1], p[2]),
-            UnitQuaternion::from_quaternion(quat),
-        ))
+        Ok(UnitQuaternion::from_quaternion(quat))
     }
 
     /// The goal of `goal_constraints[0]` (`c`): joint constraints, or a pose goal.
@@ -510,16 +516,7 @@ impl Doc<'_> {
     }
 
     fn orientation_goal(&self, oc: &Value, path: &str) -> Result<OrientationGoal> {
-        let op = join(path, "orientation");
-        let q = self.components(
-            self.field(oc, path, "orientation")?,
-            &op,
-            &["x", "y", "z", "w"],
-        )?;
-        let quat = Quaternion::new(q[3], q[0], q[1], q[2]);
-        if quat.norm() < 1e-9 {
-            return Err(self.err(&op, "zero quaternion"));
-        }
+        let rotation = self.orientation(oc, path)?;
         let mut tolerance = Vector3::zeros();
         for (k, axis) in ["x", "y", "z"].iter().enumerate() {
             let key = format!("absolute_{axis}_axis_tolerance");
@@ -548,7 +545,7 @@ impl Doc<'_> {
             },
         };
         Ok(OrientationGoal {
-            rotation: UnitQuaternion::from_quaternion(quat),
+            rotation,
             tolerance,
             rotation_vector,
         })
