@@ -376,7 +376,9 @@ def _register_solve(sub: Any) -> None:
     )
     src = p.add_argument_group("problem (default: a generated problem)")
     src.add_argument("--scene", metavar="S.yaml", help="MoveIt planning scene (MotionBenchMaker sceneNNNN.yaml)")
-    src.add_argument("--request", metavar="R.yaml", help="MoveIt motion plan request (requestNNNN.yaml)")
+    src.add_argument("--request", metavar="R.yaml",
+                     help="MoveIt motion plan request (requestNNNN.yaml): a joint goal, or a link pose "
+                          "(position and orientation constraints), turned into a joint goal by IK")
     src.add_argument("--class", dest="problem_class", default=DEFAULT_DEMO_CLASS,
                      help=f"class of the generated problem (default {DEFAULT_DEMO_CLASS})")
     src.add_argument("--problem-seed", type=int, default=0, help="seed of the generated problem (default 0)")
