@@ -186,3 +186,24 @@ def test_a_suite_leaves_out_an_unreachable_pose_goal(panda, written, tmp_path):
     assert left_out[0][0] == "box/0001" and "no joint configuration found" in left_out[0][1]
     with pytest.raises(pose_goal.PoseGoalError):
         problems.load_mbm_dir(suite.parent, robot=panda)
+
+
+# ------------------------------------------------------------------------------ MotionBenchMaker
+def test_motionbenchmaker_goals_as_poses_are_solved_and_mesh_clear(mbm_dir, mbm_panda_dir, tmp_path):
+    """Two MBM problems whose joint goals are rewritten as the hand TCP's pose: the joint goal found keeps
+    the MBM Panda's meshes clear, lies no farther from the start than MotionBenchMaker's own (here), and
+    the solved motion ends inside the pose goal."""
+    robot = problems.mbm_panda()
+    for cls, number in (("box", "0001"), ("table_pick", "0002")):
+        joint = problems.load_mbm(mbm_dir / cls / f"scene{number}.yaml", mbm_dir / cls / f"request{number}.yaml",
+                                  robot)
+        request = tmp_path / f"{cls}.yaml"
+        request.write_text(generators.pose_request_yaml(joint.robot, joint.q0, joint.goal))
+        p = problems.load_mbm(mbm_dir / cls / f"scene{number}.yaml", request, robot)
+        assert p.mesh_checker is not None
+        assert float(p.mesh_checker.clearance(p.scene, p.goal)) > metrics.DEFAULT_MESH_MARGIN
+        assert np.linalg.norm(p.goal - p.q0) <= np.linalg.norm(joint.goal - joint.q0) + 1e-9
+        result = optimize.solve(p, batches=1, population=32, seed=0)
+        assert result.success, (cls, result.metrics)
+        err = pose_goal.pose_errors(p.robot, p.meta["pose_goal"], np.asarray(result.trajectory.q)[-1])
+        assert np.all(err <= pose_goal.ACCEPT_SLACK)
