@@ -148,8 +148,10 @@ def test_locked_joints_are_held_where_the_request_starts_them(generated, panda, 
         request = tmp_path / "box" / f"request000{k}.yaml"
         doc = yaml.safe_load(request.read_text())
         state = doc["start_state"]["joint_state"]
-        state["name"] += ["panda_finger_joint1", "panda_finger_joint2"]
-        state["position"] += [0.065, 0.065]
+        # the written start state lists the fingers where the shipped Panda holds them
+        assert state["name"][7:] == ["panda_finger_joint1"] and state["position"][7:] == [0.04]
+        state["name"] += ["panda_finger_joint2"]
+        state["position"][7:] = [0.065, 0.065]
         request.write_text(yaml.safe_dump(doc))
     loaded = problems.load_mbm_dir(tmp_path, robot=panda)
     assert panda.locked_positions == {"panda_finger_joint1": 0.04}
@@ -165,8 +167,15 @@ def test_locked_joints_are_held_where_the_request_starts_them(generated, panda, 
     assert loaded[0].robot.joint_names == panda.joint_names
     np.testing.assert_array_equal(loaded[0].robot.sphere_radii, panda.sphere_radii)
     assert len(loaded[0].robot.self_collision_pairs) == len(panda.self_collision_pairs)
-    # without finger values in the start state, the robot passed in is the problem's
+    # with the fingers where the robot holds them (as written), or without them, the robot passed in is the
+    # problem's
     generators.write_problems(generated["cage"][:1], tmp_path / "plain")
+    assert problems.load_mbm_dir(tmp_path / "plain", robot=panda)[0].robot is panda
+    request = tmp_path / "plain" / "cage" / "request0001.yaml"
+    doc = yaml.safe_load(request.read_text())
+    state = doc["start_state"]["joint_state"]
+    state["name"], state["position"] = state["name"][:7], state["position"][:7]
+    request.write_text(yaml.safe_dump(doc))
     assert problems.load_mbm_dir(tmp_path / "plain", robot=panda)[0].robot is panda
 
 

@@ -367,13 +367,23 @@ def scene_yaml(primitives: Sequence[Primitive], name: str = "") -> str:
     return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
 
 
+def _start_state(joint_names: Sequence[str], q0: Sequence[float], locked: Optional[Dict[str, float]]
+                 ) -> Dict[str, Any]:
+    """A request's ``start_state``: the active joints at ``q0``, then the locked ones where the robot holds
+    them (e.g. the shipped Panda's fingers at 0.04 m), as MotionBenchMaker lists its fingers."""
+    names = list(joint_names) + list(locked or {})
+    positions = [float(v) for v in q0] + [float(v) for v in (locked or {}).values()]
+    return {"joint_state": {"name": names, "position": positions}}
+
+
 def request_yaml(joint_names: Sequence[str], q0: Sequence[float], goal: Sequence[float],
-                 group: str = "panda_arm") -> str:
-    """MoveIt MotionPlanRequest YAML (``requestNNNN.yaml`` layout): start joint state, joint goal."""
+                 group: str = "panda_arm", locked: Optional[Dict[str, float]] = None) -> str:
+    """MoveIt MotionPlanRequest YAML (``requestNNNN.yaml`` layout): start joint state (with ``locked``
+    {joint: position} of the joints the robot holds, e.g. ``robot.locked_positions``), joint goal."""
     import yaml
 
     doc = {
-        "start_state": {"joint_state": {"name": list(joint_names), "position": [float(v) for v in q0]}},
+        "start_state": _start_state(joint_names, q0, locked),
         "goal_constraints": [{"joint_constraints": [
             {"joint_name": j, "position": float(v)} for j, v in zip(joint_names, goal)]}],
         "group_name": group,
@@ -387,7 +397,8 @@ def pose_request_yaml(robot: Any, q0: Sequence[float], goal: Sequence[float], li
     """MoveIt MotionPlanRequest YAML with a pose goal: the pose that ``goal`` (dof,) [rad] gives ``link``
     (default the end-effector link), as a position constraint on the point ``offset`` (3,) [m] of the link
     (a sphere of radius ``position_tolerance`` [m] around it) and an orientation constraint with
-    ``angle_tolerance`` [rad] about each axis (XYZ Euler angles), in the robot's root frame."""
+    ``angle_tolerance`` [rad] about each axis (XYZ Euler angles), in the robot's root frame; the start
+    state lists the robot's locked joints too."""
     import yaml
 
     index = robot.link_index(robot.ee_link if link is None else link)
@@ -396,7 +407,7 @@ def pose_request_yaml(robot: Any, q0: Sequence[float], goal: Sequence[float], li
     point = pose[:3, :3] @ np.asarray(offset, dtype=np.float64) + pose[:3, 3]
     header = {"frame_id": robot.link_names[0]}
     doc = {
-        "start_state": {"joint_state": {"name": list(robot.joint_names), "position": [float(v) for v in q0]}},
+        "start_state": _start_state(robot.joint_names, q0, robot.locked_positions),
         "goal_constraints": [{
             "joint_constraints": [],
             "position_constraints": [{
@@ -445,7 +456,7 @@ def write_problems(problems: Sequence[Problem], directory: Any, pose_goals: bool
         prim_objs = [Primitive(**d) if isinstance(d, dict) else d for d in prims]
         (folder / f"scene{number}.yaml").write_text(scene_yaml(prim_objs, p.name))
         request = (pose_request_yaml(p.robot, p.q0, p.goal) if pose_goals
-                   else request_yaml(p.robot.joint_names, p.q0, p.goal))
+                   else request_yaml(p.robot.joint_names, p.q0, p.goal, locked=p.robot.locked_positions))
         (folder / f"request{number}.yaml").write_text(request)
     return folders
 
