@@ -704,3 +704,59 @@ fn motionbenchmaker_rollouts_stay_collision_free_and_within_limits() {
     }
     assert!(reached >= 5, "reactive fabric alone reached {reached}/28");
 }
+
+/// `speed.goal_space = "ee"`: with end-effector targets (explicit, or implied by the command), s_β
+/// switches on the hand's distance to its position target, not on the joint distance to the (posture)
+/// command; without end-effector attraction, and with the default `joint`, on the joint distance.
+#[test]
+fn goal_switch_follows_the_configured_goal_space() {
+    let robot = Arc::new(Robot::panda());
+    let q = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+    let far_command = [1.0, 0.0, 0.5, -1.5, 0.3, 1.0, 0.0];
+    let qd = [0.1; 7];
+    let mut config = FabricConfig::default();
+    config.speed.goal_space = fabric_core::fabric::GoalSpace::Ee;
+    let ee = Fabric::new(robot.clone(), config).unwrap();
+    let joint = Fabric::new(robot.clone(), FabricConfig::default()).unwrap();
+    let scene = Scene::new();
+    let mut ws = FabricWorkspace::new(&ee);
+    // targets at the hand's current pose: zero end-effector distance, large joint distance
+    let here = ee.ee_targets(&q, &mut ws).unwrap();
+    let s_beta = |fabric: &Fabric, targets: Option<&EeTargets>, ws: &mut FabricWorkspace| {
+        let mut out = [0.0; 7];
+        match targets {
+            Some(t) => {
+                fabric.acceleration_with_targets(&scene, &q, &qd, &far_command, t, ws, &mut out)
+            }
+            None => fabric.acceleration(&scene, &q, &qd, &far_command, ws, &mut out),
+        }
+        .unwrap();
+        fabric.diagnostics(ws).s_beta
+    };
+    let cfg = FabricConfig::default().speed;
+    let at =
+        |d: f64| 0.5 * ((-cfg.goal_switch_sharpness * (d - cfg.goal_switch_radius)).tanh() + 1.0);
+    let joint_distance = q
+        .iter()
+        .zip(&far_command)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
+    assert!((s_beta(&ee, Some(&here), &mut ws) - at(0.0)).abs() < 1e-12);
+    let moved = EeTargets {
+        position: here.position + Vector3::new(0.3, 0.0, 0.0),
+        ..here
+    };
+    assert!((s_beta(&ee, Some(&moved), &mut ws) - at(0.3)).abs() < 1e-12);
+    // without explicit targets they are the pose at the command (when the end-effector attractor is on)
+    let implied = ee.ee_targets(&far_command, &mut ws).unwrap().position;
+    assert!((s_beta(&ee, None, &mut ws) - at((implied - here.position).norm())).abs() < 1e-12);
+    let mut off = FabricConfig::default();
+    off.speed.goal_space = fabric_core::fabric::GoalSpace::Ee;
+    off.ee_position.enabled = false;
+    let no_ee = Fabric::new(robot.clone(), off).unwrap();
+    let mut wn = FabricWorkspace::new(&no_ee);
+    assert!((s_beta(&no_ee, None, &mut wn) - at(joint_distance)).abs() < 1e-12);
+    let mut wj = FabricWorkspace::new(&joint);
+    assert!((s_beta(&joint, Some(&here), &mut wj) - at(joint_distance)).abs() < 1e-12);
+}

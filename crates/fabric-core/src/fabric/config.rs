@@ -263,6 +263,20 @@ pub enum GoalDampingForm {
     Force,
 }
 
+/// Which distance to the goal drives the goal switch s_β of eq. 45 (and with it the goal damper).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum GoalSpace {
+    /// ‖q − q_g‖ (rad) to the joint command: the command is the goal (GFCS).
+    #[default]
+    Joint,
+    /// ‖x_ee − x_d‖ (m) from the end-effector link origin to its position target (the explicit target of
+    /// `Fabric::acceleration_with_targets`, or the pose at the command) when an end-effector attractor is
+    /// enabled: task-space reaching, GF Sec. VII-B–D, where the joint command only postures the arm; the
+    /// joint distance otherwise.
+    Ee,
+}
+
 /// Speed control by damping regulation (GF Sec. V-A, App. E-B, eq. 40-46) with execution energy
 /// L_ex = ½(‖q̇‖² + w‖ẋ_ee‖²) and desired execution energy L_ex,d = ½ v_d².
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -297,9 +311,11 @@ pub struct SpeedConfig {
     pub goal_damping_form: GoalDampingForm,
     /// B̲ (1/s): constant baseline damping. Default 0.5.
     pub base_damping: f64,
-    /// α_β of eq. 45 (1/rad): switching rate of s_β(‖q − q_g‖). Default 10.0.
+    /// Which distance s_β switches on (see [`GoalSpace`]). Default `joint`.
+    pub goal_space: GoalSpace,
+    /// α_β of eq. 45 (1/rad, or 1/m with `goal_space` `ee`): switching rate of s_β(‖q − q_g‖). Default 10.0.
     pub goal_switch_sharpness: f64,
-    /// r of eq. 45 (rad): distance to the command where s_β = ½. Default 0.15.
+    /// r of eq. 45 (rad, or m with `goal_space` `ee`): distance to the goal where s_β = ½. Default 0.15.
     pub goal_switch_radius: f64,
     /// k of α_boost = k η (1 − s_β)/(‖q̇‖ + ε) (rad/s²). Default 0.0 (off, as in GF except the cubby task).
     pub boost_gain: f64,
@@ -318,6 +334,7 @@ impl Default for SpeedConfig {
             goal_damping: 20.0,
             goal_damping_form: GoalDampingForm::Force,
             base_damping: 0.5,
+            goal_space: GoalSpace::Joint,
             goal_switch_sharpness: 10.0,
             goal_switch_radius: 0.15,
             boost_gain: 0.0,

@@ -31,7 +31,7 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 
 use super::components::{Attractor, Barrier};
-use super::config::FabricConfig;
+use super::config::{FabricConfig, GoalSpace};
 use super::energy::{ConstantMass, TanhMass};
 use super::leaves::{obstacle_leaf, self_collision_leaf};
 use super::root::RootSystem;
@@ -777,12 +777,17 @@ impl Fabric {
         }
 
         // resolve: π̃, energization, forcing, speed control (eq. 7, 17, 40-46)
-        let goal_distance = q
-            .iter()
-            .zip(command)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>()
-            .sqrt();
+        let goal_distance = match (self.config.speed.goal_space, targets) {
+            (GoalSpace::Ee, Some(t)) => {
+                (robot.link_pose(&ws.kin, robot.ee_link()).translation.vector - t.position).norm()
+            }
+            _ => q
+                .iter()
+                .zip(command)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt(),
+        };
         // the end-effector part of the execution energy (App. E-B), when weighted
         let ee = if self.config.speed.enabled && self.config.speed.ee_weight > 0.0 {
             if !ee_point_in_task {

@@ -29,7 +29,7 @@ pub mod speed;
 
 pub use config::{
     BarrierConfig, BarrierPotentialConfig, EeAttractionConfig, FabricConfig, GoalDampingForm,
-    JointAttractionConfig, LogCoshConfig, Mode, SpeedConfig,
+    GoalSpace, JointAttractionConfig, LogCoshConfig, Mode, SpeedConfig,
 };
 pub use engine::{Diagnostics, EeTargets, Fabric, FabricWorkspace};
 pub use particle::{particle_acceleration, ParticleParams, ParticleVariant};

@@ -1,0 +1,73 @@
+"""The GF Sec. VII Panda experiments (gfcs.experiments.panda): reaching with the goal switch on the hand,
+the wall, rings and dynamic tasks, the figure, the JSON and the command line."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import gfcs
+from gfcs import cli
+from gfcs.experiments import panda as px
+
+
+def test_reaching_fabric_converges_in_free_space():
+    """With the goal switch on the hand's distance, the hand settles on its target (GF VII-A3)."""
+    for variant in px.VARIANTS:
+        r = px.Reacher(variant, gfcs.Scene())
+        target = np.array([0.5, 0.2, 0.4])
+        hands = np.asarray([r.step(target) for _ in range(500)])
+        error = np.linalg.norm(hands - target, axis=1)
+        assert error[-1] < 1e-4 and error[0] > 0.1
+        np.testing.assert_allclose(hands[-1], r.robot.ee_position(r.q), atol=1e-12)
+    with pytest.raises(ValueError, match="variant"):
+        px.Reacher("rmp", gfcs.Scene())
+
+
+def test_wall_errors_grow_toward_the_wall_and_the_spheres_stay_out():
+    for variant in px.VARIANTS:
+        w = px.wall(variant, distances=(0.20, 0.10, 0.0))
+        assert len(w["errors"]) == 3 and w["errors"][0] < 2e-3 < 1e-2 < w["errors"][2]
+        assert w["errors"][0] < w["errors"][1] < w["errors"][2]
+        assert w["min_clearance"] > 0.0  # the barrier keeps every collision sphere off the wall
+        # the hand origin stops short of the face by about the hand's own spheres
+        assert 0.02 < w["min_approach"] < 0.15
+        assert w["degrades_below"] in (0.20, 0.10, 0.0)
+
+
+def test_rings_are_laid_out_as_in_the_paper_and_never_hit():
+    g = px.rings("bent")
+    assert len(g["rings_passed"]) == len(px.RING_RADII) == 5
+    assert g["rings_passed"][0] and g["n_passed"] >= 1
+    assert g["min_clearance"] > 0.0
+    # passing is monotone: a ring behind one not passed is not passed either
+    assert g["rings_passed"] == sorted(g["rings_passed"], reverse=True)
+
+
+def test_dynamic_task_is_seeded_and_measured():
+    a = px.dynamic("bent", seed=3, n_targets=2)
+    b = px.dynamic("bent", seed=3, n_targets=2)
+    assert a["targets"] == b["targets"] and a["closest"] == b["closest"]
+    assert a["targets"] != px.dynamic("bent", seed=4, n_targets=2)["targets"]
+    assert len(a["reached"]) == 2 and a["n_reached"] == sum(a["reached"])
+    assert all(r == (c < px.REACHED) for r, c in zip(a["reached"], a["closest"]))
+    assert 0.0 <= a["collision_rate"] <= 1.0
+    assert a["hand"].shape == (2 * int(px.HOLD / px.DT), 3)
+
+
+def test_run_rejects_unknown_experiments():
+    with pytest.raises(ValueError, match="unknown experiment"):
+        px.run(["cubby"])
+
+
+def test_cli_experiment_panda(tmp_path, capsys):
+    out, js = tmp_path / "panda.png", tmp_path / "panda.json"
+    assert cli.main(["experiment", "panda", "--only", "wall", "--out", str(out), "--json", str(js)]) == 0
+    text = capsys.readouterr().out
+    assert "wall     bent" in text and "wall     unbent" in text
+    assert out.stat().st_size > 10_000
+    claims = json.loads(js.read_text())
+    assert set(claims["wall"]) == set(px.VARIANTS)
+    assert len(claims["wall"]["bent"]["errors"]) == 21
