@@ -250,7 +250,6 @@ def plot(exp: PandaExperiments, out: Any) -> Path:
                 ax.axhline(1e-3, color="grey", lw=0.8, ls="--")
                 ax.set(xlabel="target distance to the wall [cm]", ylabel="final hand error [m]",
                        title="VII-B wall approach")
-                ax.invert_xaxis()
             elif name == "rings":
                 h = res["hand"]
                 ax.plot(h[:, 0], np.hypot(h[:, 1] - RING_AXIS[0], h[:, 2] - RING_AXIS[1]) * 100, color=colors[v],
