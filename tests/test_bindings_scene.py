@@ -300,6 +300,7 @@ def test_load_motion_plan_request(tmp_path):
         "group": "panda_arm",
         "start": {"panda_joint1": 0.1, "panda_joint2": -0.2},
         "goal": {"panda_joint1": 0.5, "panda_joint2": -0.5},
+        "pose_goal": None,
     }
 
 

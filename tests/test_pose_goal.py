@@ -193,7 +193,7 @@ def test_motionbenchmaker_goals_as_poses_are_solved_and_mesh_clear(mbm_dir, mbm_
     """Two MBM problems whose joint goals are rewritten as the hand TCP's pose: the joint goal found keeps
     the MBM Panda's meshes clear, lies no farther from the start than MotionBenchMaker's own (here), and
     the solved motion ends inside the pose goal."""
-    robot = problems.mbm_panda()
+    robot = problems.mbm_panda(mbm_panda_dir)
     for cls, number in (("box", "0001"), ("table_pick", "0002")):
         joint = problems.load_mbm(mbm_dir / cls / f"scene{number}.yaml", mbm_dir / cls / f"request{number}.yaml",
                                   robot)

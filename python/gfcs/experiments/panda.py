@@ -21,7 +21,8 @@ in GF, from rest at the ready configuration.
   (within 1 cm in :data:`RING_TIME`), and the smallest sphere-model clearance (< 0: collision).
 * ``dynamic`` (VII-D, Fig. 4): 19 seeded random targets, one every 5 s, among two static spheres and
   three moving ones (speeds 0.2–0.39 m/s, bouncing inside a box); the fabric is given the obstacles'
-  positions and velocities at every step. Measured: the targets reached (the hand within 1 cm of the
+  positions and velocities at every step. Targets are drawn in a box in front of the robot regardless of
+  the obstacles, so some lie in or next to one (unreachable while it is there), as random targets do. Measured: the targets reached (the hand within 1 cm of the
   target at some step of its 5 s; GF: 16 of 19 with the fabric, 11 with the RMP) and the collision rate (the
   percentage of steps at which a collision sphere overlaps an obstacle; GF: 0.4 % and 8.18 %).
 
