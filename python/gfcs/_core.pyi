@@ -412,7 +412,10 @@ class Fabric:
     def acceleration(
         self, q: ArrayLike, qd: ArrayLike, command: ArrayLike, ee_target: Optional[Pose] = None
     ) -> FloatArray:
-        """(dof,) q̈ = f(q, q̇; command) (GFCS eq. 1), rad/s²."""
+        """(dof,) q̈ = f(q, q̇; command) (GFCS eq. 1), rad/s². ``ee_target``: the end-effector link's target
+        pose for its attractors (default: its pose at ``command``); with ``config.speed.goal_space`` "ee"
+        the goal damper switches on the hand's distance to that target [m] instead of ‖q − command‖
+        (task-space reaching, GF Sec. VII: ``command`` then only postures the arm)."""
     def diagnostics(self) -> Optional[Dict[str, float]]:
         """Of the last ``acceleration`` call: energy, exec_energy, potential, min_clearance,
         min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
