@@ -13,9 +13,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
-from typing import Any
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any, Optional
 
-__all__ = ["EXPERIMENTS", "register_cli"]
+__all__ = ["EXPERIMENTS", "register_cli", "report"]
 
 #: ``gfcs experiment <name>`` -> module defining ``add_cli(experiment_subparsers)``.
 EXPERIMENTS = {
@@ -36,3 +40,32 @@ def register_cli(subparsers: Any) -> argparse.ArgumentParser:
     for module_name in EXPERIMENTS.values():
         importlib.import_module(module_name).add_cli(sub)
     return p
+
+
+def _plain(x: Any) -> Any:
+    """JSON-safe copy: numpy scalars as Python numbers, non-finite floats as None."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if hasattr(x, "item") and not isinstance(x, (str, bytes)):
+        x = x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def report(text: str, claims: Any, json_target: Optional[str], figure: Optional[Path] = None) -> None:
+    """What an experiment command prints and writes: the summary ``text`` (and the figure written), on
+    stdout, or on stderr when the claims go to stdout (``json_target`` "-"); the ``claims`` as JSON to the
+    file ``json_target`` (none when None)."""
+    info = sys.stderr if json_target == "-" else sys.stdout
+    print(text, file=info)
+    if figure is not None:
+        print(f"wrote {figure}", file=info)
+    if json_target:
+        payload = json.dumps(_plain(claims), indent=2, allow_nan=False) + "\n"
+        if json_target == "-":
+            sys.stdout.write(payload)
+        else:
+            Path(json_target).write_text(payload)

@@ -32,11 +32,9 @@ Units: metres, seconds, radians; positions in the Panda's base frame (x forward,
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence
+from typing import Any, Dict, List, Sequence
 
 import numpy as np
 
@@ -279,17 +277,10 @@ def plot(exp: PandaExperiments, out: Any) -> Path:
 
 # ----------------------------------------------------------------------------------------------- CLI
 def _cmd_panda(args: argparse.Namespace) -> int:
+    from gfcs.experiments import report
+
     exp = run(args.only or EXPERIMENTS, seed=args.seed)
-    info = sys.stderr if args.json == "-" else sys.stdout
-    print(summary_text(exp), file=info)
-    if args.out:
-        print(f"wrote {plot(exp, args.out)}", file=info)
-    if args.json:
-        payload = json.dumps(exp.claims(), indent=2, allow_nan=False)
-        if args.json == "-":
-            sys.stdout.write(payload + "\n")
-        else:
-            Path(args.json).write_text(payload + "\n")
+    report(summary_text(exp), exp.claims(), args.json, plot(exp, args.out) if args.out else None)
     return 0
 
 

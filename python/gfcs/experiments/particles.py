@@ -27,9 +27,7 @@ Units: metres and seconds (the paper's particle world is dimensionless; the defa
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -421,39 +419,12 @@ def summary_text(claims: Dict[str, Any]) -> str:
 
 
 # ----------------------------------------------------------------------------------------------- CLI
-def _json_default(x: Any) -> Any:
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    if isinstance(x, np.bool_):
-        return bool(x)
-    raise TypeError(f"not JSON serialisable: {type(x).__name__}")
-
-
-def _finite(x: Any) -> Any:
-    """JSON-safe copy: non-finite floats become None."""
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, list):
-        return [_finite(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
 def _cmd_particles(args: argparse.Namespace) -> int:
+    from gfcs.experiments import report
+
     setup = ParticleSetup(n_particles=args.n_particles, half_angle=args.half_angle, t_max=args.t_max)
     exp = run(setup, speeds=args.speeds)
-    path = plot(exp, args.out)
-    text = summary_text(exp.claims)
-    info = sys.stderr if args.json == "-" else sys.stdout
-    print(text, file=info)
-    print(f"wrote {path}", file=info)
-    if args.json:
-        payload = json.dumps(_finite(exp.claims), indent=2, default=_json_default, allow_nan=False)
-        if args.json == "-":
-            sys.stdout.write(payload + "\n")
-        else:
-            Path(args.json).write_text(payload + "\n")
+    report(summary_text(exp.claims), exp.claims, args.json, plot(exp, args.out))
     return 0
 
 
