@@ -5,8 +5,9 @@ to the ready posture (geometry only: a posture in the null space of the reach), 
 (joint limits, self-collision and obstacles: barrier geometry and potential) and end-effector position
 attraction of the hand (``panda_hand`` origin: geometry and potential), with the speed control's goal switch
 on the hand's distance to its target (``speed.goal_space = "ee"``). It is compared with the same components
-*unbent* (``mode = "unbent"``: no energization, the classical system of which an RMP is an instance; the
-paper compares with its own tuned RMP, which this is not). Both run at 100 Hz with semi-implicit Euler, as
+*unbent* (``mode = "unbent"``: the classical Lagrangian system of the same Finsler energies, forced by the
+same potentials, without the geometries: obstacles are avoided by the potentials and the barrier energies'
+metrics alone; the paper compares with its own tuned RMP, which this is not). Both run at 100 Hz with semi-implicit Euler, as
 in GF, from rest at the ready configuration.
 
 * ``wall`` (VII-B, Fig. 2): a wall whose face is the plane x = :data:`WALL_X`; the hand's target starts 20 cm
@@ -209,7 +210,7 @@ def run(experiments: Sequence[str] = EXPERIMENTS, seed: int = 0) -> PandaExperim
 def summary_text(exp: PandaExperiments) -> str:
     """The measured claims, one line per experiment and variant."""
     lines = ["GF Sec. VII, shipped Panda, 100 Hz semi-implicit Euler; bent = geometric fabric, unbent = the "
-             "same components without energization"]
+             "same energies and potentials without the geometries"]
     for v in VARIANTS:
         if "wall" in exp.results:
             w = exp.results["wall"][v]
