@@ -443,6 +443,23 @@ fn merge(base: &mut Value, user: Value, path: &str, source: &str) -> Result<()> 
     }
 }
 
+/// The first string field of a merged configuration tree whose value names no variant of its enum.
+fn bad_variant(v: &Value) -> Option<&'static str> {
+    fn fails<T: serde::de::DeserializeOwned>(v: Option<&Value>) -> bool {
+        v.is_some_and(|x| serde_json::from_value::<T>(x.clone()).is_err())
+    }
+    let speed = v.get("speed");
+    if fails::<Mode>(v.get("mode")) {
+        Some("mode")
+    } else if fails::<GoalDampingForm>(speed.and_then(|s| s.get("goal_damping_form"))) {
+        Some("speed.goal_damping_form")
+    } else if fails::<GoalSpace>(speed.and_then(|s| s.get("goal_space"))) {
+        Some("speed.goal_space")
+    } else {
+        None
+    }
+}
+
 impl FabricConfig {
     /// Parse a configuration from an already-decoded tree, merging it over the defaults.
     fn from_value(user: Value, source: &str) -> Result<Self> {
@@ -460,8 +477,10 @@ impl FabricConfig {
         let mut base = serde_json::to_value(FabricConfig::default())
             .map_err(|e| format_error(source, "<root>", e.to_string()))?;
         merge(&mut base, user, "", source)?;
-        let cfg: FabricConfig = serde_json::from_value(base)
-            .map_err(|e| format_error(source, "mode", e.to_string()))?;
+        // the merge checked names and kinds: what can still fail is a string that names no variant
+        let field = bad_variant(&base).unwrap_or("<root>");
+        let cfg: FabricConfig =
+            serde_json::from_value(base).map_err(|e| format_error(source, field, e.to_string()))?;
         cfg.validate_named(source)?;
         Ok(cfg)
     }
@@ -679,6 +698,19 @@ mod tests {
         );
         let e = FabricConfig::from_json_str(r#"{"mode": "bendy"}"#, "m.json").unwrap_err();
         assert!(matches!(e, FabricError::Format { ref field, .. } if field == "mode"));
+        for (text, name) in [
+            (r#"{"speed": {"goal_space": "hand"}}"#, "speed.goal_space"),
+            (
+                r#"{"speed": {"goal_damping_form": "both"}}"#,
+                "speed.goal_damping_form",
+            ),
+        ] {
+            let e = FabricConfig::from_json_str(text, "s.json").unwrap_err();
+            assert!(
+                matches!(e, FabricError::Format { ref field, ref message, .. } if field == name && message.contains("unknown variant")),
+                "{e:?}"
+            );
+        }
         let e = FabricConfig::from_json_str("[1, 2]", "arr.json").unwrap_err();
         assert!(matches!(e, FabricError::Format { .. }));
         let e = FabricConfig::from_toml_str("joint_attraction = 3", "x.toml").unwrap_err();
