@@ -71,3 +71,36 @@ def test_cli_experiment_panda(tmp_path, capsys):
     claims = json.loads(js.read_text())
     assert set(claims["wall"]) == set(px.VARIANTS)
     assert len(claims["wall"]["bent"]["errors"]) == 21
+
+
+def test_recordings_hold_both_variants_the_targets_and_the_moving_spheres(tmp_path):
+    pytest.importorskip("rerun")
+    from rerun.chunk import RrdReader
+
+    exp = px.PandaExperiments(results={"dynamic": {v: px.dynamic(v, seed=1, n_targets=1) for v in px.VARIANTS}})
+    (path,) = px.record(exp, tmp_path / "rrd", every=5)
+    assert path == tmp_path / "rrd" / "dynamic.rrd"
+    rows, static = {}, set()
+    for chunk in RrdReader(str(path)).stream():
+        batch = chunk.to_record_batch()
+        if chunk.is_static:
+            static.add(chunk.entity_path)
+            continue
+        columns = {n: batch.column(n).to_pylist() for n in batch.schema.names if n not in ("time", "log_time")}
+        times = batch.column("time").cast("int64").to_pylist()
+        positions = next(v for n, v in columns.items() if n.endswith("positions"))
+        rows.setdefault(chunk.entity_path, []).extend(zip(times, positions))
+    steps = int(px.HOLD / px.DT)
+    for v in px.VARIANTS:
+        assert f"/{v}/hand_path" in static
+        spheres = sorted(rows[f"/{v}/spheres"], key=lambda r: r[0])
+        assert len(spheres) == steps // 5
+        q = exp.results["dynamic"][v]["q"][10]  # the third row is step 10
+        np.testing.assert_allclose(np.asarray(spheres[2][1]), px.Reacher(v, gfcs.Scene()).robot.sphere_centers(q),
+                                   atol=1e-6)
+    moving = sorted(rows["/world/moving"], key=lambda r: r[0])
+    assert len(moving) == steps // 5 and np.asarray(moving[0][1]).shape == (3, 3)
+    np.testing.assert_allclose(np.asarray(moving[0][1]), exp.results["dynamic"]["bent"]["moving"][0], atol=1e-6)
+    assert "/world/obstacles/static0" in static and "/world/obstacles/moving0" not in static
+    target = sorted(rows["/world/target"], key=lambda r: r[0])
+    np.testing.assert_allclose(np.asarray(target[0][1])[0], exp.results["dynamic"]["bent"]["targets"][0], atol=1e-6)

@@ -33,6 +33,7 @@ Units: metres, seconds, radians; positions in the Panda's base frame (x forward,
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Sequence
@@ -41,7 +42,7 @@ import numpy as np
 
 __all__ = [
     "REACHING_CONFIG", "VARIANTS", "EXPERIMENTS", "READY", "WALL_X", "RING_RADII", "RING_TIME",
-    "Reacher", "wall", "rings", "dynamic", "run", "plot", "summary_text", "add_cli",
+    "Reacher", "wall", "rings", "dynamic", "run", "plot", "record", "summary_text", "add_cli",
 ]
 
 #: The two systems compared: the geometric fabric and the same components without bending.
@@ -69,6 +70,9 @@ RING_X = (0.40, 0.46, 0.52, 0.58, 0.64)  #: x of the ring planes [m]
 RING_AXIS = (0.0, 0.40)  #: (y, z) of the rings' common axis [m]
 RING_TARGET_X = 0.74  #: x of the target beyond the last ring [m]
 RING_TIME = 10.0  #: time budget of the ring task [s]
+MOVING_RADIUS = 0.06  #: radius of the moving spheres of the dynamic task [m]
+#: Per-step data of the results (drawn by :func:`record`, left out of the claims).
+MOTION_KEYS = ("hand", "q", "target", "scene", "moving")
 
 
 class Reacher:
@@ -86,6 +90,8 @@ class Reacher:
         self.q, self.qd = READY.copy(), np.zeros(READY.shape[0])
         self.hand: List[np.ndarray] = []
         self.clearance: List[float] = []
+        self.path: List[np.ndarray] = []  # q after every step
+        self.targets: List[np.ndarray] = []  # the target of every step
 
     def step(self, target: np.ndarray) -> np.ndarray:
         """One step toward ``target`` (3,); returns the hand position after it."""
@@ -95,7 +101,13 @@ class Reacher:
         self.q = self.q + DT * self.qd
         hand = np.asarray(self.robot.ee_position(self.q), dtype=np.float64)
         self.hand.append(hand)
+        self.path.append(self.q.copy())
+        self.targets.append(np.asarray(target, dtype=np.float64))
         return hand
+
+    def motion(self, scene: Any) -> Dict[str, Any]:
+        """What :func:`record` draws: ``q`` (T, dof), ``target`` (T, 3) and the static ``scene``."""
+        return {"q": np.asarray(self.path), "target": np.asarray(self.targets), "scene": scene}
 
 
 def wall(variant: str, distances: Sequence[float] = tuple(np.round(np.arange(0.20, -0.001, -0.01), 3))
@@ -117,7 +129,7 @@ def wall(variant: str, distances: Sequence[float] = tuple(np.round(np.arange(0.2
     return {"distances": [float(d) for d in distances], "errors": errors, "closest_approach": approach,
             "degrades_below": float(max(degraded)) if degraded else None,
             "min_approach": float(min(approach)), "min_clearance": float(min(r.clearance)),
-            "hand": np.asarray(r.hand)}
+            "hand": np.asarray(r.hand), **r.motion(scene)}
 
 
 def rings(variant: str) -> Dict[str, Any]:
@@ -143,7 +155,8 @@ def rings(variant: str) -> Dict[str, Any]:
         passed.append(bool(np.hypot(at[1] - RING_AXIS[0], at[2] - RING_AXIS[1]) < radius - RING_BALL))
     error = np.linalg.norm(hand - target, axis=1)
     return {"rings_passed": passed, "n_passed": int(sum(passed)), "reached": bool(error.min() < REACHED),
-            "final_error": float(error[-1]), "min_clearance": float(min(r.clearance)), "hand": hand}
+            "final_error": float(error[-1]), "min_clearance": float(min(r.clearance)), "hand": hand,
+            **r.motion(scene)}
 
 
 def dynamic(variant: str, seed: int = 0, n_targets: int = 19) -> Dict[str, Any]:
@@ -156,15 +169,17 @@ def dynamic(variant: str, seed: int = 0, n_targets: int = 19) -> Dict[str, Any]:
     scene = gfcs.Scene()
     scene.add_sphere([0.45, 0.35, 0.30], 0.08, name="static0")
     scene.add_sphere([0.45, -0.35, 0.60], 0.08, name="static1")
+    static = scene.copy()
     moving = []
     for k in range(3):
         direction = rng.normal(size=3)
         velocity = rng.uniform(0.2, 0.39) * direction / np.linalg.norm(direction)
         position = rng.uniform(lo, hi)
-        moving.append([scene.add_sphere(position, 0.06, name=f"moving{k}", velocity=velocity), position, velocity])
+        moving.append([scene.add_sphere(position, MOVING_RADIUS, name=f"moving{k}", velocity=velocity), position,
+                       velocity])
     targets = rng.uniform([0.30, -0.40, 0.25], [0.60, 0.40, 0.70], size=(n_targets, 3))
     r = Reacher(variant, scene)
-    reached, errors = [], []
+    reached, errors, positions = [], [], []
     for target in targets:
         best = np.inf
         for _ in range(int(round(HOLD / DT))):
@@ -173,13 +188,15 @@ def dynamic(variant: str, seed: int = 0, n_targets: int = 19) -> Dict[str, Any]:
                 out = (m[1] < lo) | (m[1] > hi)
                 m[2] = np.where(out, -m[2], m[2])
                 r.fabric.update_obstacle(m[0], pose=(m[1], (0.0, 0.0, 0.0, 1.0)), velocity=m[2])
+            positions.append([m[1] for m in moving])
             best = min(best, float(np.linalg.norm(r.step(target) - target)))
         reached.append(best < REACHED)
         errors.append(best)
     clearance = np.asarray(r.clearance)
     return {"targets": targets.tolist(), "reached": reached, "n_reached": int(sum(reached)),
             "closest": errors, "collision_rate": float(np.mean(clearance < 0.0)),
-            "min_clearance": float(clearance.min()), "hand": np.asarray(r.hand)}
+            "min_clearance": float(clearance.min()), "hand": np.asarray(r.hand), **r.motion(static),
+            "moving": np.asarray(positions), "moving_radius": MOVING_RADIUS}
 
 
 @dataclass
@@ -190,8 +207,8 @@ class PandaExperiments:
     seed: int = 0
 
     def claims(self) -> Dict[str, Any]:
-        """The results without the hand paths (JSON-ready)."""
-        return {"seed": self.seed, **{e: {v: {k: x for k, x in res.items() if k != "hand"}
+        """The results without their per-step data (:data:`MOTION_KEYS`), JSON-ready."""
+        return {"seed": self.seed, **{e: {v: {k: x for k, x in res.items() if k not in MOTION_KEYS}
                                           for v, res in by.items()} for e, by in self.results.items()}}
 
 
@@ -276,12 +293,64 @@ def plot(exp: PandaExperiments, out: Any) -> Path:
     return path
 
 
+def record(exp: PandaExperiments, directory: Any, every: int = 2) -> List[Path]:
+    """Rerun recordings, one per experiment (``<directory>/<name>.rrd``): the obstacles, both variants'
+    collision spheres and hand paths on the ``time`` timeline (every ``every``-th step), the hand targets,
+    and the moving spheres of the dynamic task. Needs the ``viz`` extra (rerun-sdk)."""
+    import rerun as rr
+
+    import gfcs
+    from gfcs import viz
+
+    robot = gfcs.Robot.panda()
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    colors = {"bent": (40, 110, 220), "unbent": (240, 140, 30)}
+    folder = Path(directory)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, by in exp.results.items():
+        path = folder / f"{name}.rrd"
+        rec = rr.RecordingStream("gfcs-panda-experiments")
+        rec.save(str(path))
+        rec.send_recording_name(f"GF Sec. VII {name}")
+        rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        first = next(iter(by.values()))
+        viz._log_obstacles(rec, first["scene"])
+        steps = np.arange(0, first["q"].shape[0], max(int(every), 1))
+        time = [rr.TimeColumn(viz.TIMELINE, duration=(steps + 1) * DT)]
+        n = steps.shape[0]
+        rec.send_columns("/world/target", indexes=time,
+                         columns=rr.Points3D.columns(positions=first["target"][steps]).partition([1] * n))
+        rec.log("/world/target", rr.Points3D.from_fields(colors=[viz._GREEN], radii=[0.02]), static=True)
+        if "moving" in first:
+            m = first["moving"][steps]
+            rec.log("/world/moving", rr.Points3D.from_fields(colors=[(150, 150, 160)]), static=True)
+            rec.send_columns("/world/moving", indexes=time, columns=rr.Points3D.columns(
+                positions=m.reshape(-1, 3), radii=np.full(m.shape[0] * m.shape[1], first["moving_radius"])
+            ).partition([m.shape[1]] * n))
+        for v, res in by.items():
+            centres = np.asarray(robot.sphere_centers(res["q"][steps]), dtype=np.float64)
+            s = centres.shape[1]
+            rec.log(f"/{v}/spheres", rr.Points3D.from_fields(colors=[(*colors[v], 160)]), static=True)
+            rec.send_columns(f"/{v}/spheres", indexes=time, columns=rr.Points3D.columns(
+                positions=centres.reshape(-1, 3), radii=np.tile(radii, n)).partition([s] * n))
+            rec.log(f"/{v}/hand_path", rr.LineStrips3D([res["hand"]], colors=[colors[v]], radii=[0.003]),
+                    static=True)
+        rec.flush()
+        rec.disconnect()
+        written.append(path)
+    return written
+
+
 # ----------------------------------------------------------------------------------------------- CLI
 def _cmd_panda(args: argparse.Namespace) -> int:
     from gfcs.experiments import report
 
     exp = run(args.only or EXPERIMENTS, seed=args.seed)
     report(summary_text(exp), exp.claims(), args.json, plot(exp, args.out) if args.out else None)
+    if args.rrd_dir:
+        for path in record(exp, args.rrd_dir):
+            print(f"wrote {path}", file=sys.stderr if args.json == "-" else sys.stdout)
     return 0
 
 
@@ -296,6 +365,8 @@ def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--only", nargs="+", choices=EXPERIMENTS, help="run only these (default: all three)")
     p.add_argument("--seed", type=int, default=0, help="seed of the dynamic task's targets and obstacles (default 0)")
     p.add_argument("--out", metavar="FIG.png", help="PNG to write")
+    p.add_argument("--rrd-dir", metavar="DIR", help="write a rerun recording per experiment, DIR/<name>.rrd "
+                                                    "(needs the viz extra; open with gfcs view)")
     p.add_argument("--json", nargs="?", const="-", metavar="OUT.json",
                    help="write the claims as JSON (no file name: to stdout, the summary to stderr)")
     p.set_defaults(func=_cmd_panda)
