@@ -7,7 +7,7 @@ Subcommands::
     gfcs generate   write procedurally generated problems as MotionBenchMaker files
     gfcs train      self-supervised EBM training (GFCS Alg. 2)       [gfcs.learning, extra "learn"]
     gfcs view       open a rerun recording                           [gfcs.viz, extra "viz"]
-    gfcs experiment the GF paper's experiments (Sec. VI particles, Sec. VII Panda)   [gfcs.experiments]
+    gfcs experiment the papers' experiments (GF Sec. VI, VII; GFCS Sec. V reactivity)   [gfcs.experiments]
 
 Hooks for other packages: each entry of :data:`EXTERNAL_COMMANDS` names a module and a registration
 function ``register(subparsers) -> argparse.ArgumentParser``; that function adds its own subparser (under
@@ -48,8 +48,9 @@ EXTERNAL_COMMANDS: Dict[str, Tuple[Tuple[str, ...], str, str, Optional[str]]] = 
     "train": (("gfcs.learning.cli",), "register",
               "self-supervised EBM training of the warm-start sampler (GFCS Alg. 2)", "learn"),
     "view": (("gfcs.viz",), "register_cli", "open a rerun recording (.rrd) in the viewer", "viz"),
-    "experiment": (("gfcs.experiments", "gfcs.experiments.particles", "gfcs.experiments.panda"), "register_cli",
-                   "the GF paper's experiments (Sec. VI particle systems, Sec. VII Panda reaching)", None),
+    "experiment": (("gfcs.experiments", "gfcs.experiments.particles", "gfcs.experiments.panda",
+                    "gfcs.experiments.reactivity"), "register_cli",
+                   "the papers' experiments (GF Sec. VI particles, Sec. VII Panda; GFCS Sec. V reactivity)", None),
     "plot": (("gfcs.plots",), "register_cli", "plot benchmark rows (success rate, EE path length)", None),
 }
 

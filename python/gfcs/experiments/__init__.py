@@ -4,6 +4,8 @@
   bent × Riemannian / Finsler) at two desired speeds, with the paper's qualitative claims measured.
 - :mod:`gfcs.experiments.panda`: the Franka Panda experiments of GF Sec. VII (wall approach, ring-constricted
   navigation, reaching among moving obstacles), the fabric against the same components unbent.
+- :mod:`gfcs.experiments.reactivity`: GFCS Sec. V's reactivity: solved motions replayed, without
+  re-optimising, after a new obstacle is put on their path.
 
 The submodules are imported on demand: ``import gfcs.experiments`` loads neither matplotlib nor the
 experiments themselves.
@@ -25,6 +27,7 @@ __all__ = ["EXPERIMENTS", "register_cli", "report"]
 EXPERIMENTS = {
     "particles": "gfcs.experiments.particles",
     "panda": "gfcs.experiments.panda",
+    "reactivity": "gfcs.experiments.reactivity",
 }
 
 
@@ -32,7 +35,7 @@ def register_cli(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``gfcs experiment <name> ...`` to ``subparsers`` (from ``ArgumentParser.add_subparsers``),
     one nested subcommand per entry of :data:`EXPERIMENTS`."""
     p = subparsers.add_parser(
-        "experiment", help="the GF paper's experiments (Sec. VI particles, Sec. VII Panda)",
+        "experiment", help="the papers' experiments (GF Sec. VI particles, Sec. VII Panda; GFCS Sec. V reactivity)",
         description="Run an experiment of the papers and write its figure and measured claims.",
     )
     sub = p.add_subparsers(dest="experiment", metavar="EXPERIMENT")
