@@ -112,18 +112,21 @@ def bench_summary_figure(rows: Iterable[Dict[str, Any]], title: Optional[str] = 
     return fig
 
 
-def _save(fig: Any, out: PathLike, dpi: int = 120) -> Path:
-    """Save ``fig`` as a PNG at ``out`` (parent folders created)."""
+def save_png(fig: Any, out: PathLike, dpi: int = 120) -> Path:
+    """Save ``fig`` as a PNG at ``out`` (parent folders created) and close it."""
+    import matplotlib.pyplot as plt
+
     target = Path(out)
     target.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(target, dpi=dpi, format="png")
+    plt.close(fig)
     return target
 
 
 def save_bench_summary(rows: Iterable[Dict[str, Any]], out: PathLike, title: Optional[str] = None,
                        dpi: int = 120) -> Path:
     """Draw :func:`bench_summary_figure` and save it as a PNG at ``out`` (parent folders created)."""
-    return _save(bench_summary_figure(rows, title), out, dpi)
+    return save_png(bench_summary_figure(rows, title), out, dpi)
 
 
 def plot_bench_file(jsonl: PathLike, out: PathLike, title: Optional[str] = None) -> Path:
@@ -195,7 +198,7 @@ def training_figure(history: Sequence[Dict[str, Any]], title: Optional[str] = No
 def save_training_figure(history: Sequence[Dict[str, Any]], out: PathLike, title: Optional[str] = None,
                          dpi: int = 120) -> Path:
     """Draw :func:`training_figure` and save it as a PNG at ``out`` (parent folders created)."""
-    return _save(training_figure(history, title), out, dpi)
+    return save_png(training_figure(history, title), out, dpi)
 
 
 def plot_file(path: PathLike, out: PathLike, title: Optional[str] = None) -> Path:

@@ -287,10 +287,9 @@ def plot(exp: PandaExperiments, out: Any) -> Path:
                 ax.plot([x, x], [(radius - RING_BALL) * 100, (radius + RING_BALL) * 100], color="k", lw=3)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    path = Path(out)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    from gfcs.plots import save_png
+
+    return save_png(fig, out)
 
 
 def record(exp: PandaExperiments, directory: Any, every: int = 2) -> List[Path]:

@@ -385,10 +385,9 @@ def plot(exp: ParticleExperiment, out: Any, dpi: int = 130) -> Path:
             ax.tick_params(labelsize=7)
     fig.suptitle("GF Sec. VI particles: unbent (left) vs bent (right) fabrics", fontsize=10)
     fig.tight_layout()
-    target_path = Path(out)
-    target_path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(target_path, dpi=dpi, format="png")
-    return target_path
+    from gfcs.plots import save_png
+
+    return save_png(fig, out, dpi)
 
 
 def summary_text(claims: Dict[str, Any]) -> str:

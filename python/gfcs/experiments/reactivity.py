@@ -148,10 +148,9 @@ def plot(rows: Sequence[Dict[str, Any]], out: Any) -> Path:
     ax.set(ylabel="problems", title="GFCS Sec. V: replays among new obstacles")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    path = Path(out)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    from gfcs.plots import save_png
+
+    return save_png(fig, out)
 
 
 def _cmd_reactivity(args: argparse.Namespace) -> int:
