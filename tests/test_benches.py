@@ -93,3 +93,12 @@ def test_compare_fabrics_times_the_gfcs_side(tmp_path, shared_dir):
     figures = json.loads(out.read_text())
     assert figures["spheres"] == 81 and figures["obstacles"] == 3 and figures["rollout_steps"] == 50
     assert figures["median_us"] > 0 and figures["rollout_us_per_step"] > 0
+
+
+def test_pose_goal_ik_times_generated_pose_goals(tmp_path):
+    out = tmp_path / "ik.json"
+    _run("pose_goal_ik.py", "--generated", "--limit", "1", "--repeat", "1", "--json", str(out))
+    figures = json.loads(out.read_text())
+    assert figures["problems"] == 7 and figures["source"] == "generated"
+    assert 0 < figures["ms_median"] <= figures["ms_max"]
+    assert 0 < figures["goal_distance_ratio_median"] <= figures["goal_distance_ratio_max"]
