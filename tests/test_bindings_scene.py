@@ -301,6 +301,7 @@ def test_load_motion_plan_request(tmp_path):
         "start": {"panda_joint1": 0.1, "panda_joint2": -0.2},
         "goal": {"panda_joint1": 0.5, "panda_joint2": -0.5},
         "pose_goal": None,
+        "ignored": [],
     }
 
 

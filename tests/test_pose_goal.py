@@ -207,3 +207,15 @@ def test_motionbenchmaker_goals_as_poses_are_solved_and_mesh_clear(mbm_dir, mbm_
         assert result.success, (cls, result.metrics)
         err = pose_goal.pose_errors(p.robot, p.meta["pose_goal"], np.asarray(result.trajectory.q)[-1])
         assert np.all(err <= pose_goal.ACCEPT_SLACK)
+
+
+def test_constraints_that_are_not_applied_are_warned_about(panda, written, tmp_path):
+    root, _ = written
+    doc = yaml.safe_load((root / "box" / "request0001.yaml").read_text())
+    doc["path_constraints"] = {"orientation_constraints": [doc["goal_constraints"][0]["orientation_constraints"][0]]}
+    path = tmp_path / "request.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    assert gfcs.load_motion_plan_request(path)["ignored"] == ["path_constraints.orientation_constraints"]
+    with pytest.warns(UserWarning, match=r"request\.yaml: path_constraints\.orientation_constraints is not "
+                                         r"supported and is ignored"):
+        problems.load_mbm(root / "box" / "scene0001.yaml", path, panda)

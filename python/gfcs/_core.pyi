@@ -270,12 +270,14 @@ class Scene:
 
 def load_motion_plan_request(path: PathLike) -> Dict[str, Any]:
     """MoveIt MotionPlanRequest YAML: ``{"group": str, "start": {joint: pos}, "goal": {joint: pos},
-    "pose_goal": None | dict}``. ``goal`` is empty for a pose goal (``goal_constraints[0]`` with position and
+    "pose_goal": None | dict, "ignored": [str]}``. ``goal`` is empty for a pose goal (``goal_constraints[0]`` with position and
     optionally orientation constraints): ``pose_goal`` then has ``link``, ``frame`` (``header.frame_id``,
     "" when absent), ``offset`` (3,) m in the link frame, ``region`` (list of ``{"type": "box" | "sphere" |
     "cylinder", "size", "pose" (4, 4)}`` in ``frame``, sizes as :attr:`Scene.obstacles`) and
     ``orientation`` (None or ``{"quaternion": (4,) [x, y, z, w], "tolerance": (3,) rad,
-    "parameterization": "xyz_euler" | "rotation_vector"}``)."""
+    "parameterization": "xyz_euler" | "rotation_vector"}``). ``ignored``: field paths of the constraints
+    that are not applied (non-empty ``path_constraints.*``, ``trajectory_constraints.constraints``, and
+    ``goal_constraints[1..]``: only the first goal is used)."""
 
 # --------------------------------------------------------------------------------------------- config
 

@@ -24,6 +24,7 @@ import hashlib
 import json
 import os
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
@@ -237,6 +238,9 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
     scene_path, request_path = Path(scene_yaml), Path(request_yaml)
     scene = gfcs.Scene.from_moveit_yaml(str(scene_path))
     request = gfcs.load_motion_plan_request(str(request_path))
+    for field_path in request.get("ignored", []):
+        warnings.warn(f"{request_path}: {field_path} is not supported and is ignored (the motion does not "
+                      "keep these constraints)", UserWarning, stacklevel=3)
     checker = mesh_checker if mesh_checker is not None else mesh_checker_for(robot)
     robot = held_as_requested(robot, request["start"])
     if checker is not None:

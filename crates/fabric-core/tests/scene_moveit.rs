@@ -583,3 +583,32 @@ fn bad_pose_goals_name_the_field() {
             if field == "goal_constraints[0].position_constraints[0].constraint_region.meshes"
     ));
 }
+
+#[test]
+fn constraints_not_applied_are_listed() {
+    assert!(parse_request_str(REQUEST, "r.yaml")
+        .unwrap()
+        .ignored
+        .is_empty());
+    let extra = format!(
+        "{REQUEST}path_constraints:\n  name: upright\n  joint_constraints: []\n  orientation_constraints:\n    - {{link_name: panda_hand}}\ntrajectory_constraints:\n  constraints: []\n"
+    );
+    let req = parse_request_str(&extra, "r.yaml").unwrap();
+    assert_eq!(
+        req.ignored,
+        vec!["path_constraints.orientation_constraints"]
+    );
+    let second = REQUEST.replacen(
+        "goal_constraints:\n",
+        "goal_constraints:\n  - joint_constraints: [{joint_name: panda_joint1, position: 0.0}, {joint_name: panda_joint2, position: 0.0}]\n",
+        1,
+    );
+    let req = parse_request_str(&second, "r.yaml").unwrap();
+    assert_eq!(req.ignored, vec!["goal_constraints[1..1]"]);
+    assert_eq!(req.goal[0], ("panda_joint1".to_string(), 0.0));
+    let bad = format!("{REQUEST}trajectory_constraints:\n  constraints: 3\n");
+    assert!(matches!(
+        parse_request_str(&bad, "r.yaml"),
+        Err(FabricError::Format { field, .. }) if field == "trajectory_constraints.constraints"
+    ));
+}

@@ -570,7 +570,8 @@ fn obstacle_dict<'py>(py: Python<'py>, id: u64, o: &Obstacle) -> PyResult<Bound<
 /// `frame` (`header.frame_id`, "" when absent), `offset` (3,) m in the link frame, `region` (list of
 /// dicts `type` "box" | "sphere" | "cylinder", `size` as `Scene.obstacles` gives it, `pose` (4, 4) in
 /// `frame`) and `orientation`: None or a dict `quaternion` (4,) [x, y, z, w] (normalised), `tolerance`
-/// (3,) rad, `parameterization` "xyz_euler" | "rotation_vector".
+/// (3,) rad, `parameterization` "xyz_euler" | "rotation_vector"; and `ignored`: the field paths of
+/// constraints that are not applied (path and trajectory constraints, alternative goals).
 #[pyfunction]
 pub fn load_motion_plan_request<'py>(
     py: Python<'py>,
@@ -595,6 +596,7 @@ pub fn load_motion_plan_request<'py>(
         None => None,
     };
     d.set_item("pose_goal", pose_goal)?;
+    d.set_item("ignored", PyList::new(py, &req.ignored)?)?;
     Ok(d)
 }
 

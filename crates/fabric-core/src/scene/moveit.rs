@@ -22,7 +22,8 @@
 //! (`link_name`, `target_point_offset`, `constraint_region` box / sphere / cylinder primitives with their
 //! poses, `header.frame_id`) and at most one `orientation_constraints` entry on the same link
 //! (`orientation`, `absolute_{x,y,z}_axis_tolerance`, `parameterization`). Joint and pose constraints
-//! together, an orientation without a position, and mesh regions are rejected.
+//! together, an orientation without a position, and mesh regions are rejected. Path and trajectory
+//! constraints and alternative goals are not applied: [`MotionPlanRequest::ignored`] lists them.
 //!
 //! Every error is [`FabricError::Format`] naming the file and the field path, e.g.
 //! `world.collision_objects[3].primitives[0].dimensions`.
@@ -50,6 +51,10 @@ pub struct MotionPlanRequest {
     /// The pose goal of `goal_constraints[0]`, when it has position (and orientation) constraints
     /// instead of joint constraints.
     pub pose_goal: Option<PoseGoal>,
+    /// Field paths of constraints the request holds and this reader does not apply: non-empty
+    /// `path_constraints.*_constraints`, `trajectory_constraints.constraints`, and `goal_constraints[1..]`
+    /// (MoveIt's alternative goals; only the first is used). Callers should tell the user.
+    pub ignored: Vec<String>,
 }
 
 /// A MoveIt pose goal on one link, in the planning frame `frame` (MoveIt `PositionConstraint` and
@@ -152,11 +157,13 @@ pub fn parse_request_str(yaml: &str, source: &str) -> Result<MotionPlanRequest> 
         .first()
         .ok_or_else(|| doc.err("goal_constraints", "is empty"))?;
     let (goal, pose_goal) = doc.goal(first)?;
+    let ignored = doc.ignored(&root, goals.len())?;
     Ok(MotionPlanRequest {
         group,
         start,
         goal,
         pose_goal,
+        ignored,
     })
 }
 
@@ -359,6 +366,39 @@ impl Doc<'_> {
             return Err(self.err(&op, "zero quaternion"));
         }
         Ok(UnitQuaternion::from_quaternion(quat))
+    }
+
+    /// The constraints of request `root` that are not applied (see [`MotionPlanRequest::ignored`]);
+    /// `n_goals` is the length of `goal_constraints`.
+    fn ignored(&self, root: &Value, n_goals: usize) -> Result<Vec<String>> {
+        let mut out = Vec::new();
+        if let Some(path) = self.opt(root, "path_constraints") {
+            for key in [
+                "joint_constraints",
+                "position_constraints",
+                "orientation_constraints",
+                "visibility_constraints",
+            ] {
+                let field = format!("path_constraints.{key}");
+                if let Some(list) = self.opt(path, key) {
+                    if !self.seq(list, &field)?.is_empty() {
+                        out.push(field);
+                    }
+                }
+            }
+        }
+        if let Some(t) = self.opt(root, "trajectory_constraints") {
+            if let Some(list) = self.opt(t, "constraints") {
+                let field = "trajectory_constraints.constraints";
+                if !self.seq(list, field)?.is_empty() {
+                    out.push(field.to_string());
+                }
+            }
+        }
+        if n_goals > 1 {
+            out.push(format!("goal_constraints[1..{}]", n_goals - 1));
+        }
+        Ok(out)
     }
 
     /// The goal of `goal_constraints[0]` (`c`): joint constraints, or a pose goal.
