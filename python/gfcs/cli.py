@@ -242,9 +242,8 @@ def _pose_goal_line(result: Any, problem: Any) -> str:
     from gfcs import pose_goal
 
     g = result.pose_goal
-    centre = np.asarray(g["region"][0]["pose"], dtype=np.float64)[:3, 3]
     o = g.get("orientation")
-    text = (f"pose goal {g['link']} point {np.round(centre, 4).tolist()} m"
+    text = (f"pose goal {g['link']} point {np.round(pose_goal.target_point(g), 4).tolist()} m"
             + (f", orientation within {np.round(o['tolerance'], 4).tolist()} rad" if o else "")
             + ": joint goal by inverse kinematics")
     q = np.asarray(result.trajectory.q, dtype=np.float64)

@@ -828,8 +828,7 @@ def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
     radii = np.asarray(robot.sphere_radii, dtype=np.float64)
     if not np.any(margins < margin) or np.any(margins <= -radii):
         return None
-    if (mesh_checker.min_clearance(scene, goal[None]) <= mesh_margin
-            or mesh_checker.min_self_clearance(goal[None]) <= mesh_margin):
+    if not _metrics.mesh_verdict(mesh_checker, scene, goal, mesh_margin)[2]:
         return None
     return margins, float(min(0.0, clearance.min()) - 2.0 * slack)
 

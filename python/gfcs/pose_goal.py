@@ -35,7 +35,7 @@ kinematics, :data:`REFINE_STEPS` times), and of all valid ones the nearest to th
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List
 
 import numpy as np
 
@@ -131,6 +131,11 @@ def orientation_violation(pose_goal: Dict[str, Any], rotation: Any) -> float:
     return float(max(0.0, np.max(np.abs(angles) - np.asarray(o["tolerance"], dtype=np.float64))))
 
 
+def target_point(pose_goal: Dict[str, Any]) -> np.ndarray:
+    """The point (3,) [m] the inverse kinematics aims at: the centre of the region's first primitive."""
+    return np.asarray(pose_goal["region"][0]["pose"], dtype=np.float64)[:3, 3]
+
+
 def pose_errors(robot: Any, pose_goal: Dict[str, Any], q: Any) -> np.ndarray:
     """(position violation [m], orientation violation [rad]) of configuration(s) ``q`` (dof,) -> (2,),
     (N, dof) -> (N, 2)."""
@@ -193,7 +198,7 @@ def goal_configuration(
     up = np.asarray(robot.upper, dtype=np.float64) - LIMIT_INSET
     rng = np.random.default_rng(seed)
     link = robot.link_index(pose_goal["link"])
-    centre = np.asarray(pose_goal["region"][0]["pose"], dtype=np.float64)[:3, 3]
+    centre = target_point(pose_goal)
     offset = np.asarray(pose_goal["offset"], dtype=np.float64)
     o = pose_goal.get("orientation")
     if o is not None:  # the link origin's target follows from the point's and the rotation
@@ -217,19 +222,25 @@ def goal_configuration(
     reasons = {"constraints": 0, "limits": 0, "collision": 0}
 
     def tiers(sols: np.ndarray) -> List[List[np.ndarray]]:
-        """The valid solutions: [clear of the margins, in contact only for the spheres]."""
+        """The valid solutions: [0: the spheres clear the obstacles by ``clear`` (and the meshes by the
+        mesh margin, with a checker); 1: only the meshes clear the obstacles (the goal-contact attempt of
+        :func:`gfcs.optimize.solve` can reach it)]; both with the spheres ``self_clear`` apart."""
         out: List[List[np.ndarray]] = [[], []]
-        for q, err in zip(sols, pose_errors(robot, pose_goal, sols)):
+        spheres_clear = _metrics.obstacle_clearance(robot, scene, sols) >= clear
+        self_ok = _metrics.self_clearance(robot, sols) >= self_clear
+        for q, err, free, apart in zip(sols, pose_errors(robot, pose_goal, sols), spheres_clear, self_ok):
             if not np.all(err <= ACCEPT_SLACK):
                 reasons["constraints"] += 1
             elif np.any(q < lo - 1e-12) or np.any(q > up + 1e-12):
                 reasons["limits"] += 1
+            elif not apart or not (mesh_checker is None or _metrics.mesh_verdict(mesh_checker, scene, q)[2]):
+                reasons["collision"] += 1
+            elif free:
+                out[0].append(q)
+            elif mesh_checker is not None:
+                out[1].append(q)
             else:
-                tier = _tier(robot, scene, q, clear, self_clear, mesh_checker)
-                if tier is None:
-                    reasons["collision"] += 1
-                else:
-                    out[tier].append(q)
+                reasons["collision"] += 1
         return out
 
     n = int(attempts) - 1
@@ -263,32 +274,3 @@ def goal_configuration(
 
 class PoseGoalError(ValueError):
     """No joint configuration satisfies a pose goal within the limits and clear of the obstacles."""
-
-
-def _tier(robot: Any, scene: Any, q: np.ndarray, clear: float, self_clear: float, mesh_checker: Any
-          ) -> Optional[int]:
-    """0: the spheres clear the obstacles by ``clear`` and each other by ``self_clear`` (and the meshes
-    by the mesh margin, with a checker); 1: only the meshes clear the obstacles (the goal-contact attempt
-    of :func:`gfcs.optimize.solve` can reach it); None: neither."""
-    qa = q[None, :]
-    if _metrics.self_clearance(robot, qa)[0] < self_clear:
-        return None
-    margin = _metrics.DEFAULT_MESH_MARGIN
-    meshes = mesh_checker is None or (float(mesh_checker.clearance(scene, q)) > margin
-                                      and float(mesh_checker.self_clearance(q)) > margin)
-    if not meshes:
-        return None
-    if _metrics.obstacle_clearance(robot, scene, qa)[0] >= clear:
-        return 0
-    return 1 if mesh_checker is not None else None
-
-
-def to_json(pose_goal: Dict[str, Any]) -> Dict[str, Any]:
-    """The pose goal with its arrays as lists (for a result's JSON)."""
-    def plain(x: Any) -> Any:
-        if isinstance(x, dict):
-            return {k: plain(v) for k, v in x.items()}
-        if isinstance(x, (list, tuple)):
-            return [plain(v) for v in x]
-        return np.asarray(x).tolist() if isinstance(x, np.ndarray) else x
-    return plain(pose_goal)

@@ -29,10 +29,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
-from gfcs import pose_goal as _pose_goal
-from gfcs.pose_goal import PoseGoalError
-
 import numpy as np
+
+from gfcs import pose_goal as _pose_goal
+from gfcs.results import _enc
 
 __all__ = [
     "Problem",
@@ -262,7 +262,7 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
     if pose_goal is not None:
         values["goal"] = _pose_goal.goal_configuration(robot, scene, values["start"], pose_goal,
                                                        mesh_checker=checker, source=str(request_path))
-        meta["pose_goal"] = _pose_goal.to_json(pose_goal)
+        meta["pose_goal"] = _enc(pose_goal)
     folder = scene_path.resolve().parent.name
     number = re.sub(r"\D", "", scene_path.stem) or scene_path.stem
     return dict(
@@ -387,7 +387,7 @@ def load_mbm_dir(
             try:  # Problem raises InvalidValueError only for a start or goal outside the joint limits
                 problems.append(Problem(**_mbm_fields(scene_path, request, robot, f"{class_dir.name}/{digits}",
                                                       class_dir.name, mesh_checker)))
-            except (gfcs.InvalidValueError, PoseGoalError) as e:
+            except (gfcs.InvalidValueError, _pose_goal.PoseGoalError) as e:
                 if invalid is None:
                     raise
                 invalid.append((f"{class_dir.name}/{digits}", str(e)))
