@@ -553,15 +553,25 @@ impl PyScene {
 /// Description of one obstacle (see `Scene.obstacles`).
 fn obstacle_dict<'py>(py: Python<'py>, id: u64, o: &Obstacle) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    let size = shape_size(&o.shape);
     d.set_item("id", id)?;
     d.set_item("name", &o.name)?;
-    d.set_item("type", o.shape.kind())?;
-    let n = size.len();
-    d.set_item("size", output(py, size, &[n])?)?;
-    d.set_item("pose", output_pose(py, &o.pose)?)?;
+    set_shape(py, &d, &o.shape, &o.pose)?;
     d.set_item("velocity", output_vec3(py, &o.velocity)?)?;
     Ok(d)
+}
+
+/// `type`, `size` ([`shape_size`]) and `pose` (4, 4) of a posed shape, set in `d`.
+fn set_shape(
+    py: Python<'_>,
+    d: &Bound<'_, PyDict>,
+    shape: &Shape,
+    pose: &Isometry3<f64>,
+) -> PyResult<()> {
+    let size = shape_size(shape);
+    let n = size.len();
+    d.set_item("type", shape.kind())?;
+    d.set_item("size", output(py, size, &[n])?)?;
+    d.set_item("pose", output_pose(py, pose)?)
 }
 
 /// Read a MoveIt MotionPlanRequest YAML file (MotionBenchMaker `requestNNNN.yaml`): a dict with `group`
@@ -609,11 +619,7 @@ fn pose_goal_dict<'py>(py: Python<'py>, g: &PoseGoal) -> PyResult<Bound<'py, PyD
     let region = PyList::empty(py);
     for (shape, pose) in &g.region {
         let r = PyDict::new(py);
-        let size = shape_size(shape);
-        let n = size.len();
-        r.set_item("type", shape.kind())?;
-        r.set_item("size", output(py, size, &[n])?)?;
-        r.set_item("pose", output_pose(py, pose)?)?;
+        set_shape(py, &r, shape, pose)?;
         region.append(r)?;
     }
     d.set_item("region", region)?;

@@ -38,8 +38,8 @@ use super::scene::Scene;
 use super::shape::{Obstacle, Shape};
 use crate::error::{FabricError, Result};
 
-/// A joint-space planning problem: the group, the start joint state and the joint goal, as
-/// `(joint name, position)` pairs in file order (rad or m).
+/// A planning problem: the group, the start joint state and the joint goal, as `(joint name, position)`
+/// pairs in file order (rad or m), or a pose goal.
 #[derive(Clone, Debug)]
 pub struct MotionPlanRequest {
     /// `group_name` (e.g. `panda_arm`).
@@ -372,7 +372,7 @@ impl Doc<'_> {
     /// `n_goals` is the length of `goal_constraints`.
     fn ignored(&self, root: &Value, n_goals: usize) -> Result<Vec<String>> {
         let mut out = Vec::new();
-        if let Some(path) = self.opt(root, "path_constraints") {
+        if let Some(constraints) = self.opt(root, "path_constraints") {
             for key in [
                 "joint_constraints",
                 "position_constraints",
@@ -380,7 +380,7 @@ impl Doc<'_> {
                 "visibility_constraints",
             ] {
                 let field = format!("path_constraints.{key}");
-                if let Some(list) = self.opt(path, key) {
+                if let Some(list) = self.opt(constraints, key) {
                     if !self.seq(list, &field)?.is_empty() {
                         out.push(field);
                     }
@@ -429,15 +429,16 @@ impl Doc<'_> {
             return Ok((self.joint_goal(joints)?, None));
         }
         if positions.is_empty() {
-            let field = if orientations.is_empty() {
-                "joint_constraints"
+            let (field, message) = if orientations.is_empty() {
+                (
+                    "joint_constraints",
+                    "missing or empty (and no position constraint for a pose goal)",
+                )
             } else {
-                "position_constraints"
-            };
-            let message = if orientations.is_empty() {
-                "missing or empty (and no position constraint for a pose goal)"
-            } else {
-                "missing: an orientation constraint needs a position constraint on the same link"
+                (
+                    "position_constraints",
+                    "missing: an orientation constraint needs a position constraint on the same link",
+                )
             };
             return Err(self.err(&join(PATH, field), message));
         }
