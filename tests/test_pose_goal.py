@@ -120,6 +120,29 @@ def test_the_start_configuration_is_kept_when_it_already_meets_the_goal(panda, w
     np.testing.assert_allclose(q, suite[0].goal, atol=1e-6)  # the descent from the start stays there
 
 
+def test_a_goal_whose_descents_all_touch_a_bar_is_found_along_the_self_motion(panda, tmp_path, monkeypatch):
+    # generated cage problem 3 of seed 1: every one of the 256 descents misses the pose, ends outside the
+    # limits' inset or touches the cage (measured: the search without the self-motion round failed here)
+    suite = generators.generate("cage", 3, seed=1, robot=panda)
+    generators.write_problems(suite, tmp_path, pose_goals=True)
+    problem = suite[2]
+    g = gfcs.load_motion_plan_request(str(tmp_path / "cage" / "request0003.yaml"))["pose_goal"]
+    with monkeypatch.context() as m:
+        m.setattr(pose_goal, "EXPLORE_SOLUTIONS", 0)  # the first two rounds alone
+        with pytest.raises(pose_goal.PoseGoalError, match="collision"):
+            pose_goal.goal_configuration(panda, problem.scene, problem.q0, g)
+    q = pose_goal.goal_configuration(panda, problem.scene, problem.q0, g)
+    err = pose_goal.pose_errors(panda, g, q)
+    assert err[0] <= pose_goal.ACCEPT_SLACK and err[1] <= pose_goal.ACCEPT_SLACK
+    lo, up = np.asarray(panda.lower), np.asarray(panda.upper)
+    assert np.all(q >= lo + pose_goal.LIMIT_INSET - 1e-12) and np.all(q <= up - pose_goal.LIMIT_INSET + 1e-12)
+    margins = gfcs.FabricConfig().to_dict()
+    assert metrics.obstacle_clearance(panda, problem.scene, q[None, :])[0] >= \
+        margins["obstacles"]["margin"] + pose_goal.CLEARANCE_SLACK
+    assert metrics.self_clearance(panda, q[None, :])[0] >= \
+        margins["self_collision"]["margin"] + pose_goal.CLEARANCE_SLACK
+
+
 def test_gfcs_solve_takes_a_pose_request(written, tmp_path, capsys):
     root, _ = written
     out = tmp_path / "r.json"

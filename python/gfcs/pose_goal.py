@@ -26,9 +26,13 @@ margin with the collision meshes when a mesh checker is given): the fabric's bar
 those margins, so a goal inside them could not be reached. With a mesh checker, when no solution keeps the
 spheres that far from the obstacles, solutions whose meshes alone clear them are taken (a grasp: the
 goal-contact attempt of :func:`gfcs.optimize.solve` reaches them). When none of ``attempts`` descents
-gives a valid solution, three times as many more are tried. The nearest valid solutions are then walked
-along their self-motion toward the start (a step toward it, then back onto the constraints by inverse
-kinematics, :data:`REFINE_STEPS` times), and of all valid ones the nearest to the start in joint space
+gives a valid solution, three times as many more are tried; when those miss too, up to
+:data:`EXPLORE_SOLUTIONS` of the solutions that meet the pose but not the limits or the clearances are walked
+along their self-motion (a step toward a random configuration, then back onto the constraints by inverse
+kinematics, :data:`REFINE_STEPS` times, toward :data:`EXPLORE_AIMS` random configurations each), every state
+on the way a candidate (a goal deep in a cage: its solutions meet the pose on one stretch of the
+self-motion and touch a bar on the rest). The nearest valid solutions are then walked along their
+self-motion toward the start in the same way, and of all valid ones the nearest to the start in joint space
 [rad] is the goal: the fabric's motion time grows with that distance.
 """
 
@@ -52,6 +56,9 @@ CLEARANCE_SLACK = 0.001
 NEAR_START_SPREAD = 0.5
 #: Solutions walked toward the start, steps and the fraction of the way to it per step (module docstring).
 REFINE_SOLUTIONS, REFINE_STEPS, REFINE_RATE = 8, 20, 0.3
+#: When no descent gives a valid solution: solutions meeting the pose that are walked along their
+#: self-motion (toward this many random configurations each) in search of one inside the limits and clear.
+EXPLORE_SOLUTIONS, EXPLORE_AIMS = 8, 8
 #: The frames that mean the robot's root frame, besides the root link's own name.
 WORLD_FRAMES = ("", "world", "/world")
 
@@ -243,14 +250,29 @@ def goal_configuration(
                 reasons["collision"] += 1
         return out
 
+    dof = q0.shape[0]
     n = int(attempts) - 1
-    near = q0 + rng.normal(0.0, NEAR_START_SPREAD, (n // 2, q0.shape[0]))
-    sols = ik(np.clip(np.vstack([q0[None, :], near, rng.uniform(lo, up, (n - n // 2, q0.shape[0]))]), lo, up))
+    near = q0 + rng.normal(0.0, NEAR_START_SPREAD, (n // 2, dof))
+    sols = ik(np.clip(np.vstack([q0[None, :], near, rng.uniform(lo, up, (n - n // 2, dof))]), lo, up))
     found = tiers(sols)
     if not (found[0] or found[1]):  # a second round, three times as many
-        more = ik(rng.uniform(lo, up, (3 * int(attempts), q0.shape[0])))
+        more = ik(rng.uniform(lo, up, (3 * int(attempts), dof)))
         sols = np.vstack([sols, more])
         found = tiers(more)
+    meet = sols[np.all(pose_errors(robot, pose_goal, sols) <= ACCEPT_SLACK, axis=1)]
+    if not (found[0] or found[1]) and min(len(meet), EXPLORE_SOLUTIONS) > 0:
+        # a third: solutions that meet the pose but not the limits or the clearances, walked along their
+        # self-motion toward random configurations, every state on the way a candidate, until one clears
+        # the obstacles with its spheres
+        seeds = meet[rng.choice(len(meet), size=min(len(meet), EXPLORE_SOLUTIONS), replace=False)]
+        aims = rng.uniform(lo, up, (len(seeds) * EXPLORE_AIMS, dof))
+        walked = np.repeat(seeds, EXPLORE_AIMS, axis=0)
+        for _ in range(REFINE_STEPS):
+            walked = ik(np.clip(walked + REFINE_RATE * (aims - walked), lo, up))
+            sols = np.vstack([sols, walked])
+            found = [a + b for a, b in zip(found, tiers(walked))]
+            if found[0]:
+                break
     tier = 0 if found[0] else 1
     valid = found[tier]
     if not valid:
@@ -260,7 +282,7 @@ def goal_configuration(
         raise PoseGoalError(
             f"{where}no joint configuration found for the pose goal of link '{pose_goal['link']}' (point "
             f"{np.round(centre, 4).tolist()} m in frame '{pose_goal['frame'] or 'world'}'): of {len(sols)} "
-            f"inverse-kinematics attempts, {missed} (best position error "
+            f"inverse-kinematics solutions, {missed} (best position error "
             f"{float(errors[:, 0].min()):.3g} m, orientation excess {float(errors[:, 1].min()):.3g} rad)")
     # walk the nearest solutions along their self-motion toward q0: a step toward it, then back onto the
     # constraints, REFINE_STEPS times; the walked ones that stay valid (in the same tier or better) compete
