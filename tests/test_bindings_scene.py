@@ -292,6 +292,19 @@ def test_bad_yaml_field_raises_format_error_naming_it(tmp_path):
         gfcs.load_motion_plan_request(req)
 
 
+def test_objects_outside_the_planning_frame_or_attached_to_the_robot_are_refused():
+    in_hand = SCENE_YAML.replace("    - id: table\n", "    - id: table\n      header: {frame_id: panda_hand}\n")
+    with pytest.raises(gfcs.FormatError, match=r"collision_objects\[0\]\.header\.frame_id.*panda_hand"):
+        gfcs.Scene.from_moveit_yaml_str(in_hand, root_frame="panda_link0")
+    at_root = in_hand.replace("panda_hand", "panda_link0")
+    with pytest.raises(gfcs.FormatError, match="frame_id"):
+        gfcs.Scene.from_moveit_yaml_str(at_root)  # the root link is the planning frame only when named
+    assert len(gfcs.Scene.from_moveit_yaml_str(at_root, root_frame="panda_link0").obstacles()) == 3
+    held = "robot_state:\n  attached_collision_objects:\n    - link_name: panda_hand\n" + SCENE_YAML
+    with pytest.raises(gfcs.FormatError, match="attached_collision_objects"):
+        gfcs.Scene.from_moveit_yaml_str(held)
+
+
 def test_load_motion_plan_request(tmp_path):
     path = tmp_path / "request.yaml"
     path.write_text(REQUEST_YAML)

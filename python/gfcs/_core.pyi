@@ -203,11 +203,13 @@ class Scene:
 
     def __init__(self) -> None: ...
     @staticmethod
-    def from_moveit_yaml(path: PathLike) -> Scene:
+    def from_moveit_yaml(path: PathLike, root_frame: Optional[str] = None) -> Scene:
         """MoveIt PlanningScene YAML (MotionBenchMaker): box = full sizes, cylinder = [height, radius],
-        quaternions [x, y, z, w]. Objects with several shapes give obstacles ``id/0``, ``id/1``, ..."""
+        quaternions [x, y, z, w]. Objects with several shapes give obstacles ``id/0``, ``id/1``, ...
+        An object's ``header.frame_id`` must be absent, "world", "/world" or ``root_frame`` (the robot's
+        root link); ``robot_state.attached_collision_objects`` must be empty (gfcs.FormatError)."""
     @staticmethod
-    def from_moveit_yaml_str(text: str, source: str = "<string>") -> Scene: ...
+    def from_moveit_yaml_str(text: str, source: str = "<string>", root_frame: Optional[str] = None) -> Scene: ...
     def add_sphere(
         self, center: ArrayLike, radius: float, name: Optional[str] = None, velocity: Optional[ArrayLike] = None
     ) -> int:

@@ -236,7 +236,7 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
 
     robot = gfcs.Robot.panda() if robot is None else robot
     scene_path, request_path = Path(scene_yaml), Path(request_yaml)
-    scene = gfcs.Scene.from_moveit_yaml(str(scene_path))
+    scene = gfcs.Scene.from_moveit_yaml(str(scene_path), root_frame=robot.link_names[0])
     request = gfcs.load_motion_plan_request(str(request_path))
     for field_path in request.get("ignored", []):
         warnings.warn(f"{request_path}: {field_path} is not supported and is ignored (the motion does not "

@@ -117,7 +117,7 @@ fn distance(c: &mut Criterion) {
         Some(dir) => {
             for class in ["bookshelf_small", "box", "table_pick"] {
                 let path = dir.join(class).join("scene0001.yaml");
-                match Scene::from_moveit_yaml_file(&path) {
+                match Scene::from_moveit_yaml_file(&path, None) {
                     Ok(scene) => bench_scene(c, &format!("mbm {class}/scene0001"), &scene),
                     Err(e) => eprintln!("skipping {}: {e}", path.display()),
                 }

@@ -43,7 +43,7 @@ fn every_motionbenchmaker_scene_loads() {
         let scenes = files(&mbm.join(class), "scene");
         assert!(scenes.len() >= 50, "{class}: {} scenes", scenes.len());
         for path in scenes {
-            let scene = Scene::from_moveit_yaml_file(&path).unwrap_or_else(|e| panic!("{e}"));
+            let scene = Scene::from_moveit_yaml_file(&path, None).unwrap_or_else(|e| panic!("{e}"));
             // Independent count and first box sizes from the raw YAML.
             let raw: serde_yaml::Value =
                 serde_yaml::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
@@ -153,7 +153,7 @@ world:
 
 #[test]
 fn conventions_of_the_scene_format() {
-    let scene = Scene::from_moveit_yaml_str(SCENE, "inline.yaml").unwrap();
+    let scene = Scene::from_moveit_yaml_str(SCENE, "inline.yaml", None).unwrap();
     assert_eq!(scene.len(), 3);
     let table = scene.get(scene.find("table").unwrap()).unwrap();
     let Shape::Cuboid { half_extents } = table.shape else {
@@ -217,7 +217,7 @@ world:
         - position: [0, 0, 0]
           orientation: [0, 0, 0, 1]
 "#;
-    let scene = Scene::from_moveit_yaml_str(yaml, "mesh.yaml").unwrap();
+    let scene = Scene::from_moveit_yaml_str(yaml, "mesh.yaml", None).unwrap();
     let tet = scene.get(scene.find("tet").unwrap()).unwrap();
     assert!(matches!(tet.shape, Shape::TriMesh(_)) && tet.shape.is_solid());
     let d = scene
@@ -231,7 +231,7 @@ world:
 fn expect_scene_error(from: &str, to: &str, field: &str) {
     assert!(SCENE.contains(from), "{from}");
     let yaml = SCENE.replacen(from, to, 1);
-    match Scene::from_moveit_yaml_str(&yaml, "bad.yaml") {
+    match Scene::from_moveit_yaml_str(&yaml, "bad.yaml", None) {
         Err(FabricError::Format {
             file,
             field: f,
@@ -309,6 +309,17 @@ fn bad_scene_inputs_name_the_field() {
         "world.collision_objects[1].primitives[1].dimensions",
     );
     expect_scene_error("world:", "universe:", "world");
+    // objects outside the planning frame, and objects attached to the robot, are refused
+    expect_scene_error(
+        "    - id: can\n",
+        "    - id: can\n      header: {frame_id: panda_hand}\n",
+        "world.collision_objects[1].header.frame_id",
+    );
+    expect_scene_error(
+        "world:\n",
+        "robot_state:\n  attached_collision_objects:\n    - link_name: panda_hand\nworld:\n",
+        "robot_state.attached_collision_objects",
+    );
     expect_scene_error(
         "  collision_objects:",
         "  collision_objects: 3\n  ignored:",
@@ -316,21 +327,48 @@ fn bad_scene_inputs_name_the_field() {
     );
     // Invalid YAML and a non-mapping document.
     assert!(matches!(
-        Scene::from_moveit_yaml_str("world: [", "x.yaml"),
+        Scene::from_moveit_yaml_str("world: [", "x.yaml", None),
         Err(FabricError::Format { .. })
     ));
     assert!(matches!(
-        Scene::from_moveit_yaml_str("- 1\n- 2\n", "x.yaml"),
+        Scene::from_moveit_yaml_str("- 1\n- 2\n", "x.yaml", None),
         Err(FabricError::Format { .. })
     ));
     assert!(matches!(
-        Scene::from_moveit_yaml_file(Path::new("/nonexistent/scene.yaml")),
+        Scene::from_moveit_yaml_file(Path::new("/nonexistent/scene.yaml"), None),
         Err(FabricError::Io { .. })
     ));
+    // The planning frame by any of its names, and an empty list of attached objects, are accepted.
+    for frame in ["world", "/world", "''"] {
+        let yaml = SCENE.replacen(
+            "    - id: can\n",
+            &format!("    - id: can\n      header: {{frame_id: {frame}}}\n"),
+            1,
+        );
+        assert_eq!(
+            Scene::from_moveit_yaml_str(&yaml, "ok.yaml", None)
+                .unwrap()
+                .len(),
+            3
+        );
+    }
+    let yaml = SCENE.replacen(
+        "world:\n",
+        "robot_state:\n  attached_collision_objects: []\nworld:\n",
+        1,
+    );
+    assert_eq!(
+        Scene::from_moveit_yaml_str(&yaml, "ok.yaml", None)
+            .unwrap()
+            .len(),
+        3
+    );
     // An empty world is a valid, empty scene.
-    assert!(Scene::from_moveit_yaml_str("world: {}\n", "empty.yaml")
-        .unwrap()
-        .is_empty());
+    assert!(
+        Scene::from_moveit_yaml_str("world: {}\n", "empty.yaml", None)
+            .unwrap()
+            .is_empty()
+    );
 }
 
 const REQUEST: &str = r#"

@@ -154,19 +154,30 @@ impl PyScene {
     }
 
     /// Load a MoveIt PlanningScene YAML file (MotionBenchMaker `sceneNNNN.yaml`): box sizes are full edges,
-    /// cylinders [height, radius], quaternions [x, y, z, w].
+    /// cylinders [height, radius], quaternions [x, y, z, w]. Objects must be in the planning frame (no
+    /// header, "world", or `root_frame`: the robot's root link); attached objects are refused.
     #[staticmethod]
-    fn from_moveit_yaml(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Self> {
+    #[pyo3(signature = (path, root_frame=None))]
+    fn from_moveit_yaml(
+        py: Python<'_>,
+        path: &Bound<'_, PyAny>,
+        root_frame: Option<&str>,
+    ) -> PyResult<Self> {
         let path = path_arg(path)?;
-        let inner = guarded(py, || Scene::from_moveit_yaml_file(&path))?;
+        let inner = guarded(py, || Scene::from_moveit_yaml_file(&path, root_frame))?;
         Ok(PyScene { inner })
     }
 
     /// Same as `from_moveit_yaml` from the YAML text.
     #[staticmethod]
-    #[pyo3(signature = (text, source="<string>"))]
-    fn from_moveit_yaml_str(py: Python<'_>, text: &str, source: &str) -> PyResult<Self> {
-        let inner = guarded(py, || Scene::from_moveit_yaml_str(text, source))?;
+    #[pyo3(signature = (text, source="<string>", root_frame=None))]
+    fn from_moveit_yaml_str(
+        py: Python<'_>,
+        text: &str,
+        source: &str,
+        root_frame: Option<&str>,
+    ) -> PyResult<Self> {
+        let inner = guarded(py, || Scene::from_moveit_yaml_str(text, source, root_frame))?;
         Ok(PyScene { inner })
     }
 

@@ -14,7 +14,10 @@
 //!   `mesh_poses[k]` become [`Shape::TriMesh`] obstacles (solid when closed, see
 //!   [`crate::scene::meshio::build_mesh`]). `planes` are rejected. `operation`, when present, must be
 //!   ADD (`0` or `"add"`).
-//! * Everything else (robot state, allowed collision matrix, headers) is ignored.
+//! * An object's `header.frame_id`, when present, must name the planning frame (`world`, `/world`,
+//!   empty, or the robot's root link when the caller names it: they coincide in MotionBenchMaker's scenes); `robot_state.attached_collision_objects`
+//!   must be empty (a held object is not part of the robot's collision model). Everything else (the
+//!   robot state's joints, the allowed collision matrix) is not used.
 //!
 //! Request: `group_name`, `start_state.joint_state.{name, position}` and the goal of
 //! `goal_constraints[0]`: either `joint_constraints[*].{joint_name, position}` (a joint goal, as
@@ -180,10 +183,26 @@ pub(crate) fn read(path: &Path) -> Result<String> {
     })
 }
 
+/// The `header.frame_id` values of a scene's collision objects that mean the planning frame.
+const PLANNING_FRAMES: [&str; 3] = ["", "world", "/world"];
+
 /// Parse a `PlanningScene` YAML string into a [`Scene`] (see the module documentation).
-pub(crate) fn scene_from_str(yaml: &str, source: &str) -> Result<Scene> {
+pub(crate) fn scene_from_str(yaml: &str, source: &str, root_frame: Option<&str>) -> Result<Scene> {
     let doc = Doc { file: source };
     let root = doc.parse(yaml)?;
+    if let Some(attached) = doc
+        .opt(&root, "robot_state")
+        .and_then(|state| doc.opt(state, "attached_collision_objects"))
+    {
+        let path = "robot_state.attached_collision_objects";
+        if !doc.seq(attached, path)?.is_empty() {
+            return Err(doc.err(
+                path,
+                "objects attached to the robot are not supported: the robot's collision model would not \
+                 include them, so no motion would keep them clear",
+            ));
+        }
+    }
     let world = doc.field(&root, "", "world")?;
     let mut scene = Scene::new();
     let Some(objects) = doc.opt(world, "collision_objects") else {
@@ -193,6 +212,17 @@ pub(crate) fn scene_from_str(yaml: &str, source: &str) -> Result<Scene> {
     for (i, obj) in objects.iter().enumerate() {
         let path = format!("world.collision_objects[{i}]");
         let id = doc.string(doc.field(obj, &path, "id")?, &format!("{path}.id"))?;
+        let frame = doc.frame(obj, &path)?;
+        if !PLANNING_FRAMES.contains(&frame.as_str()) && Some(frame.as_str()) != root_frame {
+            return Err(doc.err(
+                &format!("{path}.header.frame_id"),
+                format!(
+                    "frame '{frame}': objects must be given in the planning frame (\"world\" or \
+                     the robot's root link{}; or without a header)",
+                    root_frame.map_or(String::new(), |r| format!(" '{r}'"))
+                ),
+            ));
+        }
         if let Some(op) = doc.opt(obj, "operation") {
             let is_add = match op {
                 Value::Number(n) => n.as_i64() == Some(0),
@@ -544,7 +574,7 @@ impl Doc<'_> {
         })
     }
 
-    /// `header.frame_id` of a constraint at `path` ("" when absent).
+    /// `header.frame_id` of a constraint or collision object at `path` ("" when absent).
     fn frame(&self, c: &Value, path: &str) -> Result<String> {
         let Some(header) = self.opt(c, "header") else {
             return Ok(String::new());
@@ -771,13 +801,20 @@ fn show(v: &Value) -> String {
 
 impl Scene {
     /// Load a MoveIt `PlanningScene` YAML string (MotionBenchMaker format, see [`crate::scene::moveit`]);
-    /// `source` names it in errors (`FabricError::Format` with the field path).
-    pub fn from_moveit_yaml_str(yaml: &str, source: &str) -> Result<Scene> {
-        scene_from_str(yaml, source)
+    /// `source` names it in errors (`FabricError::Format` with the field path). `root_frame`: the name of
+    /// the robot's root link, accepted as an object's `header.frame_id` besides "world" (the two coincide
+    /// in MotionBenchMaker's scenes).
+    pub fn from_moveit_yaml_str(
+        yaml: &str,
+        source: &str,
+        root_frame: Option<&str>,
+    ) -> Result<Scene> {
+        scene_from_str(yaml, source, root_frame)
     }
 
-    /// Load a MoveIt `PlanningScene` YAML file. `Err(Io)` when it cannot be read.
-    pub fn from_moveit_yaml_file(path: &Path) -> Result<Scene> {
-        scene_from_str(&read(path)?, &path.display().to_string())
+    /// Load a MoveIt `PlanningScene` YAML file (see [`Scene::from_moveit_yaml_str`]). `Err(Io)` when it
+    /// cannot be read.
+    pub fn from_moveit_yaml_file(path: &Path, root_frame: Option<&str>) -> Result<Scene> {
+        scene_from_str(&read(path)?, &path.display().to_string(), root_frame)
     }
 }

@@ -42,8 +42,8 @@ pub fn mbm_problem(
     index: usize,
 ) -> (Scene, Vec<f64>, Vec<f64>) {
     let dir = shared.join("mbm").join(class);
-    let scene =
-        Scene::from_moveit_yaml_file(&dir.join(format!("scene{index:04}.yaml"))).expect("scene");
+    let scene = Scene::from_moveit_yaml_file(&dir.join(format!("scene{index:04}.yaml")), None)
+        .expect("scene");
     let req =
         moveit::parse_request_file(&dir.join(format!("request{index:04}.yaml"))).expect("request");
     let start = req.start_for(robot.joint_names()).expect("start");
