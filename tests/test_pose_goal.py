@@ -242,3 +242,8 @@ def test_constraints_that_are_not_applied_are_warned_about(panda, written, tmp_p
     with pytest.warns(UserWarning, match=r"request\.yaml: path_constraints\.orientation_constraints is not "
                                          r"supported and is ignored"):
         problems.load_mbm(root / "box" / "scene0001.yaml", path, panda)
+    del doc["path_constraints"]
+    doc["max_velocity_scaling_factor"] = 0.3  # the fabric's speed control sets the speed
+    path.write_text(yaml.safe_dump(doc))
+    with pytest.warns(UserWarning, match=r"max_velocity_scaling_factor is not supported and is ignored"):
+        problems.load_mbm(root / "box" / "scene0001.yaml", path, panda)

@@ -240,7 +240,7 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
     request = gfcs.load_motion_plan_request(str(request_path))
     for field_path in request.get("ignored", []):
         warnings.warn(f"{request_path}: {field_path} is not supported and is ignored (the motion does not "
-                      "keep these constraints)", UserWarning, stacklevel=3)
+                      "follow it)", UserWarning, stacklevel=3)
     checker = mesh_checker if mesh_checker is not None else mesh_checker_for(robot)
     robot = held_as_requested(robot, request["start"])
     if checker is not None:

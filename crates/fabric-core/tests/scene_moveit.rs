@@ -649,4 +649,37 @@ fn constraints_not_applied_are_listed() {
         parse_request_str(&bad, "r.yaml"),
         Err(FabricError::Format { field, .. }) if field == "trajectory_constraints.constraints"
     ));
+    // speed scaling: 0 and 1 mean full speed in MoveIt (MotionBenchMaker writes 0); below 1 it is listed
+    let full =
+        format!("{REQUEST}max_velocity_scaling_factor: 0\nmax_acceleration_scaling_factor: 1.0\n");
+    assert!(parse_request_str(&full, "r.yaml")
+        .unwrap()
+        .ignored
+        .is_empty());
+    let slow = format!(
+        "{REQUEST}max_velocity_scaling_factor: 0.5\nmax_acceleration_scaling_factor: 0.1\n"
+    );
+    assert_eq!(
+        parse_request_str(&slow, "r.yaml").unwrap().ignored,
+        vec![
+            "max_velocity_scaling_factor",
+            "max_acceleration_scaling_factor"
+        ]
+    );
+    // a start state holding an object is refused (an empty list is not)
+    let held = REQUEST.replacen(
+        "start_state:\n",
+        "start_state:\n  attached_collision_objects: [{link_name: panda_hand}]\n",
+        1,
+    );
+    assert!(matches!(
+        parse_request_str(&held, "r.yaml"),
+        Err(FabricError::Format { field, .. }) if field == "start_state.attached_collision_objects"
+    ));
+    let empty = REQUEST.replacen(
+        "start_state:\n",
+        "start_state:\n  attached_collision_objects: []\n",
+        1,
+    );
+    assert!(parse_request_str(&empty, "r.yaml").is_ok());
 }

@@ -15,9 +15,10 @@
 //!   [`crate::scene::meshio::build_mesh`]). `planes` are rejected. `operation`, when present, must be
 //!   ADD (`0` or `"add"`).
 //! * An object's `header.frame_id`, when present, must name the planning frame (`world`, `/world`,
-//!   empty, or the robot's root link when the caller names it: they coincide in MotionBenchMaker's scenes); `robot_state.attached_collision_objects`
-//!   must be empty (a held object is not part of the robot's collision model). Everything else (the
-//!   robot state's joints, the allowed collision matrix) is not used.
+//!   empty, or the robot's root link when the caller names it: they coincide in MotionBenchMaker's
+//!   scenes); `robot_state.attached_collision_objects` must be empty (a held object is not part of the
+//!   robot's collision model). Everything else (the robot state's joints, the allowed collision matrix)
+//!   is not used.
 //!
 //! Request: `group_name`, `start_state.joint_state.{name, position}` and the goal of
 //! `goal_constraints[0]`: either `joint_constraints[*].{joint_name, position}` (a joint goal, as
@@ -25,8 +26,9 @@
 //! (`link_name`, `target_point_offset`, `constraint_region` box / sphere / cylinder primitives with their
 //! poses, `header.frame_id`) and at most one `orientation_constraints` entry on the same link
 //! (`orientation`, `absolute_{x,y,z}_axis_tolerance`, `parameterization`). Joint and pose constraints
-//! together, an orientation without a position, and mesh regions are rejected. Path and trajectory
-//! constraints and alternative goals are not applied: [`MotionPlanRequest::ignored`] lists them.
+//! together, an orientation without a position, mesh regions and objects attached in the start state
+//! are rejected. Path and trajectory constraints, alternative goals and velocity or acceleration scaling
+//! are not applied: [`MotionPlanRequest::ignored`] lists them.
 //!
 //! Every error is [`FabricError::Format`] naming the file and the field path, e.g.
 //! `world.collision_objects[3].primitives[0].dimensions`.
@@ -54,9 +56,11 @@ pub struct MotionPlanRequest {
     /// The pose goal of `goal_constraints[0]`, when it has position (and orientation) constraints
     /// instead of joint constraints.
     pub pose_goal: Option<PoseGoal>,
-    /// Field paths of constraints the request holds and this reader does not apply: non-empty
-    /// `path_constraints.*_constraints`, `trajectory_constraints.constraints`, and `goal_constraints[1..]`
-    /// (MoveIt's alternative goals; only the first is used). Callers should tell the user.
+    /// Field paths of constraints and settings the request holds and this reader does not apply:
+    /// non-empty `path_constraints.*_constraints`, `trajectory_constraints.constraints`,
+    /// `goal_constraints[1..]` (MoveIt's alternative goals; only the first is used), and
+    /// `max_velocity_scaling_factor` / `max_acceleration_scaling_factor` below 1 (the fabric's speed
+    /// control sets the speed). Callers should tell the user.
     pub ignored: Vec<String>,
 }
 
@@ -130,6 +134,7 @@ pub fn parse_request_str(yaml: &str, source: &str) -> Result<MotionPlanRequest> 
 
     let js_path = "start_state.joint_state";
     let start_state = doc.field(&root, "", "start_state")?;
+    doc.no_attached_objects(start_state, "start_state")?;
     let js = doc.field(start_state, "start_state", "joint_state")?;
     let names_path = format!("{js_path}.name");
     let names = doc.seq(doc.field(js, js_path, "name")?, &names_path)?;
@@ -190,18 +195,8 @@ const PLANNING_FRAMES: [&str; 3] = ["", "world", "/world"];
 pub(crate) fn scene_from_str(yaml: &str, source: &str, root_frame: Option<&str>) -> Result<Scene> {
     let doc = Doc { file: source };
     let root = doc.parse(yaml)?;
-    if let Some(attached) = doc
-        .opt(&root, "robot_state")
-        .and_then(|state| doc.opt(state, "attached_collision_objects"))
-    {
-        let path = "robot_state.attached_collision_objects";
-        if !doc.seq(attached, path)?.is_empty() {
-            return Err(doc.err(
-                path,
-                "objects attached to the robot are not supported: the robot's collision model would not \
-                 include them, so no motion would keep them clear",
-            ));
-        }
+    if let Some(state) = doc.opt(&root, "robot_state") {
+        doc.no_attached_objects(state, "robot_state")?;
     }
     let world = doc.field(&root, "", "world")?;
     let mut scene = Scene::new();
@@ -398,10 +393,36 @@ impl Doc<'_> {
         Ok(UnitQuaternion::from_quaternion(quat))
     }
 
-    /// The constraints of request `root` that are not applied (see [`MotionPlanRequest::ignored`]);
-    /// `n_goals` is the length of `goal_constraints`.
+    /// `Err` when the robot state `state` (at `path`) holds attached collision objects: the robot's
+    /// collision model would not include them, so no motion would keep them clear.
+    fn no_attached_objects(&self, state: &Value, path: &str) -> Result<()> {
+        let field = join(path, "attached_collision_objects");
+        match self.opt(state, "attached_collision_objects") {
+            Some(list) if !self.seq(list, &field)?.is_empty() => Err(self.err(
+                &field,
+                "objects attached to the robot are not supported: the robot's collision model would not \
+                 include them, so no motion would keep them clear",
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The constraints and settings of request `root` that are not applied (see
+    /// [`MotionPlanRequest::ignored`]); `n_goals` is the length of `goal_constraints`.
     fn ignored(&self, root: &Value, n_goals: usize) -> Result<Vec<String>> {
         let mut out = Vec::new();
+        // MoveIt reads 0 (and anything outside (0, 1]) as full speed
+        for key in [
+            "max_velocity_scaling_factor",
+            "max_acceleration_scaling_factor",
+        ] {
+            if let Some(v) = self.opt(root, key) {
+                let factor = self.number(v, key)?;
+                if factor > 0.0 && factor < 1.0 {
+                    out.push(key.to_string());
+                }
+            }
+        }
         if let Some(constraints) = self.opt(root, "path_constraints") {
             for key in [
                 "joint_constraints",
