@@ -259,11 +259,11 @@ def goal_configuration(
         more = ik(rng.uniform(lo, up, (3 * int(attempts), dof)))
         sols = np.vstack([sols, more])
         found = tiers(more)
-    meet = sols[np.all(pose_errors(robot, pose_goal, sols) <= ACCEPT_SLACK, axis=1)]
-    if not (found[0] or found[1]) and min(len(meet), EXPLORE_SOLUTIONS) > 0:
-        # a third: solutions that meet the pose but not the limits or the clearances, walked along their
-        # self-motion toward random configurations, every state on the way a candidate, until one clears
-        # the obstacles with its spheres
+    # a third: solutions that meet the pose but not the limits or the clearances, walked along their
+    # self-motion toward random configurations, every state on the way a candidate, until one clears the
+    # obstacles with its spheres
+    meet = [] if found[0] or found[1] else sols[np.all(pose_errors(robot, pose_goal, sols) <= ACCEPT_SLACK, 1)]
+    if min(len(meet), EXPLORE_SOLUTIONS) > 0:
         seeds = meet[rng.choice(len(meet), size=min(len(meet), EXPLORE_SOLUTIONS), replace=False)]
         aims = rng.uniform(lo, up, (len(seeds) * EXPLORE_AIMS, dof))
         walked = np.repeat(seeds, EXPLORE_AIMS, axis=0)
