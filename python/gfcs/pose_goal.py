@@ -79,23 +79,34 @@ def xyz_euler(d: np.ndarray) -> np.ndarray:
 
 
 def quaternion_xyzw(r: Any) -> np.ndarray:
-    """Unit quaternion [x, y, z, w] of the rotation matrix r (3, 3), w ≥ 0."""
-    d = np.asarray(r, dtype=np.float64)
-    t = np.trace(d)
-    if t > 0.0:  # the branch of the largest component, for accuracy
-        s = 2.0 * math.sqrt(1.0 + t)
-        w, v = 0.25 * s, np.array([d[2, 1] - d[1, 2], d[0, 2] - d[2, 0], d[1, 0] - d[0, 1]]) / s
-    else:
-        i = int(np.argmax(np.diag(d)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * math.sqrt(max(1e-300, 1.0 + d[i, i] - d[j, j] - d[k, k]))
-        v = np.zeros(3)
-        v[i] = 0.25 * s
-        v[j] = (d[j, i] + d[i, j]) / s
-        v[k] = (d[k, i] + d[i, k]) / s
-        w = (d[k, j] - d[j, k]) / s
-    q = np.append(v, w)
-    return -q if w < 0.0 else q
+    """Unit quaternions [x, y, z, w] of rotation matrices (Shepperd's method, branch on the largest term).
+
+    Args:
+        r: (..., 3, 3) rotation matrices.
+
+    Returns:
+        (..., 4) quaternions [x, y, z, w] with w ≥ 0.
+    """
+    m = np.asarray(r, dtype=np.float64)
+    if m.shape[-2:] != (3, 3):
+        raise ValueError(f"r: expected shape (..., 3, 3), got {m.shape}")
+    a = m.reshape(-1, 3, 3)
+    d0, d1, d2 = a[:, 0, 0], a[:, 1, 1], a[:, 2, 2]
+    # 4·x², 4·y², 4·z², 4·w² up to the factor; the largest is the best-conditioned pivot
+    pivots = np.stack([1.0 + d0 - d1 - d2, 1.0 - d0 + d1 - d2, 1.0 - d0 - d1 + d2, 1.0 + d0 + d1 + d2], axis=1)
+    case = np.argmax(pivots, axis=1)
+    s = 2.0 * np.sqrt(np.maximum(pivots[np.arange(a.shape[0]), case], 1e-300))  # = 4 × pivot component
+    xy, xz, yz = a[:, 0, 1] + a[:, 1, 0], a[:, 0, 2] + a[:, 2, 0], a[:, 1, 2] + a[:, 2, 1]  # 4xy, 4xz, 4yz
+    wx, wy, wz = a[:, 2, 1] - a[:, 1, 2], a[:, 0, 2] - a[:, 2, 0], a[:, 1, 0] - a[:, 0, 1]  # 4wx, 4wy, 4wz
+    quarter = 0.25 * s
+    forms = [np.stack([quarter, xy / s, xz / s, wx / s], 1),   # pivot x
+             np.stack([xy / s, quarter, yz / s, wy / s], 1),   # pivot y
+             np.stack([xz / s, yz / s, quarter, wz / s], 1),   # pivot z
+             np.stack([wx / s, wy / s, wz / s, quarter], 1)]   # pivot w
+    q = np.choose(case[:, None], forms)
+    q *= np.where(q[:, 3:4] < 0.0, -1.0, 1.0)
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    return q.reshape(m.shape[:-2] + (4,))
 
 
 def rotation_vector(d: np.ndarray) -> np.ndarray:

@@ -48,6 +48,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from gfcs import metrics as _metrics
+from gfcs.pose_goal import quaternion_xyzw as rotation_to_quaternion  # (..., 3, 3) -> (..., 4) [x, y, z, w]
 
 __all__ = [
     "record",
@@ -89,37 +90,6 @@ _HALF_SPACE_EXTENT = 2.0  # m, half edge of the square drawn for a half-space
 
 
 # ------------------------------------------------------------------------------------ small helpers
-def rotation_to_quaternion(r: np.ndarray) -> np.ndarray:
-    """Unit quaternions [x, y, z, w] of rotation matrices (Shepperd's method, branch on the largest term).
-
-    Args:
-        r: (..., 3, 3) rotation matrices.
-
-    Returns:
-        (..., 4) quaternions [x, y, z, w] with w ≥ 0.
-    """
-    m = np.asarray(r, dtype=np.float64)
-    if m.shape[-2:] != (3, 3):
-        raise ValueError(f"r: expected shape (..., 3, 3), got {m.shape}")
-    a = m.reshape(-1, 3, 3)
-    d0, d1, d2 = a[:, 0, 0], a[:, 1, 1], a[:, 2, 2]
-    # 4·x², 4·y², 4·z², 4·w² up to the factor; the largest is the best-conditioned pivot
-    pivots = np.stack([1.0 + d0 - d1 - d2, 1.0 - d0 + d1 - d2, 1.0 - d0 - d1 + d2, 1.0 + d0 + d1 + d2], axis=1)
-    case = np.argmax(pivots, axis=1)
-    s = 2.0 * np.sqrt(np.maximum(pivots[np.arange(a.shape[0]), case], 1e-300))  # = 4 × pivot component
-    xy, xz, yz = a[:, 0, 1] + a[:, 1, 0], a[:, 0, 2] + a[:, 2, 0], a[:, 1, 2] + a[:, 2, 1]  # 4xy, 4xz, 4yz
-    wx, wy, wz = a[:, 2, 1] - a[:, 1, 2], a[:, 0, 2] - a[:, 2, 0], a[:, 1, 0] - a[:, 0, 1]  # 4wx, 4wy, 4wz
-    quarter = 0.25 * s
-    forms = [np.stack([quarter, xy / s, xz / s, wx / s], 1),   # pivot x
-             np.stack([xy / s, quarter, yz / s, wy / s], 1),   # pivot y
-             np.stack([xz / s, yz / s, quarter, wz / s], 1),   # pivot z
-             np.stack([wx / s, wy / s, wz / s, quarter], 1)]   # pivot w
-    q = np.choose(case[:, None], forms)
-    q *= np.where(q[:, 3:4] < 0.0, -1.0, 1.0)
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    return q.reshape(m.shape[:-2] + (4,))
-
-
 def _part(name: Any) -> str:
     """One entity-path part for an arbitrary name (escaped; "_" for an empty one)."""
     text = str(name)
