@@ -238,11 +238,13 @@ def goal_configuration(
     clear = margins["obstacles"]["margin"] + CLEARANCE_SLACK
     self_clear = margins["self_collision"]["margin"] + CLEARANCE_SLACK
     reasons = {"constraints": 0, "limits": 0, "collision": 0}
+    met: List[np.ndarray] = []  # solutions that meet the pose but not the limits or the clearances
 
     def tiers(sols: np.ndarray) -> List[List[np.ndarray]]:
         """The valid solutions: [0: the spheres clear the obstacles by ``clear`` (and the meshes by the
         mesh margin, with a checker); 1: only the meshes clear the obstacles (the goal-contact attempt of
-        :func:`gfcs.optimize.solve` can reach it)]; both with the spheres ``self_clear`` apart."""
+        :func:`gfcs.optimize.solve` can reach it)]; both with the spheres ``self_clear`` apart. The others
+        that meet the pose go to ``met``."""
         out: List[List[np.ndarray]] = [[], []]
         spheres_clear = _metrics.obstacle_clearance(robot, scene, sols) >= clear
         self_ok = _metrics.self_clearance(robot, sols) >= self_clear
@@ -251,14 +253,17 @@ def goal_configuration(
                 reasons["constraints"] += 1
             elif np.any(q < lo - 1e-12) or np.any(q > up + 1e-12):
                 reasons["limits"] += 1
+                met.append(q)
             elif not apart or not (mesh_checker is None or _metrics.mesh_verdict(mesh_checker, scene, q)[2]):
                 reasons["collision"] += 1
+                met.append(q)
             elif free:
                 out[0].append(q)
             elif mesh_checker is not None:
                 out[1].append(q)
             else:
                 reasons["collision"] += 1
+                met.append(q)
         return out
 
     dof = q0.shape[0]
@@ -273,9 +278,8 @@ def goal_configuration(
     # a third: solutions that meet the pose but not the limits or the clearances, walked along their
     # self-motion toward random configurations, every state on the way a candidate, until one clears the
     # obstacles with its spheres
-    meet = [] if found[0] or found[1] else sols[np.all(pose_errors(robot, pose_goal, sols) <= ACCEPT_SLACK, 1)]
-    if min(len(meet), EXPLORE_SOLUTIONS) > 0:
-        seeds = meet[rng.choice(len(meet), size=min(len(meet), EXPLORE_SOLUTIONS), replace=False)]
+    if not (found[0] or found[1]) and min(len(met), EXPLORE_SOLUTIONS) > 0:
+        seeds = np.asarray(met)[rng.choice(len(met), size=min(len(met), EXPLORE_SOLUTIONS), replace=False)]
         aims = rng.uniform(lo, up, (len(seeds) * EXPLORE_AIMS, dof))
         walked = np.repeat(seeds, EXPLORE_AIMS, axis=0)
         for _ in range(REFINE_STEPS):
