@@ -1,5 +1,6 @@
 """The `gfcs` command line: help everywhere, a small solve with JSON on stdout, bench, generate, errors."""
 
+import dataclasses
 import subprocess
 import sys
 
@@ -220,7 +221,9 @@ def test_failure_hints_name_a_goal_inside_the_margin_and_a_start_in_collision():
     scene.add_sphere(center[k] + [0.0, 0.0, radii[k] + 0.011], 0.01)
     hints = cli._endpoint_hints(result, p.with_scene(scene))
     assert len(hints) == 1 and "the goal's collision spheres are 1.00 mm from the obstacles" in hints[0], hints
-    assert "one with collision meshes" in hints[0]  # without a mesh checker, the goal-contact attempt is the way
+    assert "one with collision meshes" not in hints[0]  # the shipped Panda's polytopes: solve tried the contact
+    bare = dataclasses.replace(p, mesh_checker=None).with_scene(scene)
+    assert "one with collision meshes" in cli._endpoint_hints(result, bare)[0]  # without a checker, the way to it
 
 
 def test_one_batch_row_is_a_one_batch_solve_sharing_the_first_batch():

@@ -258,7 +258,7 @@ def test_solve_refuses_a_robot_without_spheres_among_obstacles(sphere_and_mesh_s
 
 def test_mbm_mesh_checker_is_none_without_panda_urdf(tmp_path):
     assert problems.mbm_mesh_checker(tmp_path) is None
-    assert problems.mesh_checker_for(gfcs.Robot.panda()) is None
+    assert problems.mesh_checker_for(gfcs.Robot.panda()) is problems.shipped_panda_checker()  # its polytopes
 
 
 # ------------------------------------------------------------------------------------------ optimize
@@ -372,7 +372,8 @@ def test_mbm_panda_attaches_its_mesh_checker(shared_dir):
     assert all(p.mesh_checker is checker for p in suite)
     plain = problems.load_mbm_dir(shared_dir / "mbm", classes=["table_pick"], limit=1,
                                   robot=gfcs.Robot.panda())
-    assert plain[0].mesh_checker is None
+    shipped = plain[0].mesh_checker  # the shipped Panda's polytopes, fingers opened as the request says
+    assert shipped is not checker and shipped.robot.locked_positions == pytest.approx({"panda_finger_joint1": 0.065})
 
 
 @pytest.mark.parametrize("cls", problems.CLASSES)

@@ -170,8 +170,8 @@ def _robot(args: argparse.Namespace) -> Any:
 
 def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:
     """The problems with the mesh checker of ``--mesh-urdf`` (or the one found for ``--robot URDF``, see
-    :func:`gfcs.problems.mesh_urdf_for`); unchanged when there is none (the shipped Panda, whose spheres
-    cover its meshes, or a sphere-only robot file)."""
+    :func:`gfcs.problems.mesh_urdf_for`); unchanged when there is none (the shipped Panda, whose problems
+    carry its collision polytopes, or a sphere-only robot file)."""
     from gfcs import problems
 
     urdf = args.mesh_urdf

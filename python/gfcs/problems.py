@@ -8,7 +8,8 @@ A :class:`Problem` is one GFCOP instance: robot, scene E, start q₀ (and q̇₀
 A problem may carry a ``mesh_checker`` (:class:`gfcs.MeshChecker`): the robot's collision meshes, against which
 :mod:`gfcs.metrics` and :mod:`gfcs.optimize` validate trajectories the way independent benchmarks judge them
 (the fabric itself avoids obstacles with collision spheres). :func:`mbm_panda` builds one from the MBM Panda's
-``panda.urdf`` and :func:`load_mbm` / :func:`load_mbm_dir` attach it to problems solved with that robot. For
+``panda.urdf`` and :func:`load_mbm` / :func:`load_mbm_dir` attach it to problems solved with that robot;
+problems of the shipped Panda get its collision polytopes (:func:`shipped_panda_checker`). For
 a robot of your own, :func:`urdf_mesh_checker` builds one from a URDF with collision meshes and
 :func:`mesh_urdf_for` finds that URDF for a robot file (``gfcs solve/bench --robot`` do both).
 
@@ -45,6 +46,7 @@ __all__ = [
     "mbm_panda",
     "mbm_mesh_checker",
     "mesh_checker_for",
+    "shipped_panda_checker",
     "mesh_urdf_for",
     "urdf_mesh_checker",
     "with_shipped_panda_spheres",
@@ -211,7 +213,8 @@ def load_mbm(
         name: problem name (default ``"<folder>/<NNNN>"``).
         cls: problem class (default: the folder name).
         mesh_checker: the problem's :class:`gfcs.MeshChecker`; default :func:`mesh_checker_for` ``(robot)``
-            (the MBM Panda's meshes when ``robot`` came from :func:`mbm_panda`, else none).
+            (the MBM Panda's meshes when ``robot`` came from :func:`mbm_panda`, the shipped Panda's
+            polytopes for the shipped Panda, else none).
 
     Joints the robot (or the checker's robot) holds locked, such as the shipped Panda's fingers, are held
     where the request's start state puts them (:func:`held_as_requested`): the problem's robot is then a
@@ -617,9 +620,59 @@ def with_shipped_panda_spheres(robot: Any, srdf: Optional[Union[PathLike, str]] 
 
 
 def mesh_checker_for(robot: Any) -> Any:
-    """The mesh checker :func:`mbm_panda` attached to ``robot``, None for any other robot."""
+    """The mesh checker of ``robot``: the one :func:`mbm_panda` attached to its robot, the shipped Panda's
+    collision polytopes (:func:`shipped_panda_checker`, its fingers where ``robot`` holds them) for the
+    shipped Panda, None for any other robot."""
     entry = _MESH_CHECKERS.get(id(robot))
-    return entry[1] if entry is not None and entry[0] is robot else None
+    if entry is not None and entry[0] is robot:
+        return entry[1]
+    if _moves_as_shipped_panda(robot):
+        return held_as_requested(shipped_panda_checker(), robot.locked_positions)
+    return None
+
+
+#: The shipped Panda's collision polytopes, one OBJ per link (``tools/fit_hulls.py``; link frames, m).
+PANDA_HULLS = Path(__file__).with_name("data") / "panda_hulls"
+
+
+@functools.lru_cache(maxsize=None)
+def shipped_panda_checker() -> Any:
+    """A :class:`gfcs.MeshChecker` of the shipped Panda (:meth:`gfcs.Robot.panda`, fingers at 0.04 m) whose
+    collision shapes are the convex polytopes of :data:`PANDA_HULLS`: each contains its link's Franka
+    collision mesh and exceeds that mesh's convex hull by at most 2.8 mm (``tools/fit_hulls.py``: up to
+    146 planes per link, fitted to the hull's facets), where the covering spheres the fabric uses reach up
+    to 33 mm beyond the mesh. A
+    motion whose polytopes keep ``m`` from the obstacles keeps at least ``m`` with the Franka meshes.
+    Self-collision shape pairs follow the shipped SRDF. Built once."""
+    import gfcs
+
+    text = gfcs.panda_urdf()
+    for obj in sorted(PANDA_HULLS.glob("*.obj")):
+        element = f'<link name="{obj.stem}"/>'
+        if element not in text:
+            raise ValueError(f"{obj}: the shipped Panda has no link {obj.stem!r}")
+        text = text.replace(element, f'<link name="{obj.stem}"><collision><geometry><mesh filename='
+                                     f'"{obj.name}"/></geometry></collision></link>')
+    shipped = gfcs.Robot.panda()
+    robot = gfcs.Robot.from_urdf(text, base_link=shipped.link_names[0], ee_link="panda_hand",
+                                 active_joints=shipped.joint_names, mesh_dir=str(PANDA_HULLS),
+                                 srdf=gfcs.panda_srdf())
+    return gfcs.MeshChecker(robot.with_locked_positions(shipped.locked_positions))
+
+
+def _moves_as_shipped_panda(robot: Any, samples: int = 8, tol: float = 1e-9) -> bool:
+    """Whether ``robot`` is the shipped Panda up to its locked joints' positions: the same sphere model,
+    joints, limits and link poses (``samples`` seeded configurations, to ``tol`` m)."""
+    import gfcs
+
+    shipped = gfcs.Robot.panda()
+    if (robot.link_names != shipped.link_names or robot.joint_names != shipped.joint_names
+            or sphere_fingerprint(robot) != sphere_fingerprint(shipped)
+            or not (np.array_equal(robot.lower, shipped.lower) and np.array_equal(robot.upper, shipped.upper))):
+        return False
+    mine = robot.with_locked_positions(shipped.locked_positions) if robot.locked_positions else robot
+    q = np.random.default_rng(0).uniform(shipped.lower, shipped.upper, size=(samples, shipped.dof))
+    return bool(np.max(np.abs(mine.link_poses(q) - shipped.link_poses(q))) <= tol)
 
 
 def mbm_panda(path: Optional[PathLike] = None, fill_gaps: bool = True) -> Any:
