@@ -7,12 +7,26 @@ test is skipped with the reason, except under CI (``CI=true``) where its absence
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import sys
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+def load_script(relative: str) -> ModuleType:
+    """Import the script ``<repo root>/<relative>`` (a tool or bench, not part of the package) as a module
+    named after its file, registered in ``sys.modules`` (dataclasses and worker processes look it up)."""
+    path = REPO_ROOT / relative
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault(path.stem, module)
+    spec.loader.exec_module(module)
+    return module
 
 
 def shared_path() -> Path:

@@ -12,7 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import REPO_ROOT
+from conftest import REPO_ROOT, load_script
 
 BENCHES = REPO_ROOT / "benches"
 
@@ -67,14 +67,11 @@ def test_retrieval_baseline_compares_the_warm_starts(tmp_path):
 def test_retrieval_sampler_returns_the_nearest_contexts_targets():
     """Without noise the candidates are the buffer targets in order of context distance, repeated when
     the batch is larger than the buffer, and always inside the joint limits."""
-    import importlib.util
     from types import SimpleNamespace
 
     import numpy as np
 
-    spec = importlib.util.spec_from_file_location("retrieval_baseline", BENCHES / "retrieval_baseline.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("benches/retrieval_baseline.py")
     robot = SimpleNamespace(lower=[-1.0, -1.0], upper=[1.0, 1.0])
     contexts = np.array([[0.0, 0.0], [1.0, 0.0], [5.0, 5.0]])
     targets = np.array([[0.1, 0.1], [0.2, 0.2], [3.0, -3.0]])  # the last outside the limits

@@ -5,10 +5,8 @@ problems (skip without ../shared, fail under CI=true)."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -19,11 +17,9 @@ pytest.importorskip("fcl", reason="python-fcl (the 'test' extra) is the validato
 trimesh = pytest.importorskip("trimesh")
 yourdfpy = pytest.importorskip("yourdfpy")
 
-TOOL = Path(__file__).resolve().parent.parent / "tools" / "check_trajectories.py"
-spec = importlib.util.spec_from_file_location("check_trajectories", TOOL)
-ct = importlib.util.module_from_spec(spec)
-sys.modules["check_trajectories"] = ct  # dataclasses and the worker processes look the module up by name
-spec.loader.exec_module(ct)
+from conftest import load_script  # noqa: E402
+
+ct = load_script("tools/check_trajectories.py")
 
 # One prismatic joint x moves `link` (a 0.2 m cube centred at (x, 0, 0)); `post` (a 0.1 m cube) is fixed at
 # (-0.5, 0, 0); the scene holds a 0.2 m cube at (1, 0, 0). Closed forms for x in (-0.35, 0.8):

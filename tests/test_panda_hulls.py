@@ -9,8 +9,6 @@ plane (its lowest vertex).
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,21 +16,16 @@ import pytest
 from scipy.spatial import ConvexHull
 
 import gfcs
+from conftest import load_script
 from gfcs import generators, optimize, problems
 
-REPO_ROOT = Path(__file__).resolve().parent.parent
-TOOL = REPO_ROOT / "tools" / "fit_hulls.py"
 LINKS = [f"panda_link{i}" for i in range(8)] + ["panda_hand", "panda_leftfinger", "panda_rightfinger"]
 #: The largest distance (m) a polytope may exceed its link's collision meshes' convex hull by.
 EXCESS_TOL = 0.003
 
 
 def load_tool():
-    spec = importlib.util.spec_from_file_location("fit_hulls", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("fit_hulls", module)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("tools/fit_hulls.py")
 
 
 def read_obj(path: Path):

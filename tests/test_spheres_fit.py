@@ -7,7 +7,6 @@ meshes built by trimesh whose placement in the link frame is recomputed here fro
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import subprocess
@@ -19,6 +18,8 @@ import numpy as np
 import pytest
 import trimesh
 import yourdfpy
+
+from conftest import load_script
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 ASSETS = REPO_ROOT / "crates" / "fabric-core" / "assets"
@@ -36,11 +37,7 @@ COVER_TOL = 0.005
 
 def load_tool():
     """Import tools/fit_spheres.py as a module (it is a script, not part of the package)."""
-    spec = importlib.util.spec_from_file_location("fit_spheres", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("fit_spheres", module)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("tools/fit_spheres.py")
 
 
 fs = load_tool()
