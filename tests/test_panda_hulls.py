@@ -146,3 +146,13 @@ def test_moveit_problems_of_the_shipped_panda_are_validated_on_its_polytopes(tmp
     result = optimize.solve(loaded[0], batches=1, population=8, seed=0, threads=1)
     assert "mesh_clearance" in result.metrics
     assert result.success == (result.metrics["sphere_success"] and result.metrics["mesh_clearance"] > 0.001)
+
+
+def test_missing_polytope_files_are_named(tmp_path, monkeypatch):
+    monkeypatch.setattr(problems, "PANDA_HULLS", tmp_path)
+    problems.shipped_panda_checker.cache_clear()
+    try:
+        with pytest.raises(FileNotFoundError, match="collision polytopes are missing.*reinstall"):
+            problems.shipped_panda_checker()
+    finally:
+        problems.shipped_panda_checker.cache_clear()

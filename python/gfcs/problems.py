@@ -641,13 +641,20 @@ def shipped_panda_checker() -> Any:
     collision shapes are the convex polytopes of :data:`PANDA_HULLS`: each contains its link's Franka
     collision mesh and exceeds that mesh's convex hull by at most 2.8 mm (``tools/fit_hulls.py``: up to
     146 planes per link, fitted to the hull's facets), where the covering spheres the fabric uses reach up
-    to 33 mm beyond the mesh. A
-    motion whose polytopes keep ``m`` from the obstacles keeps at least ``m`` with the Franka meshes.
-    Self-collision shape pairs follow the shipped SRDF. Built once."""
+    to 33 mm beyond the mesh. A motion whose polytopes keep ``m`` from the obstacles keeps at least ``m``
+    with the Franka meshes. Self-collision shape pairs follow the shipped SRDF. Built once.
+
+    Raises:
+        FileNotFoundError: the polytope files are missing from the installation.
+    """
     import gfcs
 
+    files = sorted(PANDA_HULLS.glob("*.obj"))
+    if not files:
+        raise FileNotFoundError(f"the shipped Panda's collision polytopes are missing: no <link>.obj in "
+                                f"{PANDA_HULLS} (a broken installation: reinstall gfcs)")
     text = gfcs.panda_urdf()
-    for obj in sorted(PANDA_HULLS.glob("*.obj")):
+    for obj in files:
         element = f'<link name="{obj.stem}"/>'
         if element not in text:
             raise ValueError(f"{obj}: the shipped Panda has no link {obj.stem!r}")
