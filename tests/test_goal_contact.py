@@ -82,5 +82,8 @@ def test_solve_reaches_a_goal_in_contact_only_with_the_goal_contact_attempt(robo
     assert contact["clearance_floor"] == pytest.approx(-0.005)
     assert contact["clearance_floor"] <= res.metrics["min_clearance"] < 0 and res.metrics["mesh_clearance"] > 0.001
     assert np.linalg.norm(res.trajectory.q[-1] - GOAL) <= metrics.DEFAULT_SUCCESS_TOL
+    # the overlap the floor accepts is not a collision in the attempt's cost (eq. 4 + collision penalty)
+    assert res.settings["collision_tol"] == pytest.approx(0.005) and without.settings["collision_tol"] == 0.0
+    assert res.cost == pytest.approx(float(np.sum(res.t_stars)))
     with pytest.raises(ValueError, match="goal_contact_slack"):
         optimize.solve(problem, goal_contact_slack=-1.0, **SMALL)

@@ -458,9 +458,12 @@ class RolloutSettings:
         waypoint_tol: ε for the intermediate commands [rad] (looser: a command only steers; 0.1 before,
             0.3 gave up to 5 % shorter times to goal in 6 of 7 MotionBenchMaker classes, success unchanged).
         penalty: p of eq. 4/8 added when the goal is not reached [s].
-        collision_penalty: added when the sphere model collides (min clearance < 0) [s]. An extension of
-            eq. 4 (the paper's cost has no collision term): success requires a collision-free motion, so
-            colliding candidates must rank behind collision-free ones.
+        collision_penalty: added when the sphere model collides (min clearance < −``collision_tol``) [s].
+            An extension of eq. 4 (the paper's cost has no collision term): success requires a
+            collision-free motion, so colliding candidates must rank behind collision-free ones.
+        collision_tol: sphere overlap [m], ≥ 0, that does not count as a collision in the cost (0: none).
+            :func:`solve`'s goal-contact attempt sets it to the overlap its clearance floor accepts, so that
+            the candidates it may return are not penalised like those that collide deeper.
         distance_penalty: added per rad of the closest approach to the goal when the goal is not reached
             [s/rad]. An extension of eq. 4 (default 0, the paper's cost): eq. 4 ranks failed candidates
             only by their waypoint times, so a batch without a success tells CMA-ES nothing; this term
@@ -492,6 +495,7 @@ class RolloutSettings:
     waypoint_tol: float = 0.3
     penalty: float = 100.0
     collision_penalty: float = 100.0
+    collision_tol: float = 0.0
     distance_penalty: float = 0.0
     blend_time: float = 0.5
     integrator: str = "euler"
@@ -509,6 +513,7 @@ class RolloutSettings:
             "waypoint_tol": self.waypoint_tol,
             "penalty": self.penalty,
             "collision_penalty": self.collision_penalty,
+            "collision_tol": self.collision_tol,
             "distance_penalty": self.distance_penalty,
             "blend_time": self.blend_time,
             "integrator": self.integrator,
@@ -803,6 +808,7 @@ def solve(
         contact = goal_contact(problem, fabric, goal_contact_slack, mesh_checker, mesh_margin)
     if contact is not None:
         margins, floor = contact
+        options["settings"] = dataclasses.replace(settings, collision_tol=max(settings.collision_tol, -floor))
         attempts.append(attempt(n_commands, fabric.with_obstacle_margins(margins), floor=floor))
     return done(combine_attempts(attempts))
 
