@@ -462,8 +462,9 @@ class RolloutSettings:
             An extension of eq. 4 (the paper's cost has no collision term): success requires a
             collision-free motion, so colliding candidates must rank behind collision-free ones.
         collision_tol: sphere overlap [m], ≥ 0, that does not count as a collision in the cost (0: none).
-            :func:`solve`'s goal-contact attempt sets it to the overlap its clearance floor accepts, so that
-            the candidates it may return are not penalised like those that collide deeper.
+            An attempt with a clearance floor below 0 (:func:`solve`'s goal-contact attempt) raises it to
+            the overlap the floor accepts, so that the candidates it may return are not penalised like
+            those that collide deeper.
         distance_penalty: added per rad of the closest approach to the goal when the goal is not reached
             [s/rad]. An extension of eq. 4 (default 0, the paper's cost): eq. 4 ranks failed candidates
             only by their waypoint times, so a batch without a success tells CMA-ES nothing; this term
@@ -808,7 +809,6 @@ def solve(
         contact = goal_contact(problem, fabric, goal_contact_slack, mesh_checker, mesh_margin)
     if contact is not None:
         margins, floor = contact
-        options["settings"] = dataclasses.replace(settings, collision_tol=max(settings.collision_tol, -floor))
         attempts.append(attempt(n_commands, fabric.with_obstacle_margins(margins), floor=floor))
     return done(combine_attempts(attempts))
 
@@ -873,7 +873,11 @@ def _solve_commands(
     mesh_margin: float, callback: Optional[Callable[[BatchInfo], Optional[bool]]],
     clearance_floor: float = 0.0,
 ) -> SolveResult:
-    """GFCS with exactly ``n_commands`` free commands (the body of :func:`solve`)."""
+    """GFCS with exactly ``n_commands`` free commands (the body of :func:`solve`). A ``clearance_floor``
+    below 0 also raises ``settings.collision_tol`` to its overlap: what success accepts is no collision in
+    the cost either."""
+    if clearance_floor < 0.0:
+        settings = dataclasses.replace(settings, collision_tol=max(settings.collision_tol, -clearance_floor))
     robot = problem.robot
     dof = int(robot.dof)
     q0, qd0, goal = common["q0"], common["qd0"], common["goal"]
