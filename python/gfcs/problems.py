@@ -660,21 +660,28 @@ def shipped_panda_checker() -> Any:
             raise ValueError(f"{obj}: the shipped Panda has no link {obj.stem!r}")
         text = text.replace(element, f'<link name="{obj.stem}"><collision><geometry><mesh filename='
                                      f'"{obj.name}"/></geometry></collision></link>')
-    shipped = gfcs.Robot.panda()
+    shipped = _shipped_panda()[0]
     robot = gfcs.Robot.from_urdf(text, base_link=shipped.link_names[0], ee_link="panda_hand",
                                  active_joints=shipped.joint_names, mesh_dir=str(PANDA_HULLS),
                                  srdf=gfcs.panda_srdf())
     return gfcs.MeshChecker(robot.with_locked_positions(shipped.locked_positions))
 
 
-def _moves_as_shipped_panda(robot: Any, samples: int = 8, tol: float = 1e-9) -> bool:
-    """Whether ``robot`` is the shipped Panda up to its locked joints' positions: the same sphere model,
-    joints, limits and link poses (``samples`` seeded configurations, to ``tol`` m)."""
+@functools.lru_cache(maxsize=None)
+def _shipped_panda() -> Tuple[Any, str]:
+    """The shipped Panda and its :func:`sphere_fingerprint`, built once (robots are immutable)."""
     import gfcs
 
     shipped = gfcs.Robot.panda()
+    return shipped, sphere_fingerprint(shipped)
+
+
+def _moves_as_shipped_panda(robot: Any, samples: int = 8, tol: float = 1e-9) -> bool:
+    """Whether ``robot`` is the shipped Panda up to its locked joints' positions: the same sphere model,
+    joints, limits and link poses (``samples`` seeded configurations, to ``tol`` m)."""
+    shipped, fingerprint = _shipped_panda()
     if (robot.link_names != shipped.link_names or robot.joint_names != shipped.joint_names
-            or sphere_fingerprint(robot) != sphere_fingerprint(shipped)
+            or sphere_fingerprint(robot) != fingerprint
             or not (np.array_equal(robot.lower, shipped.lower) and np.array_equal(robot.upper, shipped.upper))):
         return False
     mine = robot.with_locked_positions(shipped.locked_positions) if robot.locked_positions else robot
