@@ -162,3 +162,23 @@ def test_solve_returns_trajectories_within_the_panda_limits():
     assert raw.trajectory.t[-1] < r.trajectory.t[-1] < 1.1 * raw.trajectory.t[-1]
     np.testing.assert_array_equal(r.trajectory.q[[0, -1]], raw.trajectory.q[[0, -1]])
     assert r.metrics["ee_length"] == pytest.approx(raw.metrics["ee_length"], rel=2e-3)
+
+
+def test_a_blend_toward_a_goal_at_a_limit_is_shortened_until_it_keeps_the_limit():
+    dt, upper = 0.01, np.full(7, 1.0)
+    goal = np.full(7, 0.5)
+    goal[1] = 1.0  # joint 2 at its upper limit
+    t = np.array([0.0])
+    q = goal[None] - 0.02
+    qd = np.zeros((1, 7))
+    qd[0, 1] = 0.9  # still moving toward the limit, as a fabric reaching its tolerance does
+    _, free, _ = append_goal_blend(t, q, qd, np.zeros(7), goal, dt)
+    assert free[:, 1].max() > upper[1] + 1e-3  # the quintic passes the limit and comes back
+    t2, kept, qd2 = append_goal_blend(t, q, qd, np.zeros(7), goal, dt, lower=-upper, upper=upper)
+    assert kept[:, 1].max() <= upper[1]
+    assert len(t2) < len(free)  # a shorter blend
+    np.testing.assert_array_equal(kept[-1], goal)
+    np.testing.assert_array_equal(qd2[-1], 0.0)
+    # limits the quintic keeps anyway change nothing
+    _, wide, _ = append_goal_blend(t, q, qd, np.zeros(7), goal, dt, lower=-upper - 1, upper=upper + 1)
+    np.testing.assert_array_equal(wide, free)

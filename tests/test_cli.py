@@ -52,9 +52,12 @@ def test_solve_selection_and_timing_options_reach_the_result():
     result = SolveResult.from_json(r.stdout)
     assert result.settings["length_slack"] == 0.3 and result.settings["mesh_margin"] == 0.004
     assert result.wall_time > result.solve_time > 0
-    r = run("solve", "--json", "-", "--no-acceleration-limits", *SMALL)
+    r = run("solve", "--json", "-", "--no-acceleration-limits", "--limit-hold-off", "0.03", *SMALL)
     assert r.returncode in (0, 1), r.stderr
-    assert SolveResult.from_json(r.stdout).settings["limit_acceleration"] is False
+    settings = SolveResult.from_json(r.stdout).settings
+    assert settings["limit_acceleration"] is False and settings["limit_hold_off"] == 0.03
+    r = run("solve", "--limit-hold-off", "-1", *SMALL)
+    assert r.returncode == 2 and "limit_hold_off" in r.stderr and "Traceback" not in r.stderr
     r = run("solve", "--length-slack", "-1", *SMALL)
     assert r.returncode == 2 and "length_slack" in r.stderr and "Traceback" not in r.stderr
     r = run("solve", "--mesh-margin", "-1", *SMALL)

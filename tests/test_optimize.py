@@ -1,5 +1,6 @@
 """gfcs.optimize: Algorithm 1 on synthetic costs (pure numpy), then end-to-end solves with the bindings."""
 
+import dataclasses
 import math
 import types
 
@@ -446,3 +447,57 @@ def test_result_json_round_trip(shelf_problem, solved):
     loaded = SolveResult.from_json(text)
     again = opt.replay(loaded, shelf_problem.scene, robot=shelf_problem.robot)
     np.testing.assert_array_equal(again.trajectory.q, solved.trajectory.q)
+
+
+# ------------------------------------------------------------------------------ goals at a joint limit
+@pytest.fixture(scope="module")
+def limit_problem():
+    """The shipped Panda in an empty scene, its goal with joint 5 at its upper limit (as MotionBenchMaker's
+    cage goals put it, 2.8973 rad)."""
+    import gfcs
+    from gfcs import generators
+    from gfcs.problems import Problem
+
+    robot = gfcs.Robot.panda()
+    goal = generators.READY.copy()
+    goal[4] = robot.upper[4]
+    return Problem("limit", robot, gfcs.Scene(), q0=generators.READY, goal=goal)
+
+
+def test_fabric_goal_moves_only_joints_within_the_barrier_margin_plus_hold_off(limit_problem):
+    fabric = opt.make_fabric(limit_problem)
+    margin = fabric.config.to_dict()["joint_limits"]["margin"]
+    lower, upper = np.asarray(limit_problem.robot.lower), np.asarray(limit_problem.robot.upper)
+    goal = limit_problem.goal.copy()
+    goal[0] = lower[0] + margin + 0.01  # within margin + 0.015 of the lower limit
+    commanded = opt.fabric_goal(fabric, goal, 0.015)
+    expected = goal.copy()
+    expected[0] = lower[0] + margin + 0.015
+    expected[4] = upper[4] - margin - 0.015
+    np.testing.assert_array_equal(commanded, expected)
+    assert goal[4] == upper[4]  # the input is not changed
+    far = limit_problem.q0
+    np.testing.assert_array_equal(opt.fabric_goal(fabric, far, 0.015), far)
+    off = opt.make_fabric(limit_problem, {"joint_limits": {"enabled": False}})
+    np.testing.assert_array_equal(opt.fabric_goal(off, goal, 0.015), goal)
+    for bad in (-0.01, math.nan, math.inf):
+        with pytest.raises(ValueError, match="limit_hold_off"):
+            opt.fabric_goal(fabric, goal, bad)
+
+
+def test_a_goal_at_a_joint_limit_is_reached_within_the_limits(limit_problem):
+    p = limit_problem
+    fabric = opt.make_fabric(p)
+    lower, upper = np.asarray(p.robot.lower), np.asarray(p.robot.upper)
+    # commanded as it is, the limit barrier holds joint 5 about 0.018 rad off the goal: a tolerance below
+    # that is never met
+    tight = opt.RolloutSettings(tol=0.005)
+    traj, _, reached, _ = opt.rollout_commands(fabric, p.q0, p.qd0, p.goal, np.zeros((0, 7)),
+                                               dataclasses.replace(tight, limit_hold_off=0.0))
+    assert not reached and np.linalg.norm(traj.q[-1] - p.goal) > 0.01
+    traj, _, reached, _ = opt.rollout_commands(fabric, p.q0, p.qd0, p.goal, np.zeros((0, 7)), tight)
+    assert reached
+    np.testing.assert_array_equal(traj.q[-1], p.goal)
+    assert np.all(traj.q >= lower) and np.all(traj.q <= upper)
+    result = opt.solve(p, method="gf")
+    assert result.success and result.metrics["within_limits"] and result.metrics["final_error"] == 0.0

@@ -115,6 +115,9 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
     r.add_argument("--tol", type=float, default=None, help="goal tolerance, rad (default: see gfcs.optimize)")
     r.add_argument("--waypoint-tol", type=float, default=None, help="tolerance of intermediate commands, rad")
+    r.add_argument("--limit-hold-off", type=float, default=None, metavar="RAD",
+                   help="a goal joint nearer its limit than the barrier margin plus this is commanded that far "
+                        "off it and blended onto the goal, rad (default: see gfcs.optimize; 0: commanded as is)")
     r.add_argument("--integrator", choices=["euler", "rk4"], default="euler", help="integrator (default euler)")
     r.add_argument("--no-acceleration-limits", action="store_true",
                    help="return the fabric's own timing (default: re-timed along the same path within the "
@@ -130,6 +133,8 @@ def _settings(args: argparse.Namespace) -> Any:
         s.tol = args.tol
     if args.waypoint_tol is not None:
         s.waypoint_tol = args.waypoint_tol
+    if args.limit_hold_off is not None:
+        s.limit_hold_off = args.limit_hold_off
     return s
 
 

@@ -31,6 +31,13 @@ lowest-cost candidate. ``metrics["selection_rank"]`` is the rank of the returned
 optimiser's cost order (0: the lowest cost) and ``metrics["mesh_candidates_checked"]`` how many were
 rolled out.
 
+Goals at a joint limit (``RolloutSettings.limit_hold_off``): the fabric's joint-limit barrier keeps every
+joint ``joint_limits.margin`` from its limits and holds it off a goal nearer than that. Every rollout is
+therefore commanded :func:`fabric_goal`, the goal with each such joint moved ``limit_hold_off`` further
+in, and a reached rollout ends with the goal blend (:mod:`gfcs.blend`) from there to the goal itself, so
+the returned trajectory still ends exactly at the goal. Goals farther from the limits are commanded as they
+are (every MotionBenchMaker goal for the MBM Panda, whose URDF limits are 0.07 rad wider than Franka's).
+
 Warm start (Alg. 1, first line): CMA-ES runs in normalised coordinates u = (y − lower)/(upper − lower) ∈
 [0, 1]^dim with pycma's ``BoundTransform`` box handling. The sampler's candidates are passed to
 ``CMAEvolutionStrategy.inject(..., force=True)`` as genotypes (``boundary_handler.inverse``), so the first
@@ -485,6 +492,11 @@ class RolloutSettings:
             handovers; re-timed, the motions of a class last 0-2 % longer and their LDJ rises by up to 0.35.
         acceleration_limits: (dof,) limits [rad/s²]; None: the robot's known ones
             (:func:`gfcs.blend.acceleration_limits`, the Panda's), and no re-timing for other robots.
+        limit_hold_off: a goal joint nearer a limit than the fabric's joint-limit margin plus this [rad]
+            is commanded at that distance instead (:func:`fabric_goal`), and the goal blend covers the
+            rest: the limit barrier holds the fabric off a goal at its limit (MotionBenchMaker's cage goals
+            put joint 5 at 2.8973 rad, the shipped Panda's limit; the fabric stopped 0.03-0.05 rad short).
+            Goals farther from the limits are commanded as they are.
 
     The defaults equal the core's (``RolloutOptions`` / ``SequenceOptions`` in ``fabric-core``) except
     ``collision_penalty`` (0 in the core) and ``tol`` (0.01 in the core, whose rollouts have no blend).
@@ -504,6 +516,7 @@ class RolloutSettings:
     stall_progress: float = 0.005
     limit_acceleration: bool = True
     acceleration_limits: Optional[Tuple[float, ...]] = None
+    limit_hold_off: float = 0.015
 
     def as_kwargs(self) -> Dict[str, Any]:
         """Keyword arguments for ``gfcs.Fabric.rollout_sequence`` / ``evaluate``."""
@@ -537,6 +550,27 @@ def make_fabric(problem: Any, fabric_config: Any = None, scene: Any = None) -> A
     return gfcs.Fabric(problem.robot, problem.scene if scene is None else scene, config)
 
 
+def fabric_goal(fabric: Any, goal: Any, hold_off: float) -> np.ndarray:
+    """The configuration (dof,) [rad] the fabric is commanded for ``goal`` (dof,): each joint at least
+    ``joint_limits.margin`` + ``hold_off`` [rad, ≥ 0] from its limits (``goal`` itself when every joint is
+    that far already, or when the fabric's limit barrier is off). The barrier holds the fabric off any
+    configuration nearer its limit than that, so a rollout could not reach such a goal; the goal blend
+    (:func:`finish_rollout`) then covers the rest. A joint whose range is narrower than twice that room
+    keeps its goal."""
+    goal = np.asarray(goal, dtype=np.float64)
+    hold_off = float(hold_off)
+    if not (math.isfinite(hold_off) and hold_off >= 0.0):
+        raise ValueError(f"limit_hold_off must be a finite number >= 0 [rad], got {hold_off}")
+    limits = fabric.config.to_dict()["joint_limits"]
+    if not limits["enabled"]:
+        return goal
+    room = float(limits["margin"]) + hold_off
+    robot = fabric.robot
+    lower = np.asarray(robot.lower, dtype=np.float64) + room
+    upper = np.asarray(robot.upper, dtype=np.float64) - room
+    return np.where(lower <= upper, np.minimum(np.maximum(goal, lower), upper), goal)
+
+
 def rollout_commands(
     fabric: Any, q0: Any, qd0: Any, goal: Any, commands: Any, settings: RolloutSettings
 ) -> Tuple[Trajectory, float, bool, np.ndarray]:
@@ -552,11 +586,13 @@ def rollout_commands(
         settings: :class:`RolloutSettings`.
 
     Returns:
-        (trajectory, cost of eq. 4, goal reached, t_stars (n + 1,)).
+        (trajectory, cost of eq. 4, goal reached, t_stars (n + 1,)). The fabric is commanded
+        :func:`fabric_goal` for the goal (``settings.limit_hold_off``); the blend ends at ``goal``.
     """
     dof = int(np.asarray(goal).shape[0])
     cmds = np.asarray(commands, dtype=np.float64).reshape(-1, dof)
-    seq = fabric.rollout_sequence(q0, qd0, cmds, goal, **settings.as_kwargs())
+    seq = fabric.rollout_sequence(q0, qd0, cmds, fabric_goal(fabric, goal, settings.limit_hold_off),
+                                  **settings.as_kwargs())
     return finish_rollout(fabric, seq, goal, settings)
 
 
@@ -571,7 +607,7 @@ def finish_rollout(
     if seq.reached:
         # End exactly at the goal, at rest (see gfcs.blend): the fabric only converges asymptotically.
         t, q, qd = append_goal_blend(t, q, qd, qdd[-1], np.asarray(goal, dtype=np.float64),
-                                     settings.dt)
+                                     settings.dt, np.asarray(fabric.robot.lower), np.asarray(fabric.robot.upper))
     limits = settings.acceleration_limits
     limits = acceleration_limits(fabric.robot) if limits is None else limits
     if settings.limit_acceleration and limits is not None:
@@ -605,6 +641,7 @@ def _select_candidate(
     dof = int(robot.dof)
     q0, qd0 = np.asarray(problem.q0, dtype=np.float64), np.asarray(problem.qd0, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
+    commanded = fabric_goal(fabric, goal, settings.limit_hold_off)
     order = np.argsort(opt.all_costs, kind="stable")
     keep = [int(order[0])] + [int(k) for k in order[1:] if opt.all_costs[k] < settings.penalty]
     keep = keep[:max(1, int(mesh_candidates))]
@@ -615,7 +652,7 @@ def _select_candidate(
         todo = [k for k in dict.fromkeys(ks) if k not in rolled]
         if todo:
             x = np.stack([np.asarray(opt.all_x[k], dtype=np.float64) for k in todo])
-            *_, seqs = fabric.evaluate(q0, qd0, goal, x, threads=threads, return_trajectories=True,
+            *_, seqs = fabric.evaluate(q0, qd0, commanded, x, threads=threads, return_trajectories=True,
                                        **settings.as_kwargs())
             for k, row, seq in zip(todo, x, seqs):
                 rolled[k] = (row.reshape(n_commands, dof), *finish_rollout(fabric, seq, goal, settings))
@@ -885,9 +922,10 @@ def _solve_commands(
     lower = np.tile(np.asarray(robot.lower, dtype=np.float64), n_commands)
     upper = np.tile(np.asarray(robot.upper, dtype=np.float64), n_commands)
     eval_kwargs = settings.as_kwargs()
+    commanded = fabric_goal(fabric, goal, settings.limit_hold_off)
 
     def cost_fn(y: np.ndarray) -> np.ndarray:
-        costs, _reached, _clearance = fabric.evaluate(q0, qd0, goal, y, threads=threads, **eval_kwargs)
+        costs, _reached, _clearance = fabric.evaluate(q0, qd0, commanded, y, threads=threads, **eval_kwargs)
         return np.asarray(costs, dtype=np.float64)
 
     def warm_start(n: int, rng: np.random.Generator) -> np.ndarray:
