@@ -156,3 +156,18 @@ def test_missing_polytope_files_are_named(tmp_path, monkeypatch):
             problems.shipped_panda_checker()
     finally:
         problems.shipped_panda_checker.cache_clear()
+
+
+def test_the_fitted_planes_do_not_depend_on_the_order_of_the_points():
+    """A mesh-like point set (a faceted cylinder with flat caps, whose hull has coplanar points): qhull lists
+    its facets in an order that depends on the input's, which the k-means seeding must not see."""
+    tool = load_tool()
+    rng = np.random.default_rng(3)
+    ang = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+    rings = [np.column_stack([0.06 * np.cos(ang), 0.06 * np.sin(ang), np.full(48, z)]) for z in (-0.1, 0.0, 0.1)]
+    caps = [np.column_stack([0.03 * np.cos(ang[::3]), 0.03 * np.sin(ang[::3]), np.full(16, z)]) for z in (-0.1, 0.1)]
+    points = np.vstack(rings + caps)
+    dirs = tool.directions(points, 60)
+    assert len(dirs) > 26 + 20
+    for _ in range(3):
+        np.testing.assert_allclose(tool.directions(points[rng.permutation(len(points))], 60), dirs, atol=1e-12)

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Fit a bounding convex polytope to each link's collision geometry in a URDF, for mesh-based validation.
 
-For every link with ``<collision><mesh>`` elements, the mesh vertices (placed by each element's ``<origin>`` and
-``scale``, in metres in the URDF link frame) are bounded by the half-spaces ``d_i . x <= h_i``, with ``h_i`` the
+For every link with collision geometry, its vertices (read by ``fit_spheres.load_link_meshes``: each element's
+``<origin>`` and ``scale`` applied, in metres in the URDF link frame) are bounded by the half-spaces ``d_i . x <= h_i``, with ``h_i`` the
 largest ``d_i . v`` over the vertices (the support function). The directions ``d_i`` are the 26 of the axes, face
 diagonals and cube diagonals, and ``--planes`` more: the centres of a seeded spherical k-means of the outward
 normals of the vertices' convex hull, each facet weighted by its area, so that the planes follow the flat parts
@@ -10,8 +10,9 @@ of the mesh. The intersection of those half-spaces is a convex polytope that con
 mesh point is a convex combination of its vertices, and every vertex satisfies every inequality), so a state
 whose polytopes clear an obstacle by ``m`` leaves the meshes at least ``m`` clear too. It exceeds the mesh's
 convex hull by the report's ``excess`` (the Hausdorff distance between the two convex sets, from their support
-functions on 20,000 seeded random directions): with the default 120 planes, 1.1-2.8 mm on the Panda's links
-(0 for a link whose hull has fewer facet directions than that) with 18-253 vertices per link; a Fibonacci
+functions on 20,000 seeded random directions). The k-means runs with ``--seeds`` seeds (default 8) and the
+polytope with the smallest excess is kept: with the default 120 planes, 0.8-2.7 mm on the Panda's links (0 for
+a link whose hull has fewer facet directions than that) with 18-253 vertices per link (one seed: 0.9-3.2 mm); a Fibonacci
 sphere of 2048 directions instead came to 0.7-3.6 mm with 223-1325 vertices (the meshes' sharp edges need
 many directions when they are not chosen from the mesh).
 
@@ -32,73 +33,35 @@ import argparse
 import itertools
 import json
 import sys
-import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Dict, List, Tuple
 
 import numpy as np
 from scipy.spatial import ConvexHull, HalfspaceIntersection
 
-def _rpy_matrix(rpy: np.ndarray) -> np.ndarray:
-    """URDF fixed-axis roll-pitch-yaw (rad) -> rotation matrix R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
-
-
-def _resolve(filename: str, urdf_dir: Path) -> Path:
-    """``package://pkg/rest`` -> the first of ``<dir>/pkg/rest``, ``<dir>/rest``, ``<dir>/../rest`` that exists;
-    other names relative to the URDF's folder."""
-    if filename.startswith("package://"):
-        pkg, _, rest = filename[len("package://"):].partition("/")
-        for candidate in (urdf_dir / pkg / rest, urdf_dir / rest, urdf_dir.parent / rest):
-            if candidate.is_file():
-                return candidate
-        raise FileNotFoundError(f"mesh {filename!r} not found next to {urdf_dir}")
-    path = Path(filename[len("file://"):] if filename.startswith("file://") else filename)
-    return path if path.is_absolute() else urdf_dir / path
-
-
-def _obj_vertices(path: Path) -> np.ndarray:
-    """(V, 3) vertex positions of a Wavefront OBJ file (its ``v`` lines)."""
-    rows = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
-    if not rows:
-        raise ValueError(f"{path}: no vertices")
-    return np.array(rows, dtype=np.float64)
-
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fit_spheres import load_link_meshes  # noqa: E402  (the sibling tool's URDF reader)
 
 def link_points(urdf: Path) -> Dict[str, np.ndarray]:
-    """{link: (V, 3) collision-mesh vertices in the link frame, m} for every link with collision meshes."""
-    root = ET.parse(urdf).getroot()
-    out: Dict[str, np.ndarray] = {}
-    for link in root.findall("link"):
-        parts = []
-        for col in link.findall("collision"):
-            mesh = col.find("geometry/mesh")
-            if mesh is None:
-                raise ValueError(f"{urdf}: link {link.get('name')}: only mesh collisions are supported")
-            origin = col.find("origin")
-            xyz = np.array((origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split(), float)
-            rpy = np.array((origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split(), float)
-            scale = np.array(mesh.get("scale", "1 1 1").split(), float)
-            v = _obj_vertices(_resolve(mesh.get("filename"), urdf.parent)) * scale
-            parts.append(v @ _rpy_matrix(rpy).T + xyz)
-        if parts:
-            out[link.get("name")] = np.vstack(parts)
-    return out
+    """{link: (V, 3) collision-geometry vertices in the link frame, m} for every link with collision geometry,
+    as the sibling sphere fitter reads them (``fit_spheres.load_link_meshes``: origins, scales, package
+    paths, duplicate vertices merged)."""
+    return {name: np.asarray(mesh.vertices, dtype=np.float64) for name, mesh in load_link_meshes(urdf).items()}
 
 
 def directions(points: np.ndarray, planes: int, seed: int = 0, iterations: int = 50) -> np.ndarray:
     """(26 + k, 3) unit vectors: axes, face and cube diagonals, then k <= ``planes`` centres of a spherical
-    k-means of the outward facet normals of the points' convex hull, weighted by facet area (seeded)."""
+    k-means of the outward facet normals of the points' convex hull, weighted by facet area (seeded). The
+    hull's triangles are taken sorted by normal and area (to 1e-9), so that the result does not depend on the
+    order of the points (qhull lists its facets in an order that does)."""
     fixed = np.array([c for c in itertools.product((-1, 0, 1), repeat=3) if any(c)], dtype=np.float64)
     fixed /= np.linalg.norm(fixed, axis=1, keepdims=True)
     hull = ConvexHull(points)
-    normals = hull.equations[:, :3]
     a, b, c = (points[hull.simplices[:, i]] for i in range(3))
-    weights = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    areas = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    key = np.round(np.column_stack([hull.equations[:, :3], areas]), 9)
+    order = np.lexsort(key.T[::-1])
+    normals, weights = hull.equations[order, :3], areas[order]
     rng = np.random.default_rng(seed)
     k = min(planes, len(normals))
     centres = normals[rng.choice(len(normals), size=k, replace=False, p=weights / weights.sum())]
@@ -146,17 +109,23 @@ def write_obj(path: Path, verts: np.ndarray, faces: List[List[int]], header: str
 
 def main(argv: List[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("urdf", type=Path, help="URDF whose links have <collision><mesh> elements (OBJ files)")
+    p.add_argument("urdf", type=Path, help="URDF whose links have collision geometry")
     p.add_argument("--out-dir", type=Path, required=True, help="folder for <link>.obj")
     p.add_argument("--planes", type=int, default=120, help="planes fitted to the hull's facets besides the 26 "
                    "fixed ones (default 120)")
+    p.add_argument("--seeds", type=int, default=8, help="k-means seeds tried per link; the polytope with the "
+                   "smallest excess over the hull is kept (default 8)")
     p.add_argument("--report", type=Path, help="JSON file for the per-link report")
     args = p.parse_args(argv)
     args.out_dir.mkdir(parents=True, exist_ok=True)
     report = {}
     for link, pts in link_points(args.urdf).items():
-        dirs = directions(pts, args.planes)
-        verts, faces = polytope(pts, dirs)
+        fits = []
+        for seed in range(max(1, args.seeds)):
+            dirs = directions(pts, args.planes, seed)
+            verts, faces = polytope(pts, dirs)
+            fits.append((excess(pts, verts), len(verts), seed, dirs, verts, faces))
+        _, _, _, dirs, verts, faces = min(fits, key=lambda fit: fit[:3])
         header = (f"bounding polytope of {link}'s collision meshes in {args.urdf.name}: {len(dirs)} planes "
                   f"(tools/fit_hulls.py), m, link frame")
         write_obj(args.out_dir / f"{link}.obj", verts, faces, header)

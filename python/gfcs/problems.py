@@ -639,7 +639,7 @@ PANDA_HULLS = Path(__file__).with_name("data") / "panda_hulls"
 def shipped_panda_checker() -> Any:
     """A :class:`gfcs.MeshChecker` of the shipped Panda (:meth:`gfcs.Robot.panda`, fingers at 0.04 m) whose
     collision shapes are the convex polytopes of :data:`PANDA_HULLS`: each contains its link's Franka
-    collision mesh and exceeds that mesh's convex hull by at most 2.8 mm (``tools/fit_hulls.py``: up to
+    collision mesh and exceeds that mesh's convex hull by at most 2.7 mm (``tools/fit_hulls.py``: up to
     146 planes per link, fitted to the hull's facets), where the covering spheres the fabric uses reach up
     to 33 mm beyond the mesh. A motion whose polytopes keep ``m`` from the obstacles keeps at least ``m``
     with the Franka meshes. Self-collision shape pairs follow the shipped SRDF. Built once.
