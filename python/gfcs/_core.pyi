@@ -29,6 +29,9 @@ Pose = Union[ArrayLike, Tuple[ArrayLike, ArrayLike]]
 LinkRef = Union[str, int]
 
 __version__: str
+#: The ``header.frame_id`` values that mean the planning frame (the robot's root frame), besides the root
+#: link's own name: accepted for a scene's collision objects and for pose goals.
+PLANNING_FRAMES: Tuple[str, ...]
 
 # --------------------------------------------------------------------------------------------- errors
 

@@ -44,6 +44,7 @@ from typing import Any, Dict, List
 import numpy as np
 
 from gfcs import metrics as _metrics
+from gfcs._core import PLANNING_FRAMES
 
 #: Slack [m or rad] on the constraints when accepting an inverse-kinematics solution (numerical noise).
 ACCEPT_SLACK = 1e-6
@@ -59,8 +60,6 @@ REFINE_SOLUTIONS, REFINE_STEPS, REFINE_RATE = 8, 20, 0.3
 #: When no descent gives a valid solution: solutions meeting the pose that are walked along their
 #: self-motion (toward this many random configurations each) in search of one inside the limits and clear.
 EXPLORE_SOLUTIONS, EXPLORE_AIMS = 8, 8
-#: The frames that mean the robot's root frame, besides the root link's own name.
-WORLD_FRAMES = ("", "world", "/world")
 
 
 def _rotation_matrix(quaternion_xyzw: Any) -> np.ndarray:
@@ -170,7 +169,7 @@ def check_frame(robot: Any, pose_goal: Dict[str, Any], source: str = "") -> None
     """ValueError unless the goal's frame is the robot's root frame and its link is the robot's."""
     where = f"{source}: " if source else ""
     root = robot.link_names[0]
-    if pose_goal["frame"] not in WORLD_FRAMES + (root,):
+    if pose_goal["frame"] not in PLANNING_FRAMES + (root,):
         raise ValueError(f"{where}pose goal frame '{pose_goal['frame']}' is not the planning frame of robot "
                          f"'{robot.name}' (its root link '{root}', or 'world')")
     if pose_goal["link"] not in robot.link_names:

@@ -19,6 +19,7 @@ mod scene;
 mod validate;
 
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
 /// The shipped Panda URDF text (the model behind `Robot.panda()`, same asset file), e.g. to write it to a
 /// file for other URDF tools. Its finger joints are locked at 0.04 m by `Robot.panda()`.
@@ -38,6 +39,10 @@ fn panda_srdf() -> &'static str {
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add(
+        "PLANNING_FRAMES",
+        PyTuple::new(m.py(), fabric_core::scene::PLANNING_FRAMES)?,
+    )?;
     errors::register(m)?;
     m.add_function(wrap_pyfunction!(errors::_raise_internal_panic, m)?)?;
     m.add_function(wrap_pyfunction!(errors::_raise_core_error, m)?)?;

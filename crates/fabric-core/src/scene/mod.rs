@@ -24,6 +24,6 @@ mod scene;
 pub mod shape;
 
 pub use distance::{point_distance, DistanceSample, NearObstacle, SurfaceDistance};
-pub use moveit::{MotionPlanRequest, OrientationGoal, PoseGoal};
+pub use moveit::{MotionPlanRequest, OrientationGoal, PoseGoal, PLANNING_FRAMES};
 pub use scene::{ObstacleId, Scene, LINEAR_SCAN_MAX};
 pub use shape::{Obstacle, PointCloud, Shape};

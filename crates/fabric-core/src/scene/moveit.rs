@@ -188,8 +188,9 @@ pub(crate) fn read(path: &Path) -> Result<String> {
     })
 }
 
-/// The `header.frame_id` values of a scene's collision objects that mean the planning frame.
-const PLANNING_FRAMES: [&str; 3] = ["", "world", "/world"];
+/// The `header.frame_id` values that mean the planning frame (the robot's root frame), besides the root
+/// link's own name: for a scene's collision objects here, for pose goals in the Python package.
+pub const PLANNING_FRAMES: [&str; 3] = ["", "world", "/world"];
 
 /// Parse a `PlanningScene` YAML string into a [`Scene`] (see the module documentation).
 pub(crate) fn scene_from_str(yaml: &str, source: &str, root_frame: Option<&str>) -> Result<Scene> {
