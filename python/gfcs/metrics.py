@@ -58,8 +58,11 @@ DEFAULT_MESH_MARGIN = 0.001
 
 
 def _non_negative(name: str, value: Any, unit: str) -> float:
-    """``value`` as a float; ValueError naming ``name`` unless it is finite and ≥ 0."""
-    v = float(value)
+    """``value`` as a float; ValueError naming ``name`` unless it is a finite number ≥ 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
     if not (math.isfinite(v) and v >= 0):
         raise ValueError(f"{name} must be a finite number ≥ 0{unit}, got {value}")
     return v

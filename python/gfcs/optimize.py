@@ -558,13 +558,7 @@ def fabric_goal(fabric: Any, goal: Any, hold_off: float) -> np.ndarray:
     (:func:`finish_rollout`) then covers the rest. A joint whose range is narrower than twice that room
     keeps its goal."""
     goal = np.asarray(goal, dtype=np.float64)
-    try:
-        valid = math.isfinite(float(hold_off)) and float(hold_off) >= 0.0
-    except (TypeError, ValueError):
-        valid = False
-    if not valid:
-        raise ValueError(f"limit_hold_off must be a finite number >= 0 [rad], got {hold_off!r}")
-    hold_off = float(hold_off)
+    hold_off = _metrics._non_negative("limit_hold_off", hold_off, " [rad]")
     limits = fabric.config.to_dict()["joint_limits"]
     if not limits["enabled"]:
         return goal
