@@ -244,6 +244,40 @@ def test_tool_covers_box_and_capsule(toy_robot, tmp_path):
         assert row["volume_ratio"] >= 1.0
 
 
+def test_tool_gap_fits_thinner_spheres_within_the_gap(toy_robot, tmp_path):
+    urdf, reference = toy_robot
+    box = reference["base"]
+    covers = {}
+    for gap in (0.0, 0.01):
+        out = tmp_path / f"gap{gap}.json"
+        assert run_tool([urdf, "--out", out, "--links", "base", "--max-per-link", "4", "--gap", gap, *QUICK]) == 0
+        covers[gap] = fs.load_spheres_json(out)["base"]
+        assert (f"within {gap * 1000:g} mm" in out.read_text()) == (gap > 0)
+    surface, _ = trimesh.sample.sample_surface(box, 20000, seed=6)
+    points = np.vstack([np.asarray(surface), box.vertices])
+    miss = fs.excess(points, covers[0.01])
+    # the spheres may miss the mesh, but by no more than the gap (plus the fit's sampling slack) ...
+    assert 0.002 < miss.max() <= 0.01 + 0.002
+    assert fs.excess(points, covers[0.0]).max() <= 0.002
+    # ... and reach beyond it less: a smaller union, and a smaller protrusion
+    assert fs.union_volume(covers[0.01], 100_000) < 0.8 * fs.union_volume(covers[0.0], 100_000)
+    assert fs.max_protrusion(box, covers[0.01]) < fs.max_protrusion(box, covers[0.0])
+
+
+def test_union_objective_volume_term_sees_the_shrunk_spheres():
+    rng = np.random.default_rng(2)
+    targets, outside = rng.normal(size=(50, 3)) * 0.2, rng.normal(size=(300, 3)) * 0.5
+    x = np.concatenate([rng.normal(size=6) * 0.2, [0.3, 0.35]])
+    plain = fs.UnionObjective(targets, outside, 1e-3, 0.05)
+    shrunk = fs.UnionObjective(targets, outside, 1e-3, 0.05, gap=0.1)
+    for objective in (plain, shrunk):
+        objective.mu = 0.0  # the volume term only
+    moved = x.copy()
+    moved[6:] -= 0.1
+    assert shrunk(x)[0] == pytest.approx(plain(moved)[0], rel=1e-12)
+    assert np.allclose(shrunk(x)[1], plain(moved)[1], rtol=1e-12)
+
+
 def test_tool_covers_primitive_cylinder_and_skips_empty_links(toy_robot, tmp_path):
     urdf, _ = toy_robot
     out = tmp_path / "spheres.json"
@@ -279,6 +313,8 @@ def test_tool_reports_bad_input(toy_robot, tmp_path, capsys):
     assert "missing.obj" in capsys.readouterr().err
     assert fs.main([str(urdf), "--max-total", "1", *QUICK]) == 2  # three links cannot share one sphere
     assert "--max-total" in capsys.readouterr().err
+    assert fs.main([str(urdf), "--gap", "-0.001", *QUICK]) == 2
+    assert "--gap" in capsys.readouterr().err
     assert fs.main([str(tmp_path / "absent.urdf"), *QUICK]) == 2
     assert "absent.urdf" in capsys.readouterr().err
 

@@ -328,12 +328,14 @@ def test_failed_solve_retries_with_one_more_command(shelf):
     assert r.n_evaluations == 16
     # without a retry the one-command attempt is returned, failed
     once = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
-    r1 = opt.solve(once, batches=1, population=8, seed=0, mesh_candidates=2, max_commands=1, mesh_retry_margin=0)
+    r1 = opt.solve(once, batches=1, population=8, seed=0, mesh_candidates=2, max_commands=1, mesh_retry_margin=0,
+                   thin_spheres=False)
     assert not r1.success and r1.commands.shape == (1, 7) and "commands_tried" not in r1.settings
     # a sampler of your own proposes a fixed width: no retry by default, an error when asked for one
     mine = opt.UniformSampler(1)
     again = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
-    r2 = opt.solve(again, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine, mesh_retry_margin=0)
+    r2 = opt.solve(again, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine, mesh_retry_margin=0,
+                   thin_spheres=False)
     assert not r2.success and r2.commands.shape == (1, 7)
     with pytest.raises(ValueError, match="max_commands"):
         opt.solve(shelf, batches=1, population=8, sampler=mine, max_commands=2)
@@ -354,7 +356,8 @@ def test_mesh_only_failure_retries_with_a_wider_obstacle_margin(shelf):
     assert r.n_evaluations == 16
     # a failure of the sphere model itself (no time to reach the goal) is not retried that way
     short = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=0))
-    r = opt.solve(short, batches=1, population=8, seed=0, sampler=mine, settings=opt.RolloutSettings(t_max=0.05))
+    r = opt.solve(short, batches=1, population=8, seed=0, sampler=mine, settings=opt.RolloutSettings(t_max=0.05),
+                  thin_spheres=False)
     assert not r.success and "commands_tried" not in r.settings and r.n_evaluations == 8
     with pytest.raises(ValueError, match="mesh_retry_margin"):
         opt.solve(shelf, batches=1, population=8, mesh_retry_margin=-0.001)
@@ -457,3 +460,14 @@ def test_bench_rows_carry_the_mesh_clearances_and_stay_strict_json(sphere_and_me
     assert row["mesh_clearance"] == pytest.approx(0.4 - 0.45, abs=1e-7) and not row["success"]
     # one link: no self pair, clearance inf, written as the string "Infinity" in strict JSON
     assert json.loads(json.dumps(_enc(row), allow_nan=False))["mesh_self_clearance"] == "Infinity"
+
+
+def test_the_cli_no_retry_options_turn_every_retry_off(shelf):
+    from gfcs import cli
+
+    # every candidate of every attempt touches a mesh: each retry would run and be listed
+    hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10**6))
+    retried = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2)
+    assert not retried.success and len(retried.settings["commands_tried"]) >= 4  # 1, 2 commands, margin, thin
+    once = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2, **cli._no_retry(1))
+    assert not once.success and "commands_tried" not in once.settings and once.n_evaluations == 8

@@ -18,6 +18,9 @@ spheres whose union contains every point of that mesh (surface and enclosed volu
    than ``--max-per-link`` and the total stays within ``--max-total``.
 4. ``--margin`` is added to every radius, then a denser, independent sample (vertices, surface, interior) is
    checked and any sphere that misses one of its points is grown just enough (centres stay).
+   With ``--gap g`` (default 0) steps 2-4 fit and repair that cover while the volume they minimise is that of
+   the spheres shrunk by g, and the output is the shrunk spheres: thinner spheres that miss the mesh by at
+   most g (a fabric then avoids obstacles with them and a mesh check validates its motions).
 5. A third independent sample gives the reported coverage; the union volume is counted on a grid and the
    protrusion (how far the union reaches beyond the mesh) from points on the union's boundary.
 
@@ -60,6 +63,8 @@ from scipy.spatial.distance import cdist
 
 #: Slack (normalised length) when deciding which sphere holds a target (see :func:`split_largest`).
 COVER_TOL = 1e-7
+#: Smallest radius (m) a sphere keeps when ``--gap`` is taken off.
+MIN_RADIUS = 0.001
 
 #: Coverage weights ``mu`` of the successive :class:`UnionObjective` minimisations.
 PENALTY_STAGES = (1e1, 1e2, 1e3, 1e4)
@@ -84,12 +89,14 @@ class Sphere:
 class FitOptions:
     """Tunables of :func:`fit_robot` (see the module doc and ``--help``).
 
-    ``margin`` in metres; ``min_gain`` a fraction of the total mesh volume; ``tau`` (soft union width) in units
+    ``margin`` and ``gap`` in metres; ``min_gain`` a fraction of the total mesh volume; ``tau`` (soft union
+    width) in units
     of each link's bounding-box diagonal; ``iterations`` per L-BFGS-B stage; the ``*_points`` are sample
     sizes (surface points, or points of a grid over the bounding box before the inside test).
     """
 
     margin: float = 0.001
+    gap: float = 0.0
     max_per_link: int = 10
     max_total: int = 64
     min_gain: float = 0.0015
@@ -408,12 +415,14 @@ class UnionObjective:
     ``E = cell * sum_q sigmoid(-m_q / tau) + mu * sum_p max(0, min_j |p - c_j| - r_j)^2`` where ``q`` runs over
     grid points outside the mesh (``cell`` = grid cell volume), ``m_q = -tau log sum_j exp(-(|q - c_j| - r_j)
     / tau)`` is a smooth signed distance to the union, and ``p`` over the coverage targets. The first term is
-    the volume by which the union exceeds the mesh, the second the squared uncovered distances. Parameters
+    the volume by which the union exceeds the mesh, the second the squared uncovered distances. With a
+    ``gap`` g > 0 the radii r_j are those of the cover and the volume term sees the spheres r_j - g: the
+    fitted spheres (radii r_j - g) may miss the targets by up to g. Parameters
     ``x = [c_1 .. c_k (3k), r_1 .. r_k (k)]``; :meth:`__call__` returns ``(E, dE/dx)``.
     """
 
-    def __init__(self, targets: np.ndarray, outside: np.ndarray, cell: float, tau: float):
-        self.targets, self.outside, self.cell, self.tau = targets, outside, cell, tau
+    def __init__(self, targets: np.ndarray, outside: np.ndarray, cell: float, tau: float, gap: float = 0.0):
+        self.targets, self.outside, self.cell, self.tau, self.gap = targets, outside, cell, tau, gap
         self.mu = 1.0
 
     def __call__(self, x: np.ndarray) -> tuple[float, np.ndarray]:
@@ -434,7 +443,7 @@ class UnionObjective:
         # excess volume: soft membership of the outside grid points in the union
         diff = self.outside[:, None, :] - centers[None]
         dist = np.linalg.norm(diff, axis=-1) + 1e-12
-        z = -(dist - radii[None]) / self.tau
+        z = -(dist - (radii[None] - self.gap)) / self.tau
         zmax = z.max(axis=1, keepdims=True)
         ez = np.exp(z - zmax)
         weight = ez / ez.sum(axis=1, keepdims=True)
@@ -478,6 +487,7 @@ class LinkFitter:
         grid = grid[~inside(mesh, grid)]
         self.outside = norm(grid[surface_distance(mesh, grid) <= pad])
         self.cell = (step / self.scale) ** 3
+        self.gap = opts.gap / self.scale
         self.covers: list[tuple[list[Sphere], float]] = []  # covers[k - 1]: (normalised spheres, volume m^3)
 
     def best(self, k: int) -> tuple[list[Sphere], float]:
@@ -486,6 +496,10 @@ class LinkFitter:
             self.covers.append(self._search(len(self.covers) + 1))
         spheres, volume = self.covers[k - 1]
         return [Sphere(s.center * self.scale + self.origin, s.radius * self.scale) for s in spheres], volume
+
+    def shrunk(self, spheres: Sequence[Sphere]) -> list[Sphere]:
+        """The fitted spheres of a cover (normalised or not, ``scale``: its unit in m): radii less the gap."""
+        return [Sphere(s.center, max(s.radius - self.gap, MIN_RADIUS / self.scale)) for s in spheres]
 
     def _search(self, k: int) -> tuple[list[Sphere], float]:
         """Best normalised cover with at most ``k`` spheres and its union volume (m^3)."""
@@ -496,14 +510,14 @@ class LinkFitter:
         results = [self.covers[-1]] if self.covers else []
         for start in starts:
             spheres = drop_redundant(self.targets, repair(self.targets, self._optimise(start)))
-            results.append((spheres, union_volume(spheres, 100_000) * self.scale ** 3))
+            results.append((spheres, union_volume(self.shrunk(spheres), 100_000) * self.scale ** 3))
         return min(results, key=lambda item: (item[1], len(item[0])))
 
     def _optimise(self, spheres: list[Sphere]) -> list[Sphere]:
         """Minimise :class:`UnionObjective` from ``spheres`` (normalised) over ``PENALTY_STAGES``."""
         k = len(spheres)
         x = np.concatenate([np.array([s.center for s in spheres]).ravel(), [s.radius for s in spheres]])
-        objective = UnionObjective(self.targets, self.outside, self.cell, self.opts.tau)
+        objective = UnionObjective(self.targets, self.outside, self.cell, self.opts.tau, self.gap)
         for mu in PENALTY_STAGES:
             objective.mu = mu
             x = minimize(objective, x, jac=True, method="L-BFGS-B",
@@ -559,11 +573,12 @@ def rounded(spheres: Sequence[Sphere]) -> list[Sphere]:
 
 def finish_link(name: str, mesh: trimesh.Trimesh, spheres: list[Sphere], opts: FitOptions,
                 volume: float | None = None) -> LinkFit:
-    """Add the margin, repair against a dense sample, round, and measure on an independent sample
-    (``volume``: the mesh volume in m^3 when already known)."""
+    """Add the margin, repair against a dense sample, take off the gap, round, and measure on an independent
+    sample (``spheres``: the cover, before the gap is taken off; ``volume``: the mesh volume in m^3 when
+    already known)."""
     spheres = [Sphere(s.center, s.radius + opts.margin) for s in spheres]
     dense = sample_points(mesh, opts.check_surface_points, opts.check_grid_points, opts.seed + 1)
-    spheres = rounded(repair(dense, spheres))
+    spheres = rounded([Sphere(s.center, max(s.radius - opts.gap, MIN_RADIUS)) for s in repair(dense, spheres)])
     check = sample_points(mesh, opts.check_surface_points, opts.check_grid_points, opts.seed + 2)
     report = LinkReport(
         link=name,
@@ -600,8 +615,8 @@ def allocate(fitters: dict[str, LinkFitter], opts: FitOptions, log=None) -> dict
 
 def fit_robot(meshes: dict[str, trimesh.Trimesh], opts: FitOptions, log=None) -> list[LinkFit]:
     """Fit every link of ``meshes`` (``{link: mesh in link frame}``) under the budgets of ``opts``."""
-    if opts.margin < 0 or opts.max_per_link < 1 or opts.max_total < 1 or opts.min_gain < 0 or opts.tau <= 0:
-        raise FitError("need --margin >= 0, --max-per-link >= 1, --max-total >= 1, --min-gain >= 0, --tau > 0")
+    if opts.margin < 0 or opts.gap < 0 or opts.max_per_link < 1 or opts.max_total < 1 or opts.min_gain < 0 or opts.tau <= 0:
+        raise FitError("need --margin >= 0, --gap >= 0, --max-per-link >= 1, --max-total >= 1, --min-gain >= 0, --tau > 0")
     if len(meshes) > opts.max_total:
         raise FitError(f"{len(meshes)} links need at least {len(meshes)} spheres > --max-total {opts.max_total}")
     fitters = {}
@@ -676,6 +691,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--links", nargs="+", default=None, help="links to fit (default: all with collision)")
     parser.add_argument("--margin", type=float, default=FitOptions.margin,
                         help="metres added to every radius before the repair step (default %(default)s)")
+    parser.add_argument("--gap", type=float, default=FitOptions.gap,
+                        help="distance in m by which the spheres may miss the mesh: the cover is fitted, then "
+                             "its radii shrink by this much (default %(default)s: every point covered)")
     parser.add_argument("--max-per-link", type=int, default=FitOptions.max_per_link,
                         help="most spheres on one link (default %(default)s)")
     parser.add_argument("--max-total", type=int, default=FitOptions.max_total,
@@ -708,7 +726,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if min(counts) < 1:
         print("fit_spheres: error: point counts, --restarts and --iterations must be >= 1", file=sys.stderr)
         return 2
-    opts = FitOptions(margin=args.margin, max_per_link=args.max_per_link, max_total=args.max_total,
+    opts = FitOptions(margin=args.margin, gap=args.gap, max_per_link=args.max_per_link, max_total=args.max_total,
                       min_gain=args.min_gain, restarts=args.restarts, tau=args.tau, iterations=args.iterations,
                       seed=args.seed, fit_surface_points=args.fit_surface_points,
                       fit_grid_points=args.fit_grid_points, outside_grid_points=args.outside_grid_points,
@@ -722,10 +740,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     settings = ", ".join(f"{name}={value}" for name, value in vars(opts).items())
     source = f"{args.urdf.resolve().parent.name}/{args.urdf.name}"
     worst = max(fit.report.max_uncovered for fit in fits)
+    held = ("Every mesh vertex lies inside its link's spheres" if opts.gap == 0 else
+            f"Every mesh vertex lies within {1000 * opts.gap:g} mm of its link's spheres")
     text = spheres_json(fits, f"Fitted by tools/fit_spheres.py to the collision geometry of {source} "
-                              f"({settings}). Every mesh vertex lies inside its link's spheres; largest miss "
-                              f"on an independent dense sample {1000 * worst:.2f} mm. Centres in metres in "
-                              f"the URDF link frames, radii in metres.")
+                              f"({settings}). {held}; largest miss on an independent dense sample "
+                              f"{1000 * worst:.2f} mm. Centres in metres in the URDF link frames, radii in metres.")
     if args.out is None:
         sys.stdout.write(text)
     else:

@@ -109,7 +109,7 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="do not retry a failed solve (with the default sampler: with one more command; "
                         "after a collision of the meshes only: with a 2 mm wider obstacle margin; when the "
                         "goal's spheres overlap obstacles its meshes clear: with those spheres' margins "
-                        "lowered to the goal's)")
+                        "lowered to the goal's; for the shipped Panda: on its thin spheres)")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
     r.add_argument("--dt", type=float, default=0.01, help="integration step, s (default 0.01)")
     r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
@@ -346,7 +346,7 @@ def _record(problem: Any, results: Any, path: str) -> None:
 
 def _no_retry(n_commands: int) -> Dict[str, Any]:
     """Keyword arguments of :func:`gfcs.optimize.solve` that turn all of its retries off."""
-    return {"max_commands": n_commands, "mesh_retry_margin": 0.0, "goal_contact_slack": 0.0}
+    return {"max_commands": n_commands, "mesh_retry_margin": 0.0, "goal_contact_slack": 0.0, "thin_spheres": False}
 
 
 def cmd_solve(args: argparse.Namespace) -> int:

@@ -1,0 +1,93 @@
+"""The shipped Panda's thin sphere model (``gfcs.problems.thin_sphere_model``) and the attempt of
+:func:`gfcs.optimize.solve` that uses it."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+import gfcs
+from gfcs import optimize, problems
+
+
+def spheres_of(robot, link):
+    keep = [i for i, name in enumerate(robot.sphere_links) if name == link]
+    return np.asarray(robot.sphere_centers_local)[keep], np.asarray(robot.sphere_radii)[keep]
+
+
+def test_thin_model_replaces_the_listed_links_only():
+    shipped = gfcs.Robot.panda()
+    thin = problems.thin_sphere_model(shipped)
+    data = json.loads(problems.PANDA_THIN_SPHERES.read_text())["spheres"]
+    replaced = {s["link"] for s in data}
+    assert replaced == {"panda_link5", "panda_link6", "panda_link7", "panda_hand"}
+    for link in set(shipped.sphere_links):
+        centers, radii = spheres_of(thin, link)
+        if link in replaced:
+            mine = [s for s in data if s["link"] == link]
+            np.testing.assert_array_equal(centers, [s["center"] for s in mine])
+            np.testing.assert_array_equal(radii, [s["radius"] for s in mine])
+        else:
+            before = spheres_of(shipped, link)
+            np.testing.assert_array_equal(centers, before[0])
+            np.testing.assert_array_equal(radii, before[1])
+    # thinner: the forearm's largest sphere shrinks, and the joints, limits and kinematics stay
+    assert spheres_of(thin, "panda_link5")[1].max() < spheres_of(shipped, "panda_link5")[1].max() - 0.005
+    q = np.random.default_rng(3).uniform(shipped.lower, shipped.upper, size=(4, shipped.dof))
+    np.testing.assert_array_equal(thin.link_poses(q), shipped.link_poses(q))
+    assert thin.joint_names == shipped.joint_names
+    # the self-collision pairs follow the shipped SRDF: none between the hand and link7 (adjacent)
+    pairs = np.asarray(thin.self_collision_pairs)
+    links = np.asarray(thin.sphere_links)
+    assert not any({links[i], links[j]} == {"panda_hand", "panda_link7"} for i, j in pairs)
+    assert len(pairs) > 0
+
+
+def test_thin_model_is_for_the_shipped_panda_only():
+    shipped = gfcs.Robot.panda()
+    fewer = [(link, c, r) for link, c, r in zip(shipped.sphere_links, shipped.sphere_centers_local,
+                                                shipped.sphere_radii) if link != "panda_hand"]
+    assert problems.thin_sphere_model(shipped.with_spheres(fewer)) is None
+    held = shipped.with_locked_positions({j: 0.03 for j in shipped.locked_positions})
+    assert problems.thin_sphere_model(held) is not None
+
+
+@pytest.fixture(scope="module")
+def cage32(mbm_dir):
+    """MotionBenchMaker cage 32 with the shipped Panda: its covering spheres find no mesh-clear motion
+    into the cage (5 batches, seed 0, every other retry), its thin spheres do."""
+    return problems.load_mbm_dir(mbm_dir / "cage", limit=32)[-1]
+
+
+def test_solve_falls_back_to_the_thin_spheres(cage32):
+    assert cage32.name.endswith("0032") and cage32.mesh_checker is not None
+    covering = optimize.solve(cage32, thin_spheres=False)
+    assert not covering.success
+    assert "sphere_model" not in covering.settings
+    result = optimize.solve(cage32)
+    assert result.success
+    assert result.settings["sphere_model"] == "thin"
+    assert result.solve_time > covering.solve_time  # the failed covering attempts are counted too
+    assert problems.sphere_fingerprint(result.robot) == problems.sphere_fingerprint(
+        problems.thin_sphere_model(cage32.robot))
+    # judged by the polytopes over the whole motion, independently of the solver's own verdict
+    met = gfcs.metrics.trajectory_metrics(result.robot, cage32.scene, result.trajectory.t,
+                                          result.trajectory.q, cage32.goal, mesh_checker=cage32.mesh_checker)
+    assert met["success"] and met["mesh_clearance"] >= gfcs.metrics.DEFAULT_MESH_MARGIN
+    # the replay on the result's own robot reproduces the motion
+    again = optimize.replay(result, cage32.scene)
+    np.testing.assert_allclose(again.trajectory.q, result.trajectory.q, atol=1e-9)
+
+
+def test_no_thin_attempt_without_a_mesh_checker(cage32, monkeypatch):
+    def called(robot):
+        raise AssertionError("thin_sphere_model called for a problem without a mesh checker")
+
+    monkeypatch.setattr(problems, "thin_sphere_model", called)
+    bare = dataclasses.replace(cage32, mesh_checker=None)
+    result = optimize.solve(bare, batches=1, max_commands=1, mesh_retry_margin=0.0, goal_contact_slack=0.0)
+    assert not result.success  # every attempt failed: the thin one was left out for want of the checker
+    assert "sphere_model" not in result.settings
+    with pytest.raises(AssertionError, match="without a mesh checker"):
+        optimize.solve(cage32, batches=1, max_commands=1, mesh_retry_margin=0.0, goal_contact_slack=0.0)
