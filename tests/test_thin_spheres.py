@@ -75,6 +75,12 @@ def test_solve_falls_back_to_the_thin_spheres(cage32):
     met = gfcs.metrics.trajectory_metrics(result.robot, cage32.scene, result.trajectory.t,
                                           result.trajectory.q, cage32.goal, mesh_checker=cage32.mesh_checker)
     assert met["success"] and met["mesh_clearance"] >= gfcs.metrics.DEFAULT_MESH_MARGIN
+    # the command's summary says which spheres moved the arm and what judged it
+    from gfcs import cli
+
+    text = cli.summary_text(result, cage32)
+    assert "thin spheres (links 5-7, hand)" in text and "checked   collision meshes" in text
+    assert "thin spheres" not in cli.summary_text(covering, cage32)
     # the replay on the result's own robot reproduces the motion
     again = optimize.replay(result, cage32.scene)
     np.testing.assert_allclose(again.trajectory.q, result.trajectory.q, atol=1e-9)

@@ -271,6 +271,9 @@ def summary_text(result: Any, problem: Any) -> str:
                      f"{result.n_commands} free command(s), seed {result.seed}")
     else:
         lines.append("method    gf: local geometric fabric toward the goal")
+    if result.settings.get("sphere_model") == "thin":
+        lines.append("spheres   the shipped Panda's thin spheres (links 5-7, hand): its covering ones found no "
+                     "motion (gfcs.problems.thin_sphere_model)")
     if result.pose_goal is not None:
         lines.append(_pose_goal_line(result, problem))
     t_stars = " + ".join(f"{t:.2f}" for t in result.t_stars)
