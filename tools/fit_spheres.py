@@ -90,9 +90,9 @@ class FitOptions:
     """Tunables of :func:`fit_robot` (see the module doc and ``--help``).
 
     ``margin`` and ``gap`` in metres; ``min_gain`` a fraction of the total mesh volume; ``tau`` (soft union
-    width) in units
-    of each link's bounding-box diagonal; ``iterations`` per L-BFGS-B stage; the ``*_points`` are sample
-    sizes (surface points, or points of a grid over the bounding box before the inside test).
+    width) in units of each link's bounding-box diagonal; ``iterations`` per L-BFGS-B stage; the
+    ``*_points`` are sample sizes (surface points, or points of a grid over the bounding box before the
+    inside test).
     """
 
     margin: float = 0.001
@@ -497,10 +497,6 @@ class LinkFitter:
         spheres, volume = self.covers[k - 1]
         return [Sphere(s.center * self.scale + self.origin, s.radius * self.scale) for s in spheres], volume
 
-    def shrunk(self, spheres: Sequence[Sphere]) -> list[Sphere]:
-        """The fitted spheres of a cover (normalised or not, ``scale``: its unit in m): radii less the gap."""
-        return [Sphere(s.center, max(s.radius - self.gap, MIN_RADIUS / self.scale)) for s in spheres]
-
     def _search(self, k: int) -> tuple[list[Sphere], float]:
         """Best normalised cover with at most ``k`` spheres and its union volume (m^3)."""
         rng = np.random.default_rng([self.opts.seed, k])
@@ -510,7 +506,8 @@ class LinkFitter:
         results = [self.covers[-1]] if self.covers else []
         for start in starts:
             spheres = drop_redundant(self.targets, repair(self.targets, self._optimise(start)))
-            results.append((spheres, union_volume(self.shrunk(spheres), 100_000) * self.scale ** 3))
+            shrunk = shrink(spheres, self.gap, MIN_RADIUS / self.scale)
+            results.append((spheres, union_volume(shrunk, 100_000) * self.scale ** 3))
         return min(results, key=lambda item: (item[1], len(item[0])))
 
     def _optimise(self, spheres: list[Sphere]) -> list[Sphere]:
@@ -523,6 +520,11 @@ class LinkFitter:
             x = minimize(objective, x, jac=True, method="L-BFGS-B",
                          options={"maxiter": self.opts.iterations}).x
         return [Sphere(x[3 * j:3 * j + 3].copy(), abs(float(x[3 * k + j]))) for j in range(k)]
+
+
+def shrink(spheres: Sequence[Sphere], gap: float, least: float) -> list[Sphere]:
+    """The spheres of a cover with their radii less ``gap``, none below ``least`` (the units of the input)."""
+    return [Sphere(s.center, max(s.radius - gap, least)) for s in spheres]
 
 
 def union_volume(spheres: Sequence[Sphere], count: int = 400_000) -> float:
@@ -578,7 +580,7 @@ def finish_link(name: str, mesh: trimesh.Trimesh, spheres: list[Sphere], opts: F
     already known)."""
     spheres = [Sphere(s.center, s.radius + opts.margin) for s in spheres]
     dense = sample_points(mesh, opts.check_surface_points, opts.check_grid_points, opts.seed + 1)
-    spheres = rounded([Sphere(s.center, max(s.radius - opts.gap, MIN_RADIUS)) for s in repair(dense, spheres)])
+    spheres = rounded(shrink(repair(dense, spheres), opts.gap, MIN_RADIUS))
     check = sample_points(mesh, opts.check_surface_points, opts.check_grid_points, opts.seed + 2)
     report = LinkReport(
         link=name,
@@ -615,8 +617,10 @@ def allocate(fitters: dict[str, LinkFitter], opts: FitOptions, log=None) -> dict
 
 def fit_robot(meshes: dict[str, trimesh.Trimesh], opts: FitOptions, log=None) -> list[LinkFit]:
     """Fit every link of ``meshes`` (``{link: mesh in link frame}``) under the budgets of ``opts``."""
-    if opts.margin < 0 or opts.gap < 0 or opts.max_per_link < 1 or opts.max_total < 1 or opts.min_gain < 0 or opts.tau <= 0:
-        raise FitError("need --margin >= 0, --gap >= 0, --max-per-link >= 1, --max-total >= 1, --min-gain >= 0, --tau > 0")
+    if (opts.margin < 0 or opts.gap < 0 or opts.max_per_link < 1 or opts.max_total < 1 or opts.min_gain < 0
+            or opts.tau <= 0):
+        raise FitError("need --margin >= 0, --gap >= 0, --max-per-link >= 1, --max-total >= 1, --min-gain >= 0, "
+                       "--tau > 0")
     if len(meshes) > opts.max_total:
         raise FitError(f"{len(meshes)} links need at least {len(meshes)} spheres > --max-total {opts.max_total}")
     fitters = {}

@@ -436,6 +436,17 @@ def sphere_fingerprint(robot: Any) -> str:
     return hashlib.sha256("\n".join(lines).encode()).hexdigest()
 
 
+def _robot_spheres(robot: Any) -> List[Tuple[str, List[float], float]]:
+    """``robot``'s collision spheres as ``Robot.with_spheres`` takes them: (link, centre in its frame m, radius m)."""
+    return [(link, [float(x) for x in c], float(r))
+            for link, c, r in zip(robot.sphere_links, robot.sphere_centers_local, robot.sphere_radii)]
+
+
+def _file_spheres(entries: Any) -> List[Tuple[str, List[float], float]]:
+    """The ``spheres`` entries of a sphere file ({link, center, radius}) as ``Robot.with_spheres`` takes them."""
+    return [(s["link"], [float(x) for x in s["center"]], float(s["radius"])) for s in entries]
+
+
 def with_gap_spheres(robot: Any, gaps: PathLike = MBM_GAP_SPHERES) -> Any:
     """``robot`` with the gap spheres of ``gaps`` (a ``tools/fill_sphere_gaps.py`` file) added, when its
     sphere model is the one they were made for (same :func:`sphere_fingerprint`); else ``robot`` itself.
@@ -450,14 +461,12 @@ def with_gap_spheres(robot: Any, gaps: PathLike = MBM_GAP_SPHERES) -> Any:
     try:
         data = json.loads(Path(gaps).read_text())
         made_for, spheres = data["for_spheres"], data["spheres"]
-        extra = [(s["link"], [float(x) for x in s["center"]], float(s["radius"])) for s in spheres]
+        extra = _file_spheres(spheres)
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise ValueError(f"{gaps}: not a gap-sphere file (for_spheres, spheres[link, center, radius]): {e}") from e
     if sphere_fingerprint(robot) != made_for:
         return robot
-    own = [(link, [float(x) for x in c], float(r))
-           for link, c, r in zip(robot.sphere_links, robot.sphere_centers_local, robot.sphere_radii)]
-    return robot.with_spheres(own + extra)
+    return robot.with_spheres(_robot_spheres(robot) + extra)
 
 
 @functools.lru_cache(maxsize=None)
@@ -615,9 +624,7 @@ def with_shipped_panda_spheres(robot: Any, srdf: Optional[Union[PathLike, str]] 
     for link in links:
         if np.max(np.abs(mine[:, robot.link_index(link)] - theirs[:, shipped.link_index(link)])) > tol:
             return None
-    spheres = [(link, [float(x) for x in c], float(r))
-               for link, c, r in zip(shipped.sphere_links, shipped.sphere_centers_local, shipped.sphere_radii)]
-    return robot.with_spheres(spheres).with_srdf(gfcs.panda_srdf() if srdf is None else srdf)
+    return robot.with_spheres(_robot_spheres(shipped)).with_srdf(gfcs.panda_srdf() if srdf is None else srdf)
 
 
 def mesh_checker_for(robot: Any) -> Any:
@@ -712,13 +719,10 @@ def thin_sphere_model(robot: Any) -> Optional[Any]:
 
     if not _moves_as_shipped_panda(robot):
         return None
-    thin = json.loads(PANDA_THIN_SPHERES.read_text())["spheres"]
-    links = {s["link"] for s in thin}
-    spheres = [(link, [float(x) for x in c], float(r))
-               for link, c, r in zip(robot.sphere_links, robot.sphere_centers_local, robot.sphere_radii)
-               if link not in links]
-    spheres += [(s["link"], [float(x) for x in s["center"]], float(s["radius"])) for s in thin]
-    return robot.with_spheres(spheres).with_srdf(gfcs.panda_srdf())
+    thin = _file_spheres(json.loads(PANDA_THIN_SPHERES.read_text())["spheres"])
+    links = {link for link, _, _ in thin}
+    kept = [sphere for sphere in _robot_spheres(robot) if sphere[0] not in links]
+    return robot.with_spheres(kept + thin).with_srdf(gfcs.panda_srdf())
 
 
 def mbm_panda(path: Optional[PathLike] = None, fill_gaps: bool = True) -> Any:
