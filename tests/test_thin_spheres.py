@@ -97,3 +97,22 @@ def test_no_thin_attempt_without_a_mesh_checker(cage32, monkeypatch):
     assert "sphere_model" not in result.settings
     with pytest.raises(AssertionError, match="without a mesh checker"):
         optimize.solve(cage32, batches=1, max_commands=1, mesh_retry_margin=0.0, goal_contact_slack=0.0)
+
+
+def test_thin_attempt_widens_its_obstacle_margin(mbm_dir, monkeypatch):
+    """MotionBenchMaker cage 15: the thin spheres at the fabric's own margin (and 2 mm wider) bring a
+    polytope into a bar, since they miss the meshes by up to 8 mm; the margins of
+    ``THIN_MESH_RETRY_MARGINS`` keep them off."""
+    cage15 = problems.load_mbm_dir(mbm_dir / "cage", limit=15)[-1]
+    assert cage15.name.endswith("0015")
+    base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
+    result = optimize.solve(cage15)
+    assert result.success and result.settings["sphere_model"] == "thin"
+    wider = [base + m for m in optimize.THIN_MESH_RETRY_MARGINS]
+    assert result.fabric_config["obstacles"]["margin"] == pytest.approx(wider[0]) or \
+        result.fabric_config["obstacles"]["margin"] == pytest.approx(wider[1])
+    met = gfcs.metrics.trajectory_metrics(result.robot, cage15.scene, result.trajectory.t,
+                                          result.trajectory.q, cage15.goal, mesh_checker=cage15.mesh_checker)
+    assert met["success"] and met["mesh_clearance"] >= gfcs.metrics.DEFAULT_MESH_MARGIN
+    monkeypatch.setattr(optimize, "THIN_MESH_RETRY_MARGINS", (0.002,))
+    assert not optimize.solve(cage15).success

@@ -359,8 +359,27 @@ def test_mesh_only_failure_retries_with_a_wider_obstacle_margin(shelf):
     r = opt.solve(short, batches=1, population=8, seed=0, sampler=mine, settings=opt.RolloutSettings(t_max=0.05),
                   thin_spheres=False)
     assert not r.success and "commands_tried" not in r.settings and r.n_evaluations == 8
-    with pytest.raises(ValueError, match="mesh_retry_margin"):
-        opt.solve(shelf, batches=1, population=8, mesh_retry_margin=-0.001)
+    for bad in (-0.001, (0.002, -0.001), (0.002, float("nan")), "wide"):
+        with pytest.raises(ValueError, match="mesh_retry_margin"):
+            opt.solve(shelf, batches=1, population=8, mesh_retry_margin=bad)
+
+
+def test_mesh_retry_margins_are_tried_in_turn_with_every_command_count(shelf):
+    base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
+    # six trajectories touch (two checked per attempt): one and two commands at the plain margin, one
+    # command at +2 mm fail; two commands at +2 mm succeed, and +5 mm is never tried
+    flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=6))
+    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, mesh_retry_margin=(0.002, 0.005))
+    assert r.success and r.commands.shape == (2, 7) and r.settings["commands_tried"] == [1, 2, 1, 2]
+    assert r.settings["obstacle_margins_tried"] == pytest.approx([base, base, base + 0.002, base + 0.002])
+    # one command only: each raise in turn, the zero one skipped
+    mine = opt.UniformSampler(1)
+    flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=4))
+    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine,
+                  mesh_retry_margin=[0.0, 0.002, 0.005])
+    assert r.success and r.settings["commands_tried"] == [1, 1, 1]
+    assert r.settings["obstacle_margins_tried"] == pytest.approx([base, base + 0.002, base + 0.005])
+    assert r.fabric_config["obstacles"]["margin"] == pytest.approx(base + 0.005)
 
 
 # ------------------------------------------------------------------------------ MotionBenchMaker Panda

@@ -61,7 +61,7 @@ import sys
 import time
 import warnings
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Optional, Protocol, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Protocol, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -84,7 +84,14 @@ __all__ = [
     "replay",
     "make_fabric",
     "rollout_commands",
+    "THIN_MESH_RETRY_MARGINS",
 ]
+
+#: The raises [m] of the obstacle margin that :func:`solve`'s thin-sphere attempt tries in turn while its
+#: motions fail on the collision meshes alone (its ``mesh_retry_margin``): the thin spheres miss the
+#: shipped Panda's meshes by up to 8 mm, so a margin of the fabric's 2 mm plus 4 or 8 mm keeps the meshes
+#: off where the plain margin lets them touch (MotionBenchMaker cage, BENCHMARKS.md).
+THIN_MESH_RETRY_MARGINS = (0.004, 0.008)
 
 
 # ----------------------------------------------------------------------------------------- samplers
@@ -704,7 +711,7 @@ def solve(
     length_slack: float = 0.1,
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
     max_commands: Optional[int] = None,
-    mesh_retry_margin: float = 0.002,
+    mesh_retry_margin: Union[float, Sequence[float]] = 0.002,
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
     goal_contact_slack: float = 0.002,
     thin_spheres: bool = True,
@@ -747,9 +754,11 @@ def solve(
             success is returned, else the lowest-cost attempt; ``solve_time`` and ``n_evaluations``
             then cover every attempt and ``settings["commands_tried"]`` lists them.
         mesh_retry_margin: when every attempt failed and one of them only because a collision *mesh*
-            touched (the goal reached with the spheres clear), solve once more with ``n_commands`` and the
-            fabric's obstacle margin (``obstacles.margin``) raised by this much [m], ≥ 0 (0: no such
-            attempt); ``settings["obstacle_margins_tried"]`` then lists the margin of every attempt. The
+            touched (the goal reached with the spheres clear), solve again (``n_commands``, then one more
+            up to ``max_commands`` as above) with the fabric's obstacle margin (``obstacles.margin``)
+            raised by this much [m], ≥ 0 (0: no such attempt); a sequence of raises is tried in turn while
+            every attempt keeps failing; ``settings["obstacle_margins_tried"]`` then lists the margin of
+            every attempt. The
             spheres leave up to 12-20 mm of the MBM Panda's meshes uncovered (:func:`gfcs.problems.mbm_panda`);
             0.002: on MotionBenchMaker cage 48, which no candidate of either attempt solved with seed 1,
             solved with 4 mm for seeds 0-2, while 4 mm for every problem lost cage 47 (BENCHMARKS.md).
@@ -771,7 +780,8 @@ def solve(
         thin_spheres: when every attempt failed and the robot is the shipped Panda with its mesh checker
             (:func:`gfcs.problems.thin_sphere_model`), solve once more on its thin spheres, which reach
             beyond the meshes far less than the covering ones and miss them by up to 8 mm; the
-            polytopes judge the motion. The result's ``robot`` is then that model and
+            polytopes judge the motion, and its mesh retries raise the obstacle margin by
+            :data:`THIN_MESH_RETRY_MARGINS` (none when ``mesh_retry_margin`` is 0). The result's ``robot`` is then that model and
             ``settings["sphere_model"]`` is ``"thin"``. On MotionBenchMaker's cage it solves problems whose
             gaps the covering spheres close (BENCHMARKS.md); it is not the first attempt because the
             covering spheres keep more problems mesh-clear.
@@ -828,7 +838,7 @@ def solve(
     if sampler is not None and max_commands != n_commands:
         raise ValueError("max_commands > n_commands needs the default sampler: a sampler of your own "
                          f"proposes {n_commands} command(s) per candidate")
-    mesh_retry_margin = _metrics._non_negative("mesh_retry_margin", mesh_retry_margin, " [m]")
+    retry_margins = _retry_margins(mesh_retry_margin)
     goal_contact_slack = _metrics._non_negative("goal_contact_slack", goal_contact_slack, " [m]")
     options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
@@ -844,10 +854,15 @@ def solve(
         attempts.append(attempt(n))
         if attempts[-1].success:
             break
-    if not attempts[-1].success and mesh_retry_margin > 0 and any(map(_mesh_collision_only, attempts)):
-        margin = float(common["fabric_config"]["obstacles"]["margin"]) + mesh_retry_margin
+    for raise_by in retry_margins:
+        if attempts[-1].success or not any(map(_mesh_collision_only, attempts)):
+            break
+        margin = float(common["fabric_config"]["obstacles"]["margin"]) + raise_by
         wider = make_fabric(problem, fabric.config.replace({"obstacles": {"margin": margin}}))
-        attempts.append(attempt(n_commands, wider, {**common, "fabric_config": wider.config.to_dict()}))
+        for n in range(n_commands, max_commands + 1):
+            attempts.append(attempt(n, wider, {**common, "fabric_config": wider.config.to_dict()}))
+            if attempts[-1].success:
+                break
     contact = None
     if not attempts[-1].success and goal_contact_slack > 0 and mesh_checker is not None:
         contact = goal_contact(problem, fabric, goal_contact_slack, mesh_checker, mesh_margin)
@@ -860,10 +875,19 @@ def solve(
         result = solve(dataclasses.replace(problem, robot=thin), method, batches, population, n_commands, seed,
                        sampler, fabric.config, threads, progress, settings=settings, top_m=top_m, sigma0=sigma0,
                        mesh_candidates=mesh_candidates, length_slack=length_slack, callback=callback,
-                       max_commands=max_commands, mesh_retry_margin=mesh_retry_margin, mesh_margin=mesh_margin,
+                       max_commands=max_commands, mesh_retry_margin=THIN_MESH_RETRY_MARGINS if retry_margins else 0.0,
+                       mesh_margin=mesh_margin,
                        goal_contact_slack=goal_contact_slack, thin_spheres=False)
         attempts.append(dataclasses.replace(result, settings={**result.settings, "sphere_model": "thin"}))
     return done(combine_attempts(attempts))
+
+
+def _retry_margins(value: Union[float, Sequence[float]]) -> List[float]:
+    """``mesh_retry_margin`` of :func:`solve` as the list of its non-zero raises [m]; ValueError naming it
+    unless it is a number or a sequence of numbers, each finite and ≥ 0."""
+    values = [value] if np.ndim(value) == 0 else list(value)
+    raises = [_metrics._non_negative("mesh_retry_margin", v, " [m]") for v in values]
+    return [r for r in raises if r > 0]
 
 
 def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
