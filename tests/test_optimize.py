@@ -443,8 +443,10 @@ def test_result_json_round_trip(shelf_problem, solved):
     assert back.cost == math.inf and math.isnan(back.metrics["ee_ldj"]) and len(back.trajectory) == 0
     with pytest.raises(ValueError, match="robot="):
         opt.replay(back, None)
-    # a result loaded from JSON replays with an explicit robot (stored config and settings reused)
+    # a result loaded from JSON replays with an explicit robot (stored config and settings reused; the
+    # shipped Panda's thin spheres, which the solve planned on, taken for it)
     loaded = SolveResult.from_json(text)
+    assert loaded.settings["sphere_model"] == "thin"
     again = opt.replay(loaded, shelf_problem.scene, robot=shelf_problem.robot)
     np.testing.assert_array_equal(again.trajectory.q, solved.trajectory.q)
 

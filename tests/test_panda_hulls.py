@@ -171,3 +171,38 @@ def test_the_fitted_planes_do_not_depend_on_the_order_of_the_points():
     assert len(dirs) > 26 + 20
     for _ in range(3):
         np.testing.assert_allclose(tool.directions(points[rng.permutation(len(points))], 60), dirs, atol=1e-12)
+
+
+#: A folded wrist (joint 6 at its lower limit): link7's Franka mesh reaches into link5's by 5.6 mm.
+FOLDED_WRIST = np.array([0.0, 0.0, 0.0, -1.5, 0.0, -0.0175, 0.785])
+
+
+def _pairs_between(robot, a, b):
+    links = np.asarray(robot.sphere_links)
+    return [(i, j) for i, j in np.asarray(robot.self_collision_pairs) if {links[i], links[j]} == {a, b}]
+
+
+def test_the_checker_and_the_thin_spheres_check_the_wrist_pair():
+    checker = problems.shipped_panda_checker()
+    assert float(np.asarray(checker.self_clearance(FOLDED_WRIST[None]))[0]) < -0.004
+    opened = FOLDED_WRIST.copy()
+    opened[5] = 0.4
+    assert float(np.asarray(checker.self_clearance(opened[None]))[0]) > 0.01
+    # the covering spheres leave the pair out (they overlap at goals the meshes keep apart); the thin ones don't
+    a, b = problems.PANDA_WRIST_PAIR
+    assert not _pairs_between(gfcs.Robot.panda(), a, b)
+    assert _pairs_between(problems.thin_sphere_model(gfcs.Robot.panda()), a, b)
+    shipped, checked = disabled_pairs(gfcs.panda_srdf()), disabled_pairs(problems.panda_srdf_with_wrist_pair())
+    assert checked == shipped - {frozenset((a, b))} and len(checked) == len(shipped) - 1
+
+
+def disabled_pairs(srdf):
+    import xml.etree.ElementTree as ET
+
+    return {frozenset((e.get("link1"), e.get("link2"))) for e in ET.fromstring(srdf).iter("disable_collisions")}
+
+
+def test_the_franka_meshes_touch_at_the_folded_wrist(mbm_panda_dir):
+    # independent of the polytopes: MotionBenchMaker's Franka meshes and SRDF, which checks the pair
+    franka = problems.mbm_mesh_checker(mbm_panda_dir)
+    assert float(np.asarray(franka.self_clearance(FOLDED_WRIST[None]))[0]) < -0.004

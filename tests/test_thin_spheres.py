@@ -56,11 +56,11 @@ def test_thin_model_is_for_the_shipped_panda_only():
 @pytest.fixture(scope="module")
 def cage32(mbm_dir):
     """MotionBenchMaker cage 32 with the shipped Panda: its covering spheres find no mesh-clear motion
-    into the cage (5 batches, seed 0, every other retry), its thin spheres do."""
+    into the cage (5 batches, seed 0, every retry), its thin spheres do."""
     return problems.load_mbm_dir(mbm_dir / "cage", limit=32)[-1]
 
 
-def test_solve_falls_back_to_the_thin_spheres(cage32):
+def test_solve_runs_on_the_thin_spheres(cage32):
     assert cage32.name.endswith("0032") and cage32.mesh_checker is not None
     covering = optimize.solve(cage32, thin_spheres=False)
     assert not covering.success
@@ -68,7 +68,8 @@ def test_solve_falls_back_to_the_thin_spheres(cage32):
     result = optimize.solve(cage32)
     assert result.success
     assert result.settings["sphere_model"] == "thin"
-    assert result.solve_time > covering.solve_time  # the failed covering attempts are counted too
+    base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
+    assert result.fabric_config["obstacles"]["margin"] == pytest.approx(base + optimize.THIN_SPHERE_MARGIN)
     assert problems.sphere_fingerprint(result.robot) == problems.sphere_fingerprint(
         problems.thin_sphere_model(cage32.robot))
     # judged by the polytopes over the whole motion, independently of the solver's own verdict
@@ -79,40 +80,38 @@ def test_solve_falls_back_to_the_thin_spheres(cage32):
     from gfcs import cli
 
     text = cli.summary_text(result, cage32)
-    assert "thin spheres (links 5-7, hand)" in text and "checked   collision meshes" in text
+    assert "thin spheres (links 5-7, hand" in text and "obstacle margin 6 mm" in text
+    assert "checked   collision meshes" in text
     assert "thin spheres" not in cli.summary_text(covering, cage32)
     # the replay on the result's own robot reproduces the motion
     again = optimize.replay(result, cage32.scene)
     np.testing.assert_allclose(again.trajectory.q, result.trajectory.q, atol=1e-9)
 
 
-def test_no_thin_attempt_without_a_mesh_checker(cage32, monkeypatch):
+def test_no_thin_spheres_without_a_mesh_checker(cage32, monkeypatch):
     def called(robot):
         raise AssertionError("thin_sphere_model called for a problem without a mesh checker")
 
     monkeypatch.setattr(problems, "thin_sphere_model", called)
     bare = dataclasses.replace(cage32, mesh_checker=None)
     result = optimize.solve(bare, batches=1, max_commands=1, mesh_retry_margin=0.0, goal_contact_slack=0.0)
-    assert not result.success  # every attempt failed: the thin one was left out for want of the checker
+    assert not result.success  # on the covering spheres: the thin ones were left out for want of the checker
     assert "sphere_model" not in result.settings
     with pytest.raises(AssertionError, match="without a mesh checker"):
         optimize.solve(cage32, batches=1, max_commands=1, mesh_retry_margin=0.0, goal_contact_slack=0.0)
 
 
-def test_thin_attempt_widens_its_obstacle_margin(mbm_dir, monkeypatch):
+def test_thin_spheres_keep_a_wider_obstacle_margin(mbm_dir, monkeypatch):
     """MotionBenchMaker cage 15: the thin spheres at the fabric's own margin (and 2 mm wider) bring a
-    polytope into a bar, since they miss the meshes by up to 8 mm; the margins of
-    ``THIN_MESH_RETRY_MARGINS`` keep them off."""
+    polytope into a bar, since they miss the meshes by up to 8 mm; ``THIN_SPHERE_MARGIN`` keeps it off."""
     cage15 = problems.load_mbm_dir(mbm_dir / "cage", limit=15)[-1]
     assert cage15.name.endswith("0015")
-    base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
     result = optimize.solve(cage15)
     assert result.success and result.settings["sphere_model"] == "thin"
-    wider = [base + m for m in optimize.THIN_MESH_RETRY_MARGINS]
-    assert result.fabric_config["obstacles"]["margin"] == pytest.approx(wider[0]) or \
-        result.fabric_config["obstacles"]["margin"] == pytest.approx(wider[1])
     met = gfcs.metrics.trajectory_metrics(result.robot, cage15.scene, result.trajectory.t,
                                           result.trajectory.q, cage15.goal, mesh_checker=cage15.mesh_checker)
     assert met["success"] and met["mesh_clearance"] >= gfcs.metrics.DEFAULT_MESH_MARGIN
-    monkeypatch.setattr(optimize, "THIN_MESH_RETRY_MARGINS", (0.002,))
-    assert not optimize.solve(cage15).success
+    monkeypatch.setattr(optimize, "THIN_SPHERE_MARGIN", 0.0)
+    plain = optimize.solve(cage15, sphere_fallback=False)
+    assert not plain.success and plain.settings["sphere_model"] == "thin"
+    assert plain.metrics["sphere_success"] and plain.metrics["mesh_clearance"] < gfcs.metrics.DEFAULT_MESH_MARGIN

@@ -348,7 +348,7 @@ def test_mesh_only_failure_retries_with_a_wider_obstacle_margin(shelf):
     # the first two trajectories touch a mesh: the one-command attempt fails on meshes alone, and the
     # same solve with the obstacle margin 2 mm wider comes back, succeeded, with that margin
     flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
-    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine)
+    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine, thin_spheres=False)
     base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
     assert r.success and r.commands.shape == (1, 7) and r.settings["commands_tried"] == [1, 1]
     assert r.settings["obstacle_margins_tried"] == pytest.approx([base, base + 0.002])
@@ -359,27 +359,18 @@ def test_mesh_only_failure_retries_with_a_wider_obstacle_margin(shelf):
     r = opt.solve(short, batches=1, population=8, seed=0, sampler=mine, settings=opt.RolloutSettings(t_max=0.05),
                   thin_spheres=False)
     assert not r.success and "commands_tried" not in r.settings and r.n_evaluations == 8
-    for bad in (-0.001, (0.002, -0.001), (0.002, float("nan")), "wide"):
-        with pytest.raises(ValueError, match="mesh_retry_margin"):
-            opt.solve(shelf, batches=1, population=8, mesh_retry_margin=bad)
+    with pytest.raises(ValueError, match="mesh_retry_margin"):
+        opt.solve(shelf, batches=1, population=8, mesh_retry_margin=-0.001)
 
 
-def test_mesh_retry_margins_are_tried_in_turn_with_every_command_count(shelf):
+def test_mesh_retry_tries_one_and_two_commands(shelf):
     base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
-    # six trajectories touch (two checked per attempt): one and two commands at the plain margin, one
-    # command at +2 mm fail; two commands at +2 mm succeed, and +5 mm is never tried
+    # six trajectories touch (two checked per attempt): one and two commands at the plain margin and one
+    # command 2 mm wider fail; two commands 2 mm wider succeed
     flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=6))
-    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, mesh_retry_margin=(0.002, 0.005))
+    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, thin_spheres=False)
     assert r.success and r.commands.shape == (2, 7) and r.settings["commands_tried"] == [1, 2, 1, 2]
     assert r.settings["obstacle_margins_tried"] == pytest.approx([base, base, base + 0.002, base + 0.002])
-    # one command only: each raise in turn, the zero one skipped
-    mine = opt.UniformSampler(1)
-    flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=4))
-    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine,
-                  mesh_retry_margin=[0.0, 0.002, 0.005])
-    assert r.success and r.settings["commands_tried"] == [1, 1, 1]
-    assert r.settings["obstacle_margins_tried"] == pytest.approx([base, base + 0.002, base + 0.005])
-    assert r.fabric_config["obstacles"]["margin"] == pytest.approx(base + 0.005)
 
 
 # ------------------------------------------------------------------------------ MotionBenchMaker Panda
@@ -487,6 +478,32 @@ def test_the_cli_no_retry_options_turn_every_retry_off(shelf):
     # every candidate of every attempt touches a mesh: each retry would run and be listed
     hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10**6))
     retried = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2)
-    assert not retried.success and len(retried.settings["commands_tried"]) >= 4  # 1, 2 commands, margin, thin
+    # thin spheres: 1, 2 commands, 1, 2 with the margin 2 mm wider; then the same on the covering spheres
+    assert not retried.success and retried.settings["commands_tried"] == [1, 2, 1, 2] * 2
+    base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
+    thin = base + opt.THIN_SPHERE_MARGIN
+    assert retried.settings["obstacle_margins_tried"] == pytest.approx(
+        [thin, thin, thin + 0.002, thin + 0.002, base, base, base + 0.002, base + 0.002])
     once = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2, **cli._no_retry(1))
     assert not once.success and "commands_tried" not in once.settings and once.n_evaluations == 8
+    assert once.settings["sphere_model"] == "thin"  # the thin spheres are the first model, not a retry
+
+
+def test_a_failed_thin_sphere_solve_falls_back_to_the_covering_spheres(shelf):
+    base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
+    single = dict(batches=1, population=8, seed=0, mesh_candidates=2, max_commands=1, mesh_retry_margin=0,
+                  goal_contact_slack=0)
+    # the two trajectories checked on the thin spheres touch: the covering spheres' solve comes back
+    flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
+    r = opt.solve(flagged, **single)
+    assert r.success and "sphere_model" not in r.settings and r.robot is shelf.robot
+    assert r.settings["commands_tried"] == [1, 1]
+    assert r.settings["obstacle_margins_tried"] == pytest.approx([base + opt.THIN_SPHERE_MARGIN, base])
+    assert r.n_evaluations == 16
+    covering = opt.solve(shelf, thin_spheres=False, **single)
+    np.testing.assert_array_equal(r.trajectory.q, covering.trajectory.q)
+    # without the fallback the thin spheres' failure is returned
+    flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
+    r = opt.solve(flagged, sphere_fallback=False, **single)
+    assert not r.success and r.settings["sphere_model"] == "thin" and r.n_evaluations == 8
+    assert r.fabric_config["obstacles"]["margin"] == pytest.approx(base + opt.THIN_SPHERE_MARGIN)

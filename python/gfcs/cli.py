@@ -109,7 +109,8 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="do not retry a failed solve (with the default sampler: with one more command; "
                         "after a collision of the meshes only: with a 2 mm wider obstacle margin; when the "
                         "goal's spheres overlap obstacles its meshes clear: with those spheres' margins "
-                        "lowered to the goal's; for the shipped Panda: on its thin spheres)")
+                        "lowered to the goal's; for the shipped Panda, whose solve runs on its thin spheres: on its covering "
+                        "spheres)")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
     r.add_argument("--dt", type=float, default=0.01, help="integration step, s (default 0.01)")
     r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
@@ -272,8 +273,9 @@ def summary_text(result: Any, problem: Any) -> str:
     else:
         lines.append("method    gf: local geometric fabric toward the goal")
     if result.settings.get("sphere_model") == "thin":
-        lines.append("spheres   the shipped Panda's thin spheres (links 5-7, hand): its covering ones found no "
-                     "motion (gfcs.problems.thin_sphere_model)")
+        margin = result.fabric_config["obstacles"]["margin"] if result.fabric_config else None
+        lines.append("spheres   the shipped Panda's thin spheres (links 5-7, hand; gfcs.problems.thin_sphere_model)"
+                     + (f", obstacle margin {margin * 1000:.0f} mm" if margin is not None else ""))
     if result.pose_goal is not None:
         lines.append(_pose_goal_line(result, problem))
     t_stars = " + ".join(f"{t:.2f}" for t in result.t_stars)
@@ -349,7 +351,8 @@ def _record(problem: Any, results: Any, path: str) -> None:
 
 def _no_retry(n_commands: int) -> Dict[str, Any]:
     """Keyword arguments of :func:`gfcs.optimize.solve` that turn all of its retries off."""
-    return {"max_commands": n_commands, "mesh_retry_margin": 0.0, "goal_contact_slack": 0.0, "thin_spheres": False}
+    return {"max_commands": n_commands, "mesh_retry_margin": 0.0, "goal_contact_slack": 0.0,
+            "sphere_fallback": False}
 
 
 def cmd_solve(args: argparse.Namespace) -> int:

@@ -61,7 +61,7 @@ import sys
 import time
 import warnings
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Optional, Protocol, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Protocol, Tuple, Union
 
 import numpy as np
 
@@ -84,14 +84,15 @@ __all__ = [
     "replay",
     "make_fabric",
     "rollout_commands",
-    "THIN_MESH_RETRY_MARGINS",
+    "THIN_SPHERE_MARGIN",
 ]
 
-#: The raises [m] of the obstacle margin that :func:`solve`'s thin-sphere attempt tries in turn while its
-#: motions fail on the collision meshes alone (its ``mesh_retry_margin``): the thin spheres miss the
-#: shipped Panda's meshes by up to 8 mm, so a margin of the fabric's 2 mm plus 4 or 8 mm keeps the meshes
-#: off where the plain margin lets them touch (MotionBenchMaker cage, BENCHMARKS.md).
-THIN_MESH_RETRY_MARGINS = (0.004, 0.008)
+#: How much wider [m] than the fabric's obstacle margin :func:`solve` keeps the shipped Panda's thin spheres
+#: from obstacles: they miss its meshes by up to 8.3 mm, and at the plain margin (2 mm) a motion in a
+#: MotionBenchMaker cage brought a collision polytope 1-6 mm into a bar with every sphere clear; with 6 mm
+#: the first batch solved 327 of the 347 problems valid for the shipped Panda, against 296 on its covering
+#: spheres (BENCHMARKS.md).
+THIN_SPHERE_MARGIN = 0.004
 
 
 # ----------------------------------------------------------------------------------------- samplers
@@ -711,10 +712,11 @@ def solve(
     length_slack: float = 0.1,
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
     max_commands: Optional[int] = None,
-    mesh_retry_margin: Union[float, Sequence[float]] = 0.002,
+    mesh_retry_margin: float = 0.002,
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
     goal_contact_slack: float = 0.002,
     thin_spheres: bool = True,
+    sphere_fallback: bool = True,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1) or with the local fabric alone (``method="gf"``).
 
@@ -756,9 +758,8 @@ def solve(
         mesh_retry_margin: when every attempt failed and one of them only because a collision *mesh*
             touched (the goal reached with the spheres clear), solve again (``n_commands``, then one more
             up to ``max_commands`` as above) with the fabric's obstacle margin (``obstacles.margin``)
-            raised by this much [m], ≥ 0 (0: no such attempt); a sequence of raises is tried in turn while
-            every attempt keeps failing; ``settings["obstacle_margins_tried"]`` then lists the margin of
-            every attempt. The
+            raised by this much [m], ≥ 0 (0: no such attempt); ``settings["obstacle_margins_tried"]`` then
+            lists the margin of every attempt. The
             spheres leave up to 12-20 mm of the MBM Panda's meshes uncovered (:func:`gfcs.problems.mbm_panda`);
             0.002: on MotionBenchMaker cage 48, which no candidate of either attempt solved with seed 1,
             solved with 4 mm for seeds 0-2, while 4 mm for every problem lost cage 47 (BENCHMARKS.md).
@@ -777,14 +778,16 @@ def solve(
             a millimetre or two; ``clearance_floor`` of
             :func:`gfcs.metrics.trajectory_metrics`); the meshes judge the rest. ``settings["goal_contact"]``
             of that attempt holds the margins and the floor.
-        thin_spheres: when every attempt failed and the robot is the shipped Panda with its mesh checker
-            (:func:`gfcs.problems.thin_sphere_model`), solve once more on its thin spheres, which reach
-            beyond the meshes far less than the covering ones and miss them by up to 8 mm; the
-            polytopes judge the motion, and its mesh retries raise the obstacle margin by
-            :data:`THIN_MESH_RETRY_MARGINS` (none when ``mesh_retry_margin`` is 0). The result's ``robot`` is then that model and
-            ``settings["sphere_model"]`` is ``"thin"``. On MotionBenchMaker's cage it solves problems whose
-            gaps the covering spheres close (BENCHMARKS.md); it is not the first attempt because the
-            covering spheres keep more problems mesh-clear.
+        thin_spheres: when the robot is the shipped Panda and the problem has its mesh checker
+            (:func:`gfcs.problems.thin_sphere_model`), the fabric runs on its thin spheres, which reach
+            beyond the meshes far less than the covering ones and miss them by up to 8 mm, with the obstacle
+            margin raised by :data:`THIN_SPHERE_MARGIN`; the collision polytopes judge the motion. The
+            result's ``robot`` is then that model and ``settings["sphere_model"]`` is ``"thin"``. The
+            covering spheres close gaps the arm passes through (a MotionBenchMaker cage's bars); the thin
+            ones solved 30 more of the 347 MotionBenchMaker problems in one batch (BENCHMARKS.md).
+            ``method="gf"`` keeps the robot's own spheres.
+        sphere_fallback: when the thin-sphere solve failed (retries included), solve again on the
+            robot's own spheres and return the better of the two (:func:`combine_attempts`).
 
     Returns:
         :class:`gfcs.results.SolveResult` (trajectory of the best sequence, metrics, per-batch data;
@@ -838,7 +841,7 @@ def solve(
     if sampler is not None and max_commands != n_commands:
         raise ValueError("max_commands > n_commands needs the default sampler: a sampler of your own "
                          f"proposes {n_commands} command(s) per candidate")
-    retry_margins = _retry_margins(mesh_retry_margin)
+    mesh_retry_margin = _metrics._non_negative("mesh_retry_margin", mesh_retry_margin, " [m]")
     goal_contact_slack = _metrics._non_negative("goal_contact_slack", goal_contact_slack, " [m]")
     options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
@@ -849,15 +852,31 @@ def solve(
                                sampler if sampler is not None else ApproachSampler(n), clearance_floor=floor,
                                **options)
 
+    thin = (_problems.thin_sphere_model(robot) if thin_spheres and mesh_checker is not None
+            and dataclasses.is_dataclass(problem) else None)
+    if thin is not None:
+        def again(prob: Any, config: Any) -> SolveResult:
+            return solve(prob, method, batches, population, n_commands, seed, sampler, config, threads, progress,
+                         settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
+                         length_slack=length_slack, callback=callback, max_commands=max_commands,
+                         mesh_retry_margin=mesh_retry_margin, mesh_margin=mesh_margin,
+                         goal_contact_slack=goal_contact_slack, thin_spheres=False)
+
+        margin = float(common["fabric_config"]["obstacles"]["margin"]) + THIN_SPHERE_MARGIN
+        thin_result = again(dataclasses.replace(problem, robot=thin),
+                            fabric.config.replace({"obstacles": {"margin": margin}}))
+        thin_result = dataclasses.replace(thin_result, settings={**thin_result.settings, "sphere_model": "thin"})
+        if thin_result.success or not sphere_fallback:
+            return done(thin_result)
+        return done(combine_attempts([thin_result, again(problem, fabric.config)]))
+
     attempts: List[SolveResult] = []
     for n in range(n_commands, max_commands + 1):
         attempts.append(attempt(n))
         if attempts[-1].success:
             break
-    for raise_by in retry_margins:
-        if attempts[-1].success or not any(map(_mesh_collision_only, attempts)):
-            break
-        margin = float(common["fabric_config"]["obstacles"]["margin"]) + raise_by
+    if not attempts[-1].success and mesh_retry_margin > 0 and any(map(_mesh_collision_only, attempts)):
+        margin = float(common["fabric_config"]["obstacles"]["margin"]) + mesh_retry_margin
         wider = make_fabric(problem, fabric.config.replace({"obstacles": {"margin": margin}}))
         for n in range(n_commands, max_commands + 1):
             attempts.append(attempt(n, wider, {**common, "fabric_config": wider.config.to_dict()}))
@@ -869,25 +888,7 @@ def solve(
     if contact is not None:
         margins, floor = contact
         attempts.append(attempt(n_commands, fabric.with_obstacle_margins(margins), floor=floor))
-    thin = (_problems.thin_sphere_model(robot) if thin_spheres and not attempts[-1].success
-            and mesh_checker is not None and dataclasses.is_dataclass(problem) else None)
-    if thin is not None:
-        result = solve(dataclasses.replace(problem, robot=thin), method, batches, population, n_commands, seed,
-                       sampler, fabric.config, threads, progress, settings=settings, top_m=top_m, sigma0=sigma0,
-                       mesh_candidates=mesh_candidates, length_slack=length_slack, callback=callback,
-                       max_commands=max_commands, mesh_retry_margin=THIN_MESH_RETRY_MARGINS if retry_margins else 0.0,
-                       mesh_margin=mesh_margin,
-                       goal_contact_slack=goal_contact_slack, thin_spheres=False)
-        attempts.append(dataclasses.replace(result, settings={**result.settings, "sphere_model": "thin"}))
     return done(combine_attempts(attempts))
-
-
-def _retry_margins(value: Union[float, Sequence[float]]) -> List[float]:
-    """``mesh_retry_margin`` of :func:`solve` as the list of its non-zero raises [m]; ValueError naming it
-    unless it is a number or a sequence of numbers, each finite and ≥ 0."""
-    values = [value] if np.ndim(value) == 0 else list(value)
-    raises = [_metrics._non_negative("mesh_retry_margin", v, " [m]") for v in values]
-    return [r for r in raises if r > 0]
 
 
 def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
@@ -933,13 +934,19 @@ def combine_attempts(attempts: List[SolveResult]) -> SolveResult:
     if len(attempts) == 1:
         return attempts[0]
     best = attempts[-1] if attempts[-1].success else min(attempts, key=lambda r: r.cost)
-    margins = [r.fabric_config["obstacles"]["margin"] if r.fabric_config else None for r in attempts]
+    commands: List[int] = []
+    margins: List[Optional[float]] = []
+    for r in attempts:  # an attempt that combines attempts itself contributes each of them
+        tried = r.settings.get("commands_tried", [int(r.settings["n_commands"])])
+        commands += tried
+        margin = r.fabric_config["obstacles"]["margin"] if r.fabric_config else None
+        margins += r.settings.get("obstacle_margins_tried", [margin] * len(tried))
     extra = {"obstacle_margins_tried": margins} if len(set(margins)) > 1 else {}
     return dataclasses.replace(
         best,
         solve_time=float(sum(r.solve_time for r in attempts)),
         n_evaluations=int(sum(r.n_evaluations for r in attempts)),
-        settings={**best.settings, "commands_tried": [int(r.settings["n_commands"]) for r in attempts], **extra},
+        settings={**best.settings, "commands_tried": commands, **extra},
     )
 
 
@@ -1046,7 +1053,9 @@ def replay(
         result: a :class:`SolveResult` (from :func:`solve` or :meth:`SolveResult.from_json`).
         scene: the new ``gfcs.Scene`` (e.g. the original plus new obstacles).
         robot: the robot; default ``result.robot`` (set by :func:`solve`; results loaded from JSON
-            need it passed explicitly).
+            need it passed explicitly). A result planned on the shipped Panda's thin spheres
+            (``settings["sphere_model"] == "thin"``) replays on :func:`gfcs.problems.thin_sphere_model`
+            of it, the fabric it was planned with.
         fabric_config: default: the configuration stored in ``result``.
         settings: default: the rollout settings stored in ``result``.
         commands: (n, dof) commands to replay instead of ``result.commands`` (e.g. a row of
@@ -1065,6 +1074,8 @@ def replay(
     robot = robot if robot is not None else result.robot
     if robot is None:
         raise ValueError("replay: this result carries no robot (loaded from JSON?): pass robot=")
+    if result.settings.get("sphere_model") == "thin":
+        robot = _problems.thin_sphere_model(robot) or robot
     if settings is None:
         names = {f.name for f in dataclasses.fields(RolloutSettings)}
         settings = RolloutSettings(**{k: v for k, v in result.settings.items() if k in names})

@@ -642,6 +642,27 @@ def mesh_checker_for(robot: Any) -> Any:
 #: The shipped Panda's collision polytopes, one OBJ per link (``tools/fit_hulls.py``; link frames, m).
 PANDA_HULLS = Path(__file__).with_name("data") / "panda_hulls"
 
+#: The link pair the shipped SRDF disables for the covering spheres only: at folded-wrist configurations
+#: (joint 6 near its lower limit) link7's mesh reaches link5's — their polytopes overlap at 6 % of uniform
+#: samples of the joint box — but the covering spheres of the two links overlap at 39 of
+#: MotionBenchMaker's 694 start and goal states, whose meshes keep 20 mm or more apart. The polytope
+#: checker and the thin spheres (whose two links keep 12 mm or more apart at those states) check it.
+PANDA_WRIST_PAIR = ("panda_link5", "panda_link7")
+
+
+def panda_srdf_with_wrist_pair() -> str:
+    """The shipped SRDF (:func:`gfcs.panda_srdf`) without its ``disable_collisions`` of
+    :data:`PANDA_WRIST_PAIR`, for collision models that can tell that pair apart."""
+    import xml.etree.ElementTree as ET
+
+    import gfcs
+
+    root = ET.fromstring(gfcs.panda_srdf())
+    for element in list(root.iter("disable_collisions")):
+        if {element.get("link1"), element.get("link2")} == set(PANDA_WRIST_PAIR):
+            root.remove(element)
+    return ET.tostring(root, encoding="unicode")
+
 
 @functools.lru_cache(maxsize=None)
 def shipped_panda_checker() -> Any:
@@ -650,7 +671,8 @@ def shipped_panda_checker() -> Any:
     collision mesh and exceeds that mesh's convex hull by at most 2.7 mm (``tools/fit_hulls.py``: up to
     146 planes per link, fitted to the hull's facets), where the covering spheres the fabric uses reach up
     to 33 mm beyond the mesh. A motion whose polytopes keep ``m`` from the obstacles keeps at least ``m``
-    with the Franka meshes. Self-collision shape pairs follow the shipped SRDF. Built once.
+    with the Franka meshes. Self-collision shape pairs follow the shipped SRDF, with
+    :data:`PANDA_WRIST_PAIR` checked (the Franka meshes of those links can touch). Built once.
 
     Raises:
         FileNotFoundError: the polytope files are missing from the installation.
@@ -671,7 +693,7 @@ def shipped_panda_checker() -> Any:
     shipped = _shipped_panda()[0]
     robot = gfcs.Robot.from_urdf(text, base_link=shipped.link_names[0], ee_link="panda_hand",
                                  active_joints=shipped.joint_names, mesh_dir=str(PANDA_HULLS),
-                                 srdf=gfcs.panda_srdf())
+                                 srdf=panda_srdf_with_wrist_pair())
     return gfcs.MeshChecker(robot.with_locked_positions(shipped.locked_positions))
 
 
@@ -707,22 +729,22 @@ PANDA_THIN_SPHERES = Path(__file__).with_name("data") / "panda_thin_spheres.json
 def thin_sphere_model(robot: Any) -> Optional[Any]:
     """``robot`` with the spheres of the links in :data:`PANDA_THIN_SPHERES` replaced by those thin ones,
     when it is the shipped Panda (its covering spheres, joints, limits and link poses; locked joints as
-    ``robot`` holds them), else None. Self-collision pairs follow the shipped SRDF.
+    ``robot`` holds them), else None. Self-collision pairs follow the shipped SRDF, with
+    :data:`PANDA_WRIST_PAIR` checked (:func:`panda_srdf_with_wrist_pair`).
 
     The covering spheres of the forearm, wrist and hand reach up to 33 mm beyond the Franka meshes and
-    close gaps the meshes pass through (MotionBenchMaker's cage: 15 of 50 unsolved with them). A fabric on
+    close gaps the meshes pass through (MotionBenchMaker's cage: 15 of 50 unsolved with them, every retry included). A fabric on
     the thin spheres passes, while its motions can bring a mesh up to 8 mm nearer an obstacle than the
-    spheres: :func:`gfcs.optimize.solve` tries this model only after the covering spheres failed, and the
-    collision polytopes (:func:`shipped_panda_checker`) judge the motion.
+    spheres: :func:`gfcs.optimize.solve` keeps them a wider margin from obstacles
+    (:data:`gfcs.optimize.THIN_SPHERE_MARGIN`), and the collision polytopes (:func:`shipped_panda_checker`)
+    judge the motion.
     """
-    import gfcs
-
     if not _moves_as_shipped_panda(robot):
         return None
     thin = _file_spheres(json.loads(PANDA_THIN_SPHERES.read_text())["spheres"])
     links = {link for link, _, _ in thin}
     kept = [sphere for sphere in _robot_spheres(robot) if sphere[0] not in links]
-    return robot.with_spheres(kept + thin).with_srdf(gfcs.panda_srdf())
+    return robot.with_spheres(kept + thin).with_srdf(panda_srdf_with_wrist_pair())
 
 
 def mbm_panda(path: Optional[PathLike] = None, fill_gaps: bool = True) -> Any:
