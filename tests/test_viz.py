@@ -339,3 +339,18 @@ def test_unloadable_meshes_warn_and_fall_back(tmp_path):
     assert len(rows) == len(result2.trajectory) > 1
     assert np.allclose(np.array(rows[-1][1]["Points3D:positions"]),
                        problem2.robot.sphere_centers(result2.trajectory.q[-1]), atol=1e-6)
+
+
+def test_a_thin_sphere_result_is_drawn_with_the_spheres_it_was_planned_on(solved, tmp_path):
+    from gfcs import problems
+
+    problem = dataclasses.replace(solved[0], mesh_checker=problems.shipped_panda_checker())
+    thin = optimize.solve(problem, method="gfcs", batches=1, population=4, seed=0, threads=1)
+    assert thin.settings["sphere_model"] == "thin"
+    data = read_rrd(viz.record(problem, {"gfcs": thin}, tmp_path / "thin.rrd", robot_geometry="spheres"))
+    k = len(thin.trajectory) // 2
+    cols = data["/methods/gfcs/robot/spheres"]["rows"][k][1]
+    assert np.allclose(np.array(cols["Points3D:positions"]), thin.robot.sphere_centers(thin.trajectory.q[k]),
+                       atol=1e-5)
+    assert np.allclose(np.array(cols["Points3D:radii"]), thin.robot.sphere_radii, atol=1e-6)
+    assert len(thin.robot.sphere_radii) != len(problem.robot.sphere_radii)

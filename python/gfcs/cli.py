@@ -230,7 +230,8 @@ def _endpoint_hints(result: Any, problem: Any) -> List[str]:
     for what, q, limit, why in (
             ("start", problem.q0, 0.0, "every motion from it collides under this model"),
             ("goal", problem.goal, margin, f"the fabric keeps {margin * 1000:.3g} mm, so no motion reaches it")):
-        clearance = float(metrics.obstacle_clearance(problem.robot, problem.scene, q[None])[0])
+        planned = getattr(result, "robot", None) or problem.robot  # the thin spheres, when solve planned on them
+        clearance = float(metrics.obstacle_clearance(planned, problem.scene, q[None])[0])
         if clearance < limit:
             where = (f"overlap the obstacles by {-clearance * 1000:.2f} mm" if clearance < 0
                      else f"are {clearance * 1000:.2f} mm from the obstacles")

@@ -76,7 +76,8 @@ def react(problem: Any, seed: int = 0, batches: int = 5) -> Dict[str, Any]:
         return row
     scene = sphere.pop("scene")
     row.update(sphere)
-    before = metrics.obstacle_clearance(problem.robot, scene, np.asarray(result.trajectory.q)).min()
+    planned = result.robot or problem.robot  # the spheres the motion was planned on (thin for the shipped Panda)
+    before = metrics.obstacle_clearance(planned, scene, np.asarray(result.trajectory.q)).min()
     row["blocked"] = bool(before < 0.0)
     row["solved_clearance"] = float(before)
     again = optimize.replay(result, scene, robot=problem.robot, mesh_checker=problem.mesh_checker)
