@@ -115,3 +115,17 @@ def test_thin_spheres_keep_a_wider_obstacle_margin(mbm_dir, monkeypatch):
     plain = optimize.solve(cage15, sphere_fallback=False)
     assert not plain.success and plain.settings["sphere_model"] == "thin"
     assert plain.metrics["sphere_success"] and plain.metrics["mesh_clearance"] < gfcs.metrics.DEFAULT_MESH_MARGIN
+
+
+def test_a_franka_description_with_the_shipped_spheres_gets_the_thin_model(mbm_panda_dir):
+    # MotionBenchMaker's panda.urdf: Franka's meshes, other link names (panda_grasptarget), wider limits,
+    # fingers fixed at 0.065 m; given the shipped Panda's spheres, links 5-7 and the hand move as the
+    # shipped Panda's do, so their thin spheres apply
+    franka = gfcs.Robot.from_urdf(str(mbm_panda_dir / "panda.urdf"), srdf=str(mbm_panda_dir / "panda.srdf"))
+    covered = problems.with_shipped_panda_spheres(franka, str(mbm_panda_dir / "panda.srdf"))
+    thin = problems.thin_sphere_model(covered)
+    assert thin is not None and thin.link_names == franka.link_names
+    np.testing.assert_array_equal(thin.upper, franka.upper)
+    assert spheres_of(thin, "panda_link5")[1].max() < spheres_of(covered, "panda_link5")[1].max() - 0.005
+    # its own spheres (MotionBenchMaker's) are not the shipped ones: no thin model
+    assert problems.thin_sphere_model(problems.mbm_panda(mbm_panda_dir)) is None

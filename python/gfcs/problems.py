@@ -706,17 +706,29 @@ def _shipped_panda() -> Tuple[Any, str]:
     return shipped, sphere_fingerprint(shipped)
 
 
-def _moves_as_shipped_panda(robot: Any, samples: int = 8, tol: float = 1e-9) -> bool:
+def _moves_as_shipped_panda(robot: Any, samples: int = 8, tol: float = 1e-9,
+                            links: Optional[Sequence[str]] = None) -> bool:
     """Whether ``robot`` is the shipped Panda up to its locked joints' positions: the same sphere model,
-    joints, limits and link poses (``samples`` seeded configurations, to ``tol`` m)."""
+    joints, limits and link poses (``samples`` seeded configurations, to ``tol`` m). With ``links``, only
+    the sphere model, the joints and the poses of those links count (other links, limits and locked
+    joints may differ, as in a Franka description given the shipped spheres)."""
     shipped, fingerprint = _shipped_panda()
-    if (robot.link_names != shipped.link_names or robot.joint_names != shipped.joint_names
-            or sphere_fingerprint(robot) != fingerprint
-            or not (np.array_equal(robot.lower, shipped.lower) and np.array_equal(robot.upper, shipped.upper))):
+    if robot.joint_names != shipped.joint_names or sphere_fingerprint(robot) != fingerprint:
         return False
-    mine = robot.with_locked_positions(shipped.locked_positions) if robot.locked_positions else robot
+    if links is None:
+        same_limits = np.array_equal(robot.lower, shipped.lower) and np.array_equal(robot.upper, shipped.upper)
+        if robot.link_names != shipped.link_names or not same_limits:
+            return False
+        mine = robot.with_locked_positions(shipped.locked_positions) if robot.locked_positions else robot
+        links = list(shipped.link_names)
+    elif not set(links) <= set(robot.link_names):
+        return False
+    else:
+        mine = robot
     q = np.random.default_rng(0).uniform(shipped.lower, shipped.upper, size=(samples, shipped.dof))
-    return bool(np.max(np.abs(mine.link_poses(q) - shipped.link_poses(q))) <= tol)
+    at = [list(mine.link_names).index(name) for name in links]
+    ref = [list(shipped.link_names).index(name) for name in links]
+    return bool(np.max(np.abs(mine.link_poses(q)[:, at] - shipped.link_poses(q)[:, ref])) <= tol)
 
 
 #: Thin collision spheres for the shipped Panda's links 5-7 and hand, in their link frames (m): fitted by
@@ -728,8 +740,9 @@ PANDA_THIN_SPHERES = Path(__file__).with_name("data") / "panda_thin_spheres.json
 
 def thin_sphere_model(robot: Any) -> Optional[Any]:
     """``robot`` with the spheres of the links in :data:`PANDA_THIN_SPHERES` replaced by those thin ones,
-    when it is the shipped Panda (its covering spheres, joints, limits and link poses; locked joints as
-    ``robot`` holds them), else None. Self-collision pairs follow the shipped SRDF, with
+    when it has the shipped Panda's covering spheres and joints and moves those links as the shipped
+    Panda does (the shipped Panda itself, or a Franka description given its spheres by
+    :func:`with_shipped_panda_spheres`, whatever its limits and fingers), else None. Self-collision pairs follow the shipped SRDF, with
     :data:`PANDA_WRIST_PAIR` checked (:func:`panda_srdf_with_wrist_pair`).
 
     The covering spheres of the forearm, wrist and hand reach up to 33 mm beyond the Franka meshes and
@@ -739,10 +752,10 @@ def thin_sphere_model(robot: Any) -> Optional[Any]:
     (:data:`gfcs.optimize.THIN_SPHERE_MARGIN`), and the collision polytopes (:func:`shipped_panda_checker`)
     judge the motion.
     """
-    if not _moves_as_shipped_panda(robot):
-        return None
     thin = _file_spheres(json.loads(PANDA_THIN_SPHERES.read_text())["spheres"])
     links = {link for link, _, _ in thin}
+    if not _moves_as_shipped_panda(robot, links=sorted(links)):
+        return None
     kept = [sphere for sphere in _robot_spheres(robot) if sphere[0] not in links]
     return robot.with_spheres(kept + thin).with_srdf(panda_srdf_with_wrist_pair())
 
