@@ -109,8 +109,8 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="do not retry a failed solve (with the default sampler: with one more command; "
                         "after a collision of the meshes only: with a 2 mm wider obstacle margin; when the "
                         "goal's spheres overlap obstacles its meshes clear: with those spheres' margins "
-                        "lowered to the goal's; for the shipped Panda, whose solve runs on its thin spheres: on its covering "
-                        "spheres)")
+                        "lowered to the goal's; for the shipped Panda, whose solve runs on its thin spheres: "
+                        "on its covering spheres)")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
     r.add_argument("--dt", type=float, default=0.01, help="integration step, s (default 0.01)")
     r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
@@ -223,14 +223,15 @@ def _endpoint_hints(result: Any, problem: Any) -> List[str]:
     (the barrier keeps the arm out, so no motion reaches it)."""
     import gfcs
     from gfcs import metrics
+    from gfcs.results import planned_robot
 
     config = gfcs.FabricConfig.from_dict(result.fabric_config) if result.fabric_config else gfcs.FabricConfig()
     margin = float(config.to_dict()["obstacles"]["margin"])
     lines = []
+    planned = planned_robot(result, problem)  # the thin spheres, when solve planned on them
     for what, q, limit, why in (
             ("start", problem.q0, 0.0, "every motion from it collides under this model"),
             ("goal", problem.goal, margin, f"the fabric keeps {margin * 1000:.3g} mm, so no motion reaches it")):
-        planned = getattr(result, "robot", None) or problem.robot  # the thin spheres, when solve planned on them
         clearance = float(metrics.obstacle_clearance(planned, problem.scene, q[None])[0])
         if clearance < limit:
             where = (f"overlap the obstacles by {-clearance * 1000:.2f} mm" if clearance < 0

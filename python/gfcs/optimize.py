@@ -847,6 +847,10 @@ def solve(
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
                    length_slack=length_slack, mesh_margin=mesh_margin,
                    callback=callback)
+    def margin_raised(by: float) -> Any:  # the fabric's configuration, obstacles kept ``by`` m further off
+        margin = float(common["fabric_config"]["obstacles"]["margin"]) + by
+        return fabric.config.replace({"obstacles": {"margin": margin}})
+
     def attempt(n: int, fab: Any = fabric, info: Dict[str, Any] = common, floor: float = 0.0) -> SolveResult:
         return _solve_commands(problem, fab, mesh_checker, info, n,
                                sampler if sampler is not None else ApproachSampler(n), clearance_floor=floor,
@@ -862,9 +866,7 @@ def solve(
                          mesh_retry_margin=mesh_retry_margin, mesh_margin=mesh_margin,
                          goal_contact_slack=goal_contact_slack, thin_spheres=False)
 
-        margin = float(common["fabric_config"]["obstacles"]["margin"]) + THIN_SPHERE_MARGIN
-        thin_result = again(dataclasses.replace(problem, robot=thin),
-                            fabric.config.replace({"obstacles": {"margin": margin}}))
+        thin_result = again(dataclasses.replace(problem, robot=thin), margin_raised(THIN_SPHERE_MARGIN))
         thin_result = dataclasses.replace(thin_result, settings={**thin_result.settings, "sphere_model": "thin"})
         if thin_result.success or not sphere_fallback:
             return done(thin_result)
@@ -876,8 +878,7 @@ def solve(
         if attempts[-1].success:
             break
     if not attempts[-1].success and mesh_retry_margin > 0 and any(map(_mesh_collision_only, attempts)):
-        margin = float(common["fabric_config"]["obstacles"]["margin"]) + mesh_retry_margin
-        wider = make_fabric(problem, fabric.config.replace({"obstacles": {"margin": margin}}))
+        wider = make_fabric(problem, margin_raised(mesh_retry_margin))
         for n in range(n_commands, max_commands + 1):
             attempts.append(attempt(n, wider, {**common, "fabric_config": wider.config.to_dict()}))
             if attempts[-1].success:

@@ -742,12 +742,12 @@ def thin_sphere_model(robot: Any) -> Optional[Any]:
     """``robot`` with the spheres of the links in :data:`PANDA_THIN_SPHERES` replaced by those thin ones,
     when it has the shipped Panda's covering spheres and joints and moves those links as the shipped
     Panda does (the shipped Panda itself, or a Franka description given its spheres by
-    :func:`with_shipped_panda_spheres`, whatever its limits and fingers), else None. Self-collision pairs follow the shipped SRDF, with
-    :data:`PANDA_WRIST_PAIR` checked (:func:`panda_srdf_with_wrist_pair`).
+    :func:`with_shipped_panda_spheres`, whatever its limits and fingers), else None. Self-collision pairs
+    follow the shipped SRDF, with :data:`PANDA_WRIST_PAIR` checked (:func:`panda_srdf_with_wrist_pair`).
 
     The covering spheres of the forearm, wrist and hand reach up to 33 mm beyond the Franka meshes and
-    close gaps the meshes pass through (MotionBenchMaker's cage: 15 of 50 unsolved with them, every retry included). A fabric on
-    the thin spheres passes, while its motions can bring a mesh up to 8 mm nearer an obstacle than the
+    close gaps the meshes pass through (MotionBenchMaker's cage: 15 of 50 unsolved with them, every retry
+    included). A fabric on the thin spheres passes, while its motions can bring a mesh up to 8 mm nearer an obstacle than the
     spheres: :func:`gfcs.optimize.solve` keeps them a wider margin from obstacles
     (:data:`gfcs.optimize.THIN_SPHERE_MARGIN`), and the collision polytopes (:func:`shipped_panda_checker`)
     judge the motion.

@@ -319,6 +319,12 @@ TABLE_COLUMNS: Tuple[Tuple[str, str], ...] = (
 )
 
 
+def planned_robot(result: Any, problem: Any) -> Any:
+    """The robot ``result`` was planned on: its own ``robot`` (set by :func:`gfcs.optimize.solve`, e.g. the
+    shipped Panda's thin spheres), else ``problem.robot`` (a result loaded from JSON carries none)."""
+    return getattr(result, "robot", None) or problem.robot
+
+
 def bench_row(
     problem: str,
     cls: str,

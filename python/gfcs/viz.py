@@ -48,6 +48,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from gfcs import metrics as _metrics
+from gfcs.results import planned_robot
 from gfcs.pose_goal import quaternion_xyzw as rotation_to_quaternion  # (..., 3, 3) -> (..., 4) [x, y, z, w]
 
 __all__ = [
@@ -349,7 +350,7 @@ def _fabric_series(problem: Any, result: Any, q: np.ndarray, qd: np.ndarray, t: 
     import gfcs
 
     try:
-        fabric = gfcs.Fabric(_planned_robot(problem, result), problem.scene, getattr(result, "fabric_config", None))
+        fabric = gfcs.Fabric(planned_robot(result, problem), problem.scene, getattr(result, "fabric_config", None))
     except gfcs.GfcsError as e:
         warnings.warn(f"gfcs.viz: fabric energy not logged ({e})", stacklevel=3)
         return None
@@ -408,15 +409,9 @@ class _MethodData:
     series: Dict[str, np.ndarray]
 
 
-def _planned_robot(problem: Any, result: Any) -> Any:
-    """The robot ``result`` was planned with: its own (e.g. the shipped Panda's thin spheres, see
-    :func:`gfcs.optimize.solve`), else the problem's."""
-    return getattr(result, "robot", None) or problem.robot
-
-
 def _prepare_method(problem: Any, label: str, result: Any, color: Tuple[int, int, int], meshes: bool,
                     spheres: bool, energy: bool) -> _MethodData:
-    robot = _planned_robot(problem, result)
+    robot = planned_robot(result, problem)
     traj = result.trajectory
     t = np.asarray(traj.t, dtype=np.float64).reshape(-1)
     n = t.shape[0]
@@ -588,7 +583,7 @@ def record(
     rec.log("/world/start", rr.Points3D(start_ee, radii=0.025, colors=[(240, 240, 240)], labels=["start"]),
             static=True)
     for d in methods:
-        _log_method(rec, _planned_robot(problem, d.result), d, meshes)
+        _log_method(rec, planned_robot(d.result, problem), d, meshes)
     rec.flush()
     rec.disconnect()  # closes the file sink (writes the footer)
     return out_path

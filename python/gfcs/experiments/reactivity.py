@@ -63,6 +63,7 @@ def blocking_sphere(problem: Any, result: Any, rng: np.random.Generator) -> Opti
 def react(problem: Any, seed: int = 0, batches: int = 5) -> Dict[str, Any]:
     """Steps 1-4 of the module docstring for one problem: a JSON-ready dict."""
     from gfcs import metrics, optimize
+    from gfcs.results import planned_robot
 
     row: Dict[str, Any] = {"problem": str(problem.name), "class": str(problem.cls)}
     result = optimize.solve(problem, batches=batches, seed=seed)
@@ -76,8 +77,7 @@ def react(problem: Any, seed: int = 0, batches: int = 5) -> Dict[str, Any]:
         return row
     scene = sphere.pop("scene")
     row.update(sphere)
-    planned = result.robot or problem.robot  # the spheres the motion was planned on (thin for the shipped Panda)
-    before = metrics.obstacle_clearance(planned, scene, np.asarray(result.trajectory.q)).min()
+    before = metrics.obstacle_clearance(planned_robot(result, problem), scene, np.asarray(result.trajectory.q)).min()
     row["blocked"] = bool(before < 0.0)
     row["solved_clearance"] = float(before)
     again = optimize.replay(result, scene, robot=problem.robot, mesh_checker=problem.mesh_checker)
