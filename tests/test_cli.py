@@ -28,6 +28,13 @@ def test_help(args):
             assert name in r.stdout
 
 
+def test_python_dash_m_gfcs_is_the_command():
+    r = subprocess.run([sys.executable, "-m", "gfcs", "generate", "--help"], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "usage: gfcs generate" in r.stdout
+
+
 def test_help_does_not_import_optional_dependencies():
     code = ("import sys; from gfcs import cli\n"
             "try:\n    cli.main(['--help'])\nexcept SystemExit:\n    pass\n"
