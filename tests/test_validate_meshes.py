@@ -373,6 +373,26 @@ def test_mesh_retry_tries_one_and_two_commands(shelf):
     assert r.settings["obstacle_margins_tried"] == pytest.approx([base, base, base + 0.002, base + 0.002])
 
 
+def test_mesh_retries_widen_the_margin_step_by_step(shelf):
+    base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
+    # ten trajectories touch: five attempts fail (two checked each); a single mesh retry stops after four,
+    # the default second one, 4 mm wider, succeeds with two commands
+    kw = dict(batches=1, population=8, seed=0, mesh_candidates=2, thin_spheres=False)
+    once = opt.solve(dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10)),
+                     mesh_retries=1, **kw)
+    assert not once.success and once.settings["commands_tried"] == [1, 2, 1, 2]
+    twice = opt.solve(dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10)), **kw)
+    assert twice.success and twice.settings["commands_tried"] == [1, 2, 1, 2, 1, 2]
+    assert twice.settings["obstacle_margins_tried"] == pytest.approx([base] * 2 + [base + 0.002] * 2
+                                                                     + [base + 0.004] * 2)
+    none = opt.solve(dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10)),
+                     mesh_retries=0, **kw)
+    assert not none.success and none.settings["commands_tried"] == [1, 2]
+    for bad in (-1, 1.5, True, "2"):
+        with pytest.raises(ValueError, match="mesh_retries"):
+            opt.solve(shelf, batches=1, population=8, mesh_retries=bad)
+
+
 # ------------------------------------------------------------------------------ MotionBenchMaker Panda
 def test_mbm_panda_attaches_its_mesh_checker(shared_dir):
     folder = shared_dir / "robots" / "mbm_panda"
@@ -478,12 +498,13 @@ def test_the_cli_no_retry_options_turn_every_retry_off(shelf):
     # every candidate of every attempt touches a mesh: each retry would run and be listed
     hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10**6))
     retried = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2)
-    # thin spheres: 1, 2 commands, 1, 2 with the margin 2 mm wider; then the same on the covering spheres
-    assert not retried.success and retried.settings["commands_tried"] == [1, 2, 1, 2] * 2
+    # thin spheres: 1, 2 commands, 1, 2 with the margin 2 mm wider, 1, 2 4 mm wider; then the same on the
+    # covering spheres
+    assert not retried.success and retried.settings["commands_tried"] == [1, 2, 1, 2, 1, 2] * 2
     base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
     thin = base + opt.THIN_SPHERE_MARGIN
     assert retried.settings["obstacle_margins_tried"] == pytest.approx(
-        [thin, thin, thin + 0.002, thin + 0.002, base, base, base + 0.002, base + 0.002])
+        [m + k * 0.002 for m in (thin, base) for k in (0, 0, 1, 1, 2, 2)])
     once = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2, **cli._no_retry(1))
     assert not once.success and "commands_tried" not in once.settings and once.n_evaluations == 8
     assert once.settings["sphere_model"] == "thin"  # the thin spheres are the first model, not a retry

@@ -713,6 +713,7 @@ def solve(
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
     max_commands: Optional[int] = None,
     mesh_retry_margin: float = 0.002,
+    mesh_retries: int = 2,
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
     goal_contact_slack: float = 0.002,
     thin_spheres: bool = True,
@@ -763,6 +764,10 @@ def solve(
             spheres leave up to 12-20 mm of the MBM Panda's meshes uncovered (:func:`gfcs.problems.mbm_panda`);
             0.002: on MotionBenchMaker cage 48, which no candidate of either attempt solved with seed 1,
             solved with 4 mm for seeds 0-2, while 4 mm for every problem lost cage 47 (BENCHMARKS.md).
+        mesh_retries: how many such rounds, ≥ 0, the k-th with the margin raised by k ×
+            ``mesh_retry_margin``; a round runs only while the previous one failed with a mesh-only
+            failure among its attempts. 2: the shipped Panda's thin spheres on MotionBenchMaker cage 13
+            touched a bar with their meshes at +2 mm and solved it at +4 mm (BENCHMARKS.md).
         mesh_margin: with a mesh checker, the clearance [m] the collision meshes must keep for a trajectory
             to succeed (:func:`gfcs.metrics.trajectory_metrics`); candidates closer than that are passed
             over like colliding ones. Default :data:`gfcs.metrics.DEFAULT_MESH_MARGIN` (1 mm); 0: contact
@@ -842,6 +847,9 @@ def solve(
         raise ValueError("max_commands > n_commands needs the default sampler: a sampler of your own "
                          f"proposes {n_commands} command(s) per candidate")
     mesh_retry_margin = _metrics._non_negative("mesh_retry_margin", mesh_retry_margin, " [m]")
+    if isinstance(mesh_retries, bool) or not isinstance(mesh_retries, (int, np.integer)) or mesh_retries < 0:
+        raise ValueError(f"mesh_retries must be an integer ≥ 0, got {mesh_retries!r}")
+    mesh_retries = int(mesh_retries)
     goal_contact_slack = _metrics._non_negative("goal_contact_slack", goal_contact_slack, " [m]")
     options = dict(batches=batches, population=population, seed=seed, threads=threads, progress=progress,
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
@@ -863,7 +871,7 @@ def solve(
             return solve(prob, method, batches, population, n_commands, seed, sampler, config, threads, progress,
                          settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
                          length_slack=length_slack, callback=callback, max_commands=max_commands,
-                         mesh_retry_margin=mesh_retry_margin, mesh_margin=mesh_margin,
+                         mesh_retry_margin=mesh_retry_margin, mesh_retries=mesh_retries, mesh_margin=mesh_margin,
                          goal_contact_slack=goal_contact_slack, thin_spheres=False)
 
         thin_result = again(dataclasses.replace(problem, robot=thin), margin_raised(THIN_SPHERE_MARGIN))
@@ -877,12 +885,17 @@ def solve(
         attempts.append(attempt(n))
         if attempts[-1].success:
             break
-    if not attempts[-1].success and mesh_retry_margin > 0 and any(map(_mesh_collision_only, attempts)):
-        wider = make_fabric(problem, margin_raised(mesh_retry_margin))
+    last_round = attempts
+    for k in range(1, mesh_retries + 1):
+        if attempts[-1].success or mesh_retry_margin == 0 or not any(map(_mesh_collision_only, last_round)):
+            break
+        wider = make_fabric(problem, margin_raised(k * mesh_retry_margin))
+        last_round = []
         for n in range(n_commands, max_commands + 1):
-            attempts.append(attempt(n, wider, {**common, "fabric_config": wider.config.to_dict()}))
-            if attempts[-1].success:
+            last_round.append(attempt(n, wider, {**common, "fabric_config": wider.config.to_dict()}))
+            if last_round[-1].success:
                 break
+        attempts += last_round
     contact = None
     if not attempts[-1].success and goal_contact_slack > 0 and mesh_checker is not None:
         contact = goal_contact(problem, fabric, goal_contact_slack, mesh_checker, mesh_margin)
