@@ -107,7 +107,7 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                         "model validates it (default 0.001; 0: contact only)")
     g.add_argument("--no-retry", action="store_true",
                    help="do not retry a failed solve (with the default sampler: with one more command; "
-                        "after a collision of the meshes only: with a 2 mm wider obstacle margin; when the "
+                        "after a collision of the meshes only: with a 2 mm, then 4 mm wider obstacle margin; when the "
                         "goal's spheres overlap obstacles its meshes clear: with those spheres' margins "
                         "lowered to the goal's; for the shipped Panda, whose solve runs on its thin spheres: "
                         "on its covering spheres)")
