@@ -855,6 +855,7 @@ def solve(
                    settings=settings, top_m=top_m, sigma0=sigma0, mesh_candidates=mesh_candidates,
                    length_slack=length_slack, mesh_margin=mesh_margin,
                    callback=callback)
+
     def margin_raised(by: float) -> Any:  # the fabric's configuration, obstacles kept ``by`` m further off
         margin = float(common["fabric_config"]["obstacles"]["margin"]) + by
         return fabric.config.replace({"obstacles": {"margin": margin}})
@@ -880,22 +881,23 @@ def solve(
             return done(thin_result)
         return done(combine_attempts([thin_result, again(problem, fabric.config)]))
 
-    attempts: List[SolveResult] = []
-    for n in range(n_commands, max_commands + 1):
-        attempts.append(attempt(n))
-        if attempts[-1].success:
-            break
-    last_round = attempts
-    for k in range(1, mesh_retries + 1):
-        if attempts[-1].success or mesh_retry_margin == 0 or not any(map(_mesh_collision_only, last_round)):
+    def one_round(fab: Any = fabric, info: Dict[str, Any] = common) -> List[SolveResult]:
+        """n_commands free commands, then one more up to max_commands, until an attempt succeeds."""
+        results: List[SolveResult] = []
+        for n in range(n_commands, max_commands + 1):
+            results.append(attempt(n, fab, info))
+            if results[-1].success:
+                break
+        return results
+
+    rounds = [one_round()]
+    for k in range(1, mesh_retries + 1):  # mesh retries: the obstacle margin k × mesh_retry_margin wider
+        last = rounds[-1]
+        if last[-1].success or mesh_retry_margin == 0 or not any(map(_mesh_collision_only, last)):
             break
         wider = make_fabric(problem, margin_raised(k * mesh_retry_margin))
-        last_round = []
-        for n in range(n_commands, max_commands + 1):
-            last_round.append(attempt(n, wider, {**common, "fabric_config": wider.config.to_dict()}))
-            if last_round[-1].success:
-                break
-        attempts += last_round
+        rounds.append(one_round(wider, {**common, "fabric_config": wider.config.to_dict()}))
+    attempts = [result for round_ in rounds for result in round_]
     contact = None
     if not attempts[-1].success and goal_contact_slack > 0 and mesh_checker is not None:
         contact = goal_contact(problem, fabric, goal_contact_slack, mesh_checker, mesh_margin)

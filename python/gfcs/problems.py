@@ -747,8 +747,8 @@ def thin_sphere_model(robot: Any) -> Optional[Any]:
 
     The covering spheres of the forearm, wrist and hand reach up to 33 mm beyond the Franka meshes and
     close gaps the meshes pass through (MotionBenchMaker's cage: 15 of 50 unsolved with them, every retry
-    included). A fabric on the thin spheres passes, while its motions can bring a mesh up to 8 mm nearer an obstacle than the
-    spheres: :func:`gfcs.optimize.solve` keeps them a wider margin from obstacles
+    included). A fabric on the thin spheres passes, while its motions can bring a mesh up to 8 mm nearer an
+    obstacle than the spheres: :func:`gfcs.optimize.solve` keeps them a wider margin from obstacles
     (:data:`gfcs.optimize.THIN_SPHERE_MARGIN`), and the collision polytopes (:func:`shipped_panda_checker`)
     judge the motion.
     """
