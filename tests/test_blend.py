@@ -1,8 +1,12 @@
 import numpy as np
 import pytest
 
-from gfcs.blend import (PANDA_ACCELERATION_LIMITS, acceleration_limits, append_goal_blend, limit_acceleration,
-                        quintic_to_rest)
+from gfcs.profile import acceleration_limits
+from gfcs.blend import append_goal_blend, limit_dynamics, quintic_to_rest
+from gfcs.metrics import velocity_ratio
+
+#: Franka Control Interface documentation, "Limits for Panda", joints 1-7 [rad/s²].
+PANDA_ACCELERATION_LIMITS = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
 
 
 def test_quintic_meets_its_boundary_conditions():
@@ -102,7 +106,7 @@ def test_second_difference_is_exact_for_quadratics_on_any_grid():
     np.testing.assert_allclose(second_difference(t, q)[1:-1], _fd_acceleration(t, q), atol=1e-9)
 
 
-def test_limit_acceleration_slows_a_fast_circle_down_along_the_same_path():
+def test_limit_dynamics_slows_a_fast_circle_down_along_the_same_path():
     """A unit circle in a 2-joint space at ω = 4 rad/s: centripetal 16 rad/s² against limits of 4 and 8.
     Entered from rest and left to rest over 0.5 s ramps, so both ends are at rest."""
     dt = 0.01
@@ -112,7 +116,7 @@ def test_limit_acceleration_slows_a_fast_circle_down_along_the_same_path():
     qd = np.gradient(q, t, axis=0)
     limits = np.array([4.0, 8.0])
     assert np.max(np.abs(_fd_acceleration(t, q)) / limits) > 3.5
-    t2, q2, qd2 = limit_acceleration(t, q, qd, limits, dt)
+    t2, q2, qd2 = limit_dynamics(t, q, qd, dt, acceleration=limits)
     assert np.max(np.abs(_fd_acceleration(t2, q2)) / limits) <= 1.0
     assert t2[0] == t[0] and t2[-1] > 4.0  # the 2 s at full speed take at least sqrt(16 / 4) = 2 times longer
     assert np.allclose(np.diff(t2), dt, rtol=0.01)
@@ -123,21 +127,22 @@ def test_limit_acceleration_slows_a_fast_circle_down_along_the_same_path():
     np.testing.assert_allclose(qd2[1:-1], np.gradient(q2, t2, axis=0)[1:-1], atol=0.02)
 
 
-def test_limit_acceleration_leaves_a_slow_trajectory_alone_and_checks_its_limits():
+def test_limit_dynamics_leaves_a_slow_trajectory_alone_and_checks_its_limits():
     t = np.linspace(0.0, 1.0, 101)
     q = np.stack([0.1 * t**2, -0.2 * t], axis=1)
     qd = np.gradient(q, t, axis=0)
-    out = limit_acceleration(t, q, qd, [1.0, 1.0], 0.01)
+    out = limit_dynamics(t, q, qd, 0.01, acceleration=[1.0, 1.0])
     assert out[0] is t and out[1] is q and out[2] is qd
     for bad in ([1.0], [1.0, 0.0], [1.0, np.nan]):
         with pytest.raises(ValueError, match="acceleration limits"):
-            limit_acceleration(t, q, qd, bad, 0.01)
+            limit_dynamics(t, q, qd, 0.01, acceleration=bad)
 
 
 def test_panda_limits_are_known_for_panda_joints_only():
     import gfcs
 
     np.testing.assert_array_equal(acceleration_limits(gfcs.Robot.panda()), PANDA_ACCELERATION_LIMITS)
+    assert acceleration_limits(gfcs.Robot.panda()).shape == (7,)
     other = gfcs.Robot.from_urdf("""<robot name="r"><link name="a"/><link name="b"/>
       <joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
       <limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>""")
@@ -151,7 +156,7 @@ def test_solve_returns_trajectories_within_the_panda_limits():
     from gfcs import generators, optimize
 
     p = generators.generate("table_under_pick", 1, seed=0, robot=gfcs.Robot.panda())[0]
-    limits = np.asarray(PANDA_ACCELERATION_LIMITS)
+    limits = acceleration_limits(gfcs.Robot.panda())
     sampler = optimize.ApproachSampler(retract=0.0)
     raw = optimize.solve(p, batches=1, population=8, seed=0, sampler=sampler,
                          settings=optimize.RolloutSettings(limit_acceleration=False))
@@ -182,3 +187,38 @@ def test_a_blend_toward_a_goal_at_a_limit_is_shortened_until_it_keeps_the_limit(
     # limits the quintic keeps anyway change nothing
     _, wide, _ = append_goal_blend(t, q, qd, np.zeros(7), goal, dt, lower=-upper - 1, upper=upper + 1)
     np.testing.assert_array_equal(wide, free)
+
+
+def _fast_line(speed: float = 2.0, dt: float = 0.01):
+    """Two joints moving at ``speed`` and -speed/2 rad/s with smooth 0.3 s ramps from and to rest."""
+    t = np.arange(0.0, 2.0 + dt / 2, dt)
+    ramp = np.clip(t / 0.3, 0, 1) * np.clip((2.0 - t) / 0.3, 0, 1)
+    s = np.concatenate([[0.0], np.cumsum(0.5 * (ramp[1:] + ramp[:-1]) * dt)]) * speed
+    q = np.stack([s, -0.5 * s], axis=1)
+    return t, q, np.gradient(q, t, axis=0)
+
+
+def test_limit_dynamics_keeps_velocity_limits_along_the_same_path():
+    t, q, qd = _fast_line()
+    limits = np.array([0.5, np.inf])  # joint 2 has no limit (a continuous joint without one)
+    assert velocity_ratio(t, q, limits) > 3.5
+    t2, q2, qd2 = limit_dynamics(t, q, qd, 0.01, velocity=limits)
+    assert velocity_ratio(t2, q2, limits) <= 1.0
+    assert t2[-1] > 3.5 * t[-1] * 0.9
+    np.testing.assert_array_equal(q2[[0, -1]], q[[0, -1]])
+    np.testing.assert_allclose(q2[:, 1], -0.5 * q2[:, 0], atol=1e-9)  # still on the line
+    assert np.all(np.diff(q2[:, 0]) >= -1e-12)  # same order
+
+
+def test_limit_dynamics_keeps_a_moving_start_state_and_rejects_an_impossible_one():
+    t, q, qd = _fast_line()
+    k = 20  # start mid-ramp, moving
+    t, q, qd = t[k:] - t[k], q[k:], qd[k:]
+    assert np.all(qd[0] != 0)
+    limits = np.array([1.5, 1.5])
+    t2, q2, qd2 = limit_dynamics(t, q, qd, 0.01, velocity=limits)
+    np.testing.assert_array_equal(qd2[0], qd[0])
+    np.testing.assert_array_equal(q2[0], q[0])
+    assert velocity_ratio(t2[15:], q2[15:], limits) <= 1.0
+    with pytest.raises(ValueError, match="start velocity .* exceeds its velocity limit"):
+        limit_dynamics(t, q, qd, 0.01, velocity=np.abs(qd[0]) / 2)

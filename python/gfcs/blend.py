@@ -14,11 +14,13 @@ those two events were most of ∫‖q⃛‖² of a GFCS trajectory. :func:`retim
 profile that leaves rest with zero acceleration and joins the rollout with its speed and tangential
 acceleration. Only the timing changes, so clearances and path lengths do not.
 
-Acceleration limits: where a command sequence hands over from one command to the next, the fabric turns
-the arm onto the new command within about 0.1 s, up to 25 rad/s² (on MotionBenchMaker up to 3.4 times
-the Panda's limits; 47 of the 50 table-under trajectories exceeded them), and that turn was most of the
-trajectory's ∫‖q⃛‖². :func:`limit_acceleration` slows the trajectory down locally (a smooth time dilation,
-the same configurations in the same order) until every joint is within its limit.
+Velocity and acceleration limits: the fabric's speed is set by its own speed control, not by the robot's
+joint velocity limits (URDF ``<limit velocity>``: 2.2-2.6 rad/s on the Panda, 0.5 rad/s on some UR5 arms,
+0.1 m/s on a Fetch torso), and where a command sequence hands over from one command to the next the fabric
+turns the arm onto the new command within about 0.1 s, at up to 25 rad/s². :func:`limit_dynamics` is the
+time parameterisation every returned trajectory gets: it slows the trajectory down locally (a smooth time
+dilation, the same configurations in the same order) until every joint is within its velocity limit and,
+where known (:mod:`gfcs.profile`), its acceleration limit.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from typing import Any, Optional, Tuple
 import numpy as np
 
 __all__ = ["blend_duration", "quintic_to_rest", "append_goal_blend", "retime_start", "START_WINDOW",
-           "limit_acceleration", "second_difference", "acceleration_limits", "PANDA_ACCELERATION_LIMITS"]
+           "limit_dynamics", "first_difference_speed", "second_difference"]
 
 #: Length [s] of the rollout's start that :func:`retime_start` re-times.
 START_WINDOW = 0.3
@@ -36,12 +38,8 @@ START_WINDOW = 0.3
 #: at most 2/3 of the junction speed (a linear ramp would take 2; the quintic's zero start acceleration
 #: needs more than 1), and at least ``START_WINDOW``; longer when needed to keep the speed non-negative.
 _START_STRETCH = 1.5
-#: Joint acceleration limits [rad/s²] of the Franka Emika Panda, joints 1-7 (Franka Control Interface
-#: documentation, "Limits for Panda"); URDF files carry none.
-PANDA_ACCELERATION_LIMITS = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
-_PANDA_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
-#: :func:`limit_acceleration` re-times toward this fraction of the limits.
-_ACCELERATION_TARGET = 0.95
+#: :func:`limit_dynamics` re-times toward this fraction of the limits.
+_LIMIT_TARGET = 0.95
 
 
 def blend_duration(q: np.ndarray, qd: np.ndarray, goal: np.ndarray, dt: float) -> float:
@@ -88,7 +86,7 @@ def append_goal_blend(t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd_last: np
             speed toward a goal at a limit passes it before it comes back (on MotionBenchMaker's box 2 with the
             shipped Panda, joint 2 by 0.0032 rad); the blend is then shortened (×0.8 at a time,
             down to 2 steps) until it stays within the limits, which steepens its stop (the acceleration
-            re-timing of :func:`limit_acceleration` then slows the path before it instead).
+            re-timing of :func:`limit_dynamics` then slows the path before it instead).
 
     Returns:
         (t, q, qd) extended so that the last row is exactly (goal, 0) at rest.
@@ -174,14 +172,6 @@ def retime_start(t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, 
             np.vstack([vel, qd[J + 1:]]))
 
 
-def acceleration_limits(robot: Any) -> Optional[np.ndarray]:
-    """The known joint acceleration limits [rad/s²] of ``robot``: :data:`PANDA_ACCELERATION_LIMITS` when its
-    joints are ``panda_joint1`` … ``panda_joint7`` (the shipped and the MotionBenchMaker Panda), else None."""
-    if tuple(robot.joint_names) == _PANDA_JOINTS:
-        return np.array(PANDA_ACCELERATION_LIMITS)
-    return None
-
-
 def _widen_and_smooth(x: np.ndarray, half: int) -> np.ndarray:
     """Running maximum over ±``half`` samples, then two running means over ±``half`` (a C¹ envelope that
     stays at least as large as x wherever x has a plateau of the window's width)."""
@@ -212,50 +202,90 @@ def second_difference(t: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.vstack([inner[:1], inner, inner[-1:]])
 
 
-def limit_acceleration(t: np.ndarray, q: np.ndarray, qd: np.ndarray, limits: Any, dt: float,
-                       window: float = 0.1, max_iterations: int = 8,
-                       ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Slow a trajectory down where it exceeds the joint acceleration limits (see the module docstring).
+def _limit_vector(limits: Any, dof: int, what: str, unit: str) -> Optional[np.ndarray]:
+    """``limits`` as a (dof,) float array with +inf for "no limit" (None: no limits at all); ValueError
+    naming ``what`` unless every value is positive (NaN and values ≤ 0 are rejected)."""
+    if limits is None:
+        return None
+    a = np.asarray(limits, dtype=np.float64)
+    if a.shape != (dof,) or np.any(np.isnan(a)) or np.any(a <= 0):
+        raise ValueError(f"{what} limits: expected {dof} positive values [{unit}] (inf: none), "
+                         f"got {np.asarray(limits).tolist()}")
+    return None if np.all(np.isinf(a)) else a
 
-    Each pass estimates q̈ by :func:`second_difference` of q (as a validator would), takes the slow-down factor
-    λ_k = max(1, max_j sqrt(|q̈_kj| / (0.95 a_j))) that would bring sample k to 95 % of the limits
-    (accelerations scale as 1/λ² under a time dilation), widens and smooths it over ±``window`` seconds
-    (so that λ varies slowly and adds little acceleration of its own), re-times the samples by dτ = λ dt,
-    and resamples at ``dt`` along the C¹ cubic Hermite curve through the samples with velocities q̇/λ.
-    Passes repeat until every |q̈_j| ≤ a_j or ``max_iterations`` passes were made. The first and last
-    samples are kept exactly (a trajectory at rest at its ends stays so).
+
+def first_difference_speed(t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """|q̇| [rad/s or m/s] at every sample as a validator measures it: the larger of the two finite-difference
+    speeds |q_{k+1} − q_k| / (t_{k+1} − t_k) of the segments that meet at sample k (the end samples take
+    their one segment's).
 
     Args:
-        t: (T,) increasing times [s]; q, qd: (T, dof) positions [rad] and velocities [rad/s].
-        limits: (dof,) acceleration limits a_j > 0 [rad/s²].
-        dt: sample period of the result [s] (the re-timed duration divided into a whole number of equal
-            steps, each within dt / (2n) of ``dt``).
-        window: half-width of the smoothing of λ [s].
-        max_iterations: most passes.
+        t: (T,) increasing times [s], T ≥ 2; q: (T, dof) positions.
 
     Returns:
-        (t, q, qd): the input itself when it is already within the limits; else the re-timed trajectory,
+        (T, dof) speeds, ≥ 0.
+    """
+    seg = np.abs(np.diff(q, axis=0)) / np.diff(t)[:, None]
+    return np.maximum(np.vstack([seg[:1], seg]), np.vstack([seg, seg[-1:]]))
+
+
+def limit_dynamics(t: np.ndarray, q: np.ndarray, qd: np.ndarray, dt: float, velocity: Any = None,
+                   acceleration: Any = None, window: float = 0.1, max_iterations: int = 12,
+                   ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Re-time a trajectory along its own path until every joint keeps its velocity and acceleration limits
+    (a time parameterisation by local time dilation; see the module docstring).
+
+    Each pass measures the speeds by :func:`first_difference_speed` and the accelerations by
+    :func:`second_difference` of q (as a validator would), takes the slow-down factor λ_k = max(1,
+    max_j |q̇_kj| / (0.95 v_j), max_j sqrt(|q̈_kj| / (0.95 a_j))) that would bring sample k to 95 % of the
+    limits (velocities scale as 1/λ and accelerations as 1/λ² under a time dilation), widens and smooths it
+    over ±``window`` seconds (λ then varies slowly and adds little acceleration of its own), re-times the
+    samples by dτ = λ dt, and resamples at ``dt`` along the C¹ cubic Hermite curve through the samples with
+    velocities q̇/λ. Passes repeat until the limits hold or ``max_iterations`` passes were made; the last
+    passes dilate uniformly if the velocity limits still do not hold, so the velocity limits always hold
+    on return (the acceleration limits after at most ``max_iterations`` passes).
+
+    A trajectory that starts moving (q̇_0 ≠ 0: a start velocity the robot already has) keeps its first
+    state: λ ramps from 1 at the first sample to its measured value over ``window`` seconds, so the start
+    velocity is exactly q̇_0 and the limits hold from the end of that ramp on. The first and last positions
+    are kept exactly (a trajectory at rest at its ends stays so).
+
+    Args:
+        t: (T,) increasing times [s]; q, qd: (T, dof) positions [rad or m] and velocities.
+        dt: sample period of the result [s] (the re-timed duration divided into a whole number of equal
+            steps, each within dt / (2n) of ``dt``).
+        velocity: (dof,) velocity limits v_j > 0 [rad/s or m/s], inf where a joint has none; None: none.
+        acceleration: (dof,) acceleration limits a_j > 0 [rad/s² or m/s²], inf where unknown; None: none.
+        window: half-width of the smoothing of λ [s].
+        max_iterations: most non-uniform passes.
+
+    Returns:
+        (t, q, qd): the input itself when it already keeps the limits; else the re-timed trajectory,
         starting at t[0].
 
     Raises:
-        ValueError: ``limits`` not (dof,) finite and positive, or ``dt`` / ``window`` not positive.
+        ValueError: limits not (dof,) positive values, ``dt`` / ``window`` not positive, or a start velocity
+            beyond a velocity limit (no re-timing can change the state the robot starts in).
     """
-    a = np.asarray(limits, dtype=np.float64)
-    if a.shape != (q.shape[1],) or not np.all(np.isfinite(a)) or np.any(a <= 0):
-        raise ValueError(f"acceleration limits: expected {q.shape[1]} finite positive values [rad/s²], "
-                         f"got {np.asarray(limits).tolist()}")
+    dof = q.shape[1]
+    v = _limit_vector(velocity, dof, "velocity", "rad/s or m/s")
+    a = _limit_vector(acceleration, dof, "acceleration", "rad/s² or m/s²")
     if not (dt > 0 and window > 0):
         raise ValueError(f"dt and window must be > 0, got {dt}, {window}")
+    if v is not None and np.any(np.abs(qd[0]) > v):
+        j = int(np.argmax(np.abs(qd[0]) / v))
+        raise ValueError(f"start velocity {qd[0][j]:.6g} of joint {j} exceeds its velocity limit {v[j]:.6g}: "
+                         "the robot cannot be in that state")
     half = int(round(window / dt))
-    for _ in range(int(max_iterations)):
-        if len(t) < 3:
-            break
-        ratio = np.max(np.abs(second_difference(t, q)) / a, axis=1)
-        if ratio.max() <= 1.0:
-            break
-        # aim a little below the limits so that one or two passes suffice
-        lam = np.maximum(1.0, np.sqrt(ratio / _ACCELERATION_TARGET))
-        lam = _widen_and_smooth(lam, half)
+    moving_start = bool(np.any(qd[0] != 0.0))
+
+    def ratios(t: np.ndarray, q: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """(velocity ratio (T,), acceleration ratio (T,)) of the samples; zeros without limits."""
+        rv = np.max(first_difference_speed(t, q) / v, axis=1) if v is not None else np.zeros(len(t))
+        ra = np.max(np.abs(second_difference(t, q)) / a, axis=1) if a is not None else np.zeros(len(t))
+        return rv, ra
+
+    def dilate(t: np.ndarray, q: np.ndarray, qd: np.ndarray, lam: np.ndarray):
         tau = np.concatenate([[t[0]], t[0] + np.cumsum(np.diff(t) * 0.5 * (lam[1:] + lam[:-1]))])
         # a uniform grid from the first to the last knot, its step within dt / (2n) of dt
         n = max(1, int(round((tau[-1] - tau[0]) / dt)))
@@ -263,5 +293,30 @@ def limit_acceleration(t: np.ndarray, q: np.ndarray, qd: np.ndarray, limits: Any
         pos, vel = _hermite(tau, q, qd / lam[:, None], times)
         pos[0], vel[0] = q[0], qd[0] / lam[0]
         pos[-1], vel[-1] = q[-1], qd[-1] / lam[-1]
-        t, q, qd = times, pos, vel
+        return times, pos, vel
+
+    if len(t) < 3 or (v is None and a is None):
+        return t, q, qd
+    for _ in range(int(max_iterations)):
+        rv, ra = ratios(t, q)
+        if max(rv.max(), ra.max()) <= 1.0:
+            return t, q, qd
+        # aim a little below the limits so that one or two passes suffice
+        lam = np.maximum(1.0, np.maximum(rv / _LIMIT_TARGET, np.sqrt(ra / _LIMIT_TARGET)))
+        lam = _widen_and_smooth(lam, half)
+        if moving_start:  # keep the start state: λ = 1 at the first sample, reached smoothly
+            ramp = np.clip((t - t[0]) / window, 0.0, 1.0)
+            lam = 1.0 + (lam - 1.0) * ramp * ramp * (3.0 - 2.0 * ramp)
+        t, q, qd = dilate(t, q, qd, lam)
+    for _ in range(8):  # velocity limits must hold: dilate uniformly by what is left
+        rv, _ = ratios(t, q)
+        if moving_start:
+            rv = rv[min(len(rv) - 1, half + 1):]
+        if rv.size == 0 or rv.max() <= 1.0:
+            break
+        lam = np.full(len(t), rv.max() / _LIMIT_TARGET)
+        if moving_start:
+            ramp = np.clip((t - t[0]) / window, 0.0, 1.0)
+            lam = 1.0 + (lam - 1.0) * ramp * ramp * (3.0 - 2.0 * ramp)
+        t, q, qd = dilate(t, q, qd, lam)
     return t, q, qd

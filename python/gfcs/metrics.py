@@ -49,6 +49,8 @@ __all__ = [
 DEFAULT_SUCCESS_TOL = 0.01
 #: Default slack [rad] on the joint limits when checking a trajectory (round-off of the integrator).
 DEFAULT_LIMIT_TOL = 1e-6
+#: Relative slack on the velocity limits in the success criterion (rounding of the re-timed samples).
+VELOCITY_RATIO_TOL = 1e-6
 #: Default clearance [m] the collision meshes must keep, from the obstacles and between links, for a
 #: trajectory to count as collision-free when a mesh checker is given: a millimetre held back for
 #: checkers of the same meshes that measure differently (other distance code, tessellation, padding).
@@ -174,6 +176,23 @@ def within_limits(q: Any, lower: Any, upper: Any, tol: float = DEFAULT_LIMIT_TOL
             f"lower/upper: expected shape ({qa.shape[1]},), got {lo.shape} and {up.shape}"
         )
     return bool(np.all(qa >= lo - tol) and np.all(qa <= up + tol))
+
+
+def velocity_ratio(t: Any, q: Any, limits: Any) -> float:
+    """The largest ratio of a joint's finite-difference speed |q_{k+1} − q_k| / (t_{k+1} − t_k) to its
+    velocity limit over a trajectory (0 for fewer than two samples or joints without a limit).
+
+    Args:
+        t: (T,) increasing times [s]; q: (T, dof) positions [rad or m].
+        limits: (dof,) velocity limits [rad/s or m/s] (inf: none).
+    """
+    ta = np.asarray(t, dtype=np.float64).reshape(-1)
+    qa = _as_path(q, "q")
+    v = np.asarray(limits, dtype=np.float64).reshape(-1)
+    if qa.shape[0] < 2:
+        return 0.0
+    speed = np.abs(np.diff(qa, axis=0)) / np.diff(ta)[:, None]
+    return float(np.max(speed / v))
 
 
 def sphere_clearances(robot: Any, scene: Any, q: Any) -> np.ndarray:
@@ -330,7 +349,8 @@ def trajectory_metrics(
         ``mesh_margin``),
         ``sphere_success`` (bool: final error ≤ tol, min sphere clearance ≥ ``clearance_floor`` against
         obstacles and ≥ 0 against the robot itself,
-        limits respected: the verdict of the sphere model alone), ``final_error`` [rad], ``min_clearance``
+        position and velocity limits respected: the verdict of the sphere model alone), ``final_error``
+        [rad], ``velocity_ratio`` (:func:`velocity_ratio`, ≤ 1 within the velocity limits), ``min_clearance``
         [m] (obstacles, spheres), ``min_self_clearance`` [m], ``within_limits`` (bool), ``duration`` [s],
         ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``, ``cspace_ldj`` (NaN when undefined),
         ``n_samples``, and with a checker ``mesh_clearance`` [m] (min over the samples, see
@@ -362,6 +382,7 @@ def trajectory_metrics(
     clear = float(np.min(obstacle_clearance(robot, scene, qa)))
     self_clear = float(np.min(self_clearance(robot, qa)))
     limits_ok = within_limits(qa, robot.lower, robot.upper, limit_tol)
+    speed_ratio = velocity_ratio(ta, qa, robot.velocity_limits)
     q_u, dt = uniform_resample(ta, qa)
     ee_u, _ = uniform_resample(ta, ee_a)
     ok_dt = math.isfinite(dt) and dt > 0.0
@@ -371,7 +392,8 @@ def trajectory_metrics(
         mesh_clear, mesh_self, mesh_ok = mesh_verdict(mesh_checker, scene, qa, mesh_margin)
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
-    sphere_ok = bool(final_error <= tol and clear >= floor and self_clear >= 0.0 and limits_ok)
+    sphere_ok = bool(final_error <= tol and clear >= floor and self_clear >= 0.0 and limits_ok
+                     and speed_ratio <= 1.0 + VELOCITY_RATIO_TOL)
     return {
         "success": sphere_ok and mesh_ok,
         "sphere_success": sphere_ok,
@@ -379,6 +401,7 @@ def trajectory_metrics(
         "min_clearance": clear,
         "min_self_clearance": self_clear,
         "within_limits": limits_ok,
+        "velocity_ratio": speed_ratio,
         "duration": float(ta[-1] - ta[0]),
         "ee_length": path_length(ee_a),
         "cspace_length": path_length(qa),

@@ -67,7 +67,8 @@ import numpy as np
 
 from gfcs import metrics as _metrics
 from gfcs import problems as _problems
-from gfcs.blend import acceleration_limits, append_goal_blend, limit_acceleration, retime_start
+from gfcs import profile as _profile
+from gfcs.blend import append_goal_blend, limit_dynamics, retime_start
 from gfcs.results import SolveResult, Trajectory
 
 __all__ = [
@@ -157,7 +158,8 @@ class ApproachSampler:
         distances: back-off distances (m) of the last command, ≥ 0.
         spacings: extra back-off (m, ≥ 0) of each earlier command over the next one (n ≥ 2 only).
         sigma: joint noise around the approach configurations as a fraction of each joint range, ≥ 0.
-        axis: approach direction in the end-effector frame (default z, the Panda gripper's).
+        axis: approach direction in the end-effector frame; None: the robot profile's
+            (:func:`gfcs.profile.profile_for`: a data file's, else derived from the gripper's spheres).
     """
 
     n_commands: int = 1
@@ -166,7 +168,7 @@ class ApproachSampler:
     distances: Tuple[float, ...] = (0.05, 0.10, 0.15, 0.20)
     spacings: Tuple[float, ...] = (0.10, 0.15, 0.20)
     sigma: float = 0.02
-    axis: Tuple[float, float, float] = (0.0, 0.0, 1.0)
+    axis: Optional[Tuple[float, float, float]] = None
 
     def __post_init__(self) -> None:
         if int(self.n_commands) < 1:
@@ -201,7 +203,8 @@ class ApproachSampler:
         step = np.asarray(self.spacings, dtype=np.float64)[i % len(self.spacings)]
         back = last[:, None] + step[:, None] * np.arange(m - 1, -1, -1)[None, :]
         levels, index = np.unique(back, return_inverse=True)
-        approach = approach_configurations(robot, problem.goal, levels, self.axis)
+        axis = self.axis if self.axis is not None else _profile.profile_for(robot).approach_axis
+        approach = approach_configurations(robot, problem.goal, levels, axis)
         rows = approach[index.reshape(k + r, m)]  # (k + r, m, dof)
         noise = rng.standard_normal((k + r, m, dof)) * (float(self.sigma) * (up - lo))
         rows = np.clip(rows + noise, lo, up)
@@ -495,12 +498,13 @@ class RolloutSettings:
             distance to the command has not shrunk by ``stall_progress`` [rad] over ``stall_window`` [s]
             (0 = off): it saves the steps of candidates stuck at a local minimum.
         limit_acceleration: slow the recorded trajectory down locally until every joint is within its
-            acceleration limit (:func:`gfcs.blend.limit_acceleration`: the same path, re-timed; not part of
+            acceleration limit (:func:`gfcs.blend.limit_dynamics`: the same path, re-timed; not part of
             the cost, which is the fabric's own time). On MotionBenchMaker (350 problems, 5 batches) 101
             trajectories exceeded the Panda's limits, by up to 3.4 times, mostly at their command
             handovers; re-timed, the motions of a class last 0-2 % longer and their LDJ rises by up to 0.35.
-        acceleration_limits: (dof,) limits [rad/s²]; None: the robot's known ones
-            (:func:`gfcs.blend.acceleration_limits`, the Panda's), and no re-timing for other robots.
+        acceleration_limits: (dof,) limits [rad/s²], inf where none; None: the robot profile's
+            (:func:`gfcs.profile.acceleration_limits`). The URDF velocity limits always hold: every
+            recorded trajectory is re-timed within them, whatever this setting.
         limit_hold_off: a goal joint nearer a limit than the fabric's joint-limit margin plus this [rad]
             is commanded at that distance instead (:func:`fabric_goal`), and the goal blend covers the
             rest: the limit barrier holds the fabric off a goal at its limit (MotionBenchMaker's cage goals
@@ -583,8 +587,8 @@ def rollout_commands(
 ) -> Tuple[Trajectory, float, bool, np.ndarray]:
     """Roll out a command sequence q_g¹..q_gⁿ then the goal (GFCS eq. 5-7) and record it. The recorded
     trajectory is finished by :mod:`gfcs.blend`: a start from rest re-timed over its first 0.3 s along the
-    same path, when the goal is reached a blend ending exactly at the goal, at rest, and (with
-    ``settings.limit_acceleration``) a re-timing within the robot's acceleration limits.
+    same path, when the goal is reached a blend ending exactly at the goal, at rest, and a re-timing within
+    the robot's velocity limits (and, with ``settings.limit_acceleration``, its acceleration limits).
 
     Args:
         fabric: a ``gfcs.Fabric``.
@@ -615,10 +619,13 @@ def finish_rollout(
         # End exactly at the goal, at rest (see gfcs.blend): the fabric only converges asymptotically.
         t, q, qd = append_goal_blend(t, q, qd, qdd[-1], np.asarray(goal, dtype=np.float64),
                                      settings.dt, np.asarray(fabric.robot.lower), np.asarray(fabric.robot.upper))
-    limits = settings.acceleration_limits
-    limits = acceleration_limits(fabric.robot) if limits is None else limits
-    if settings.limit_acceleration and limits is not None:
-        t, q, qd = limit_acceleration(t, q, qd, limits, settings.dt)
+    robot = fabric.robot
+    accel = None
+    if settings.limit_acceleration:
+        accel = settings.acceleration_limits
+        accel = _profile.acceleration_limits(robot) if accel is None else accel
+    t, q, qd = limit_dynamics(t, q, qd, settings.dt, velocity=_profile.velocity_limits(robot),
+                              acceleration=accel)
     traj = Trajectory(t, q, qd)
     return traj, float(seq.cost), bool(seq.reached), np.asarray(seq.t_stars, dtype=np.float64)
 

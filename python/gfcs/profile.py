@@ -1,0 +1,230 @@
+"""Robot profiles: what the planner needs to know about a robot beyond its kinematics, as data.
+
+A :class:`RobotProfile` holds
+
+* ``acceleration_limits``: {joint name: limit [rad/s² or m/s²]}. URDF files carry none, so they come from a
+  profile data file (``gfcs/data/profiles/*.json``, matched by joint names), from a MoveIt
+  ``joint_limits.yaml`` (:func:`read_joint_limits_yaml`), or from the caller; joints without one are not
+  limited in acceleration;
+* ``velocity_limits``: {joint name: limit} that tighten the URDF's ``<limit velocity>`` (a MoveIt
+  ``joint_limits.yaml`` may set lower ones; the URDF's always apply);
+* ``approach_axis``: the gripper's approach direction in the end-effector frame, used by the warm start
+  (:class:`gfcs.optimize.ApproachSampler`). From the data file when one matches, else derived from the
+  robot's own collision spheres by :func:`derive_approach_axis`.
+
+:func:`profile_for` resolves the profile of a robot: the first shipped data file whose joints the robot
+has, else a derived one. A robot with no data file still gets limits from its URDF and a derived approach
+axis.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, Iterable, Optional, Tuple, Union
+
+import numpy as np
+
+__all__ = ["RobotProfile", "profile_for", "load_profile", "derive_approach_axis", "read_joint_limits_yaml",
+           "velocity_limits", "acceleration_limits", "PROFILE_DIR"]
+
+PathLike = Union[str, Path]
+#: Folder of the shipped profile data files.
+PROFILE_DIR = Path(__file__).resolve().parent / "data" / "profiles"
+#: A derived approach direction within this angle [rad] of an axis of the end-effector frame is that axis.
+_SNAP_ANGLE = np.deg2rad(25.0)
+
+
+@dataclass(frozen=True)
+class RobotProfile:
+    """Planner-facing facts about a robot (see the module docstring).
+
+    Attributes:
+        name: the profile's name (the data file's stem, or ``"derived"``).
+        joints: joint names the profile is for (a data file applies to robots that have all of them).
+        acceleration_limits: {joint: a > 0} [rad/s² or m/s²].
+        velocity_limits: {joint: v > 0} [rad/s or m/s] that tighten the URDF's.
+        approach_axis: (3,) unit approach direction in the end-effector frame, or None (derive it).
+        source: where the profile came from (file path or ``"derived from the robot"``).
+    """
+
+    name: str
+    joints: Tuple[str, ...] = ()
+    acceleration_limits: Dict[str, float] = field(default_factory=dict)
+    velocity_limits: Dict[str, float] = field(default_factory=dict)
+    approach_axis: Optional[Tuple[float, float, float]] = None
+    source: str = ""
+
+    def merged(self, other: "RobotProfile") -> "RobotProfile":
+        """This profile with ``other``'s limits on top (a value of ``other`` replaces this one's) and
+        ``other``'s approach axis when it has one."""
+        return RobotProfile(
+            name=f"{self.name}+{other.name}", joints=tuple(dict.fromkeys(self.joints + other.joints)),
+            acceleration_limits={**self.acceleration_limits, **other.acceleration_limits},
+            velocity_limits={**self.velocity_limits, **other.velocity_limits},
+            approach_axis=other.approach_axis if other.approach_axis is not None else self.approach_axis,
+            source=f"{self.source}; {other.source}")
+
+
+def _positive_table(table: Any, what: str, source: str) -> Dict[str, float]:
+    """{name: positive finite float}; ValueError naming ``source`` and ``what`` otherwise."""
+    from gfcs.errors import InvalidValueError
+
+    if not isinstance(table, dict):
+        raise InvalidValueError(f"{source}: '{what}' must map joint names to numbers, got {type(table).__name__}")
+    out: Dict[str, float] = {}
+    for name, value in table.items():
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            x = float("nan")
+        if not (np.isfinite(x) and x > 0):
+            raise InvalidValueError(f"{source}: '{what}.{name}' must be a finite number > 0, got {value!r}")
+        out[str(name)] = x
+    return out
+
+
+def load_profile(path: PathLike) -> RobotProfile:
+    """A profile from a JSON file: ``{"joints": [...], "acceleration_limits": {joint: a},
+    "velocity_limits": {joint: v}, "approach_axis": [x, y, z]}`` (every key optional but ``joints``)."""
+    from gfcs.errors import InvalidValueError
+
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise InvalidValueError(f"{p}: cannot read the robot profile: {e}") from e
+    if not isinstance(data, dict) or not isinstance(data.get("joints"), list):
+        raise InvalidValueError(f"{p}: a robot profile is an object with a 'joints' list")
+    axis = data.get("approach_axis")
+    if axis is not None:
+        a = np.asarray(axis, dtype=np.float64)
+        if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
+            raise InvalidValueError(f"{p}: 'approach_axis' must be 3 finite numbers, not all 0, got {axis!r}")
+        axis = tuple(float(x) for x in a / np.linalg.norm(a))
+    return RobotProfile(
+        name=p.stem, joints=tuple(str(j) for j in data["joints"]),
+        acceleration_limits=_positive_table(data.get("acceleration_limits", {}), "acceleration_limits", str(p)),
+        velocity_limits=_positive_table(data.get("velocity_limits", {}), "velocity_limits", str(p)),
+        approach_axis=axis, source=str(p))
+
+
+def read_joint_limits_yaml(path: PathLike) -> RobotProfile:
+    """The limits of a MoveIt ``joint_limits.yaml`` (``joint_limits: {joint: {has_velocity_limits,
+    max_velocity, has_acceleration_limits, max_acceleration}}``) as a profile without approach axis."""
+    import yaml
+
+    from gfcs.errors import InvalidValueError
+
+    p = Path(path)
+    try:
+        data = yaml.safe_load(p.read_text())
+    except (OSError, yaml.YAMLError) as e:
+        raise InvalidValueError(f"{p}: cannot read the joint limits: {e}") from e
+    table = data.get("joint_limits") if isinstance(data, dict) else None
+    if not isinstance(table, dict):
+        raise InvalidValueError(f"{p}: expected a 'joint_limits' mapping (MoveIt joint_limits.yaml)")
+    velocity: Dict[str, Any] = {}
+    acceleration: Dict[str, Any] = {}
+    for joint, entry in table.items():
+        if not isinstance(entry, dict):
+            raise InvalidValueError(f"{p}: joint_limits.{joint} must be a mapping")
+        if entry.get("has_velocity_limits") and "max_velocity" in entry:
+            velocity[joint] = entry["max_velocity"]
+        if entry.get("has_acceleration_limits") and "max_acceleration" in entry:
+            acceleration[joint] = entry["max_acceleration"]
+    return RobotProfile(
+        name=p.stem, joints=tuple(str(j) for j in table),
+        velocity_limits=_positive_table(velocity, "joint_limits.*.max_velocity", str(p)),
+        acceleration_limits=_positive_table(acceleration, "joint_limits.*.max_acceleration", str(p)),
+        source=str(p))
+
+
+def _shipped_profiles() -> Iterable[RobotProfile]:
+    for path in sorted(PROFILE_DIR.glob("*.json")):
+        yield load_profile(path)
+
+
+def _rigid_with_ee(robot: Any, rng: np.random.Generator, samples: int = 3) -> np.ndarray:
+    """Boolean (links,) mask of the links rigidly attached to the end-effector link (the same pose relative
+    to it at ``samples`` random configurations), the end-effector link included."""
+    lo, up = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
+    ee = int(robot.link_index(robot.ee_link))
+    rigid = np.ones(len(robot.link_names), dtype=bool)
+    reference = None
+    for _ in range(samples):
+        poses = np.asarray(robot.link_poses(rng.uniform(lo, up)), dtype=np.float64)
+        relative = np.linalg.inv(poses[ee])[None] @ poses
+        if reference is None:
+            reference = relative
+        else:
+            rigid &= np.all(np.abs(relative - reference) < 1e-9, axis=(1, 2))
+    return rigid
+
+
+def derive_approach_axis(robot: Any) -> Tuple[float, float, float]:
+    """The gripper's approach direction in the end-effector frame, from the robot's collision spheres: the
+    direction from the origin of the last moving body (the child link of the last joint that moves the end
+    effector) to the volume-weighted centroid of the spheres rigidly attached to the end effector (a gripper
+    extends from the wrist along its approach direction), snapped to the nearest axis of the end-effector
+    frame when within 25° of it. The z axis when the robot has no spheres there."""
+    rng = np.random.default_rng(0)
+    rigid = _rigid_with_ee(robot, rng)
+    names = list(robot.link_names)
+    on_body = np.array([rigid[names.index(link)] for link in robot.sphere_links], dtype=bool)
+    if not on_body.any():
+        return (0.0, 0.0, 1.0)
+    q = 0.5 * (np.asarray(robot.lower, dtype=np.float64) + np.asarray(robot.upper, dtype=np.float64))
+    poses = np.asarray(robot.link_poses(q), dtype=np.float64)
+    centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(-1, 3)[on_body]
+    weights = np.asarray(robot.sphere_radii, dtype=np.float64)[on_body] ** 3
+    centroid = weights @ centres / weights.sum()
+    # the body's origin: among the rigidly attached links, the one nearest the base in the link order
+    body_origin = poses[int(np.flatnonzero(rigid)[0]), :3, 3]
+    ee_rot = poses[int(robot.link_index(robot.ee_link)), :3, :3]
+    d = ee_rot.T @ (centroid - body_origin)
+    if np.linalg.norm(d) < 1e-9:
+        return (0.0, 0.0, 1.0)
+    d = d / np.linalg.norm(d)
+    k = int(np.argmax(np.abs(d)))
+    if np.arccos(min(1.0, abs(d[k]))) <= _SNAP_ANGLE:
+        sign = 1.0 if d[k] > 0 else -1.0
+        d = np.zeros(3)
+        d[k] = sign
+    return (float(d[0]), float(d[1]), float(d[2]))
+
+
+def profile_for(robot: Any, extra: Optional[RobotProfile] = None) -> RobotProfile:
+    """The profile of ``robot``: the first shipped data file whose joints it all has (else an empty one),
+    with ``extra`` (e.g. :func:`read_joint_limits_yaml`) on top, and the approach axis derived by
+    :func:`derive_approach_axis` when neither gives one."""
+    joints = set(robot.joint_names) | set(getattr(robot, "locked_positions", {}) or {})
+    base = next((p for p in _shipped_profiles() if p.joints and set(p.joints) <= joints),
+                RobotProfile(name="derived", source="derived from the robot"))
+    if extra is not None:
+        base = base.merged(extra)
+    if base.approach_axis is None:
+        base = RobotProfile(name=base.name, joints=base.joints, acceleration_limits=base.acceleration_limits,
+                            velocity_limits=base.velocity_limits, approach_axis=derive_approach_axis(robot),
+                            source=base.source)
+    return base
+
+
+def velocity_limits(robot: Any, profile: Optional[RobotProfile] = None) -> np.ndarray:
+    """(dof,) velocity limits [rad/s or m/s] of the active joints: the URDF's, tightened by the profile's
+    (inf for a continuous joint without one)."""
+    v = np.asarray(robot.velocity_limits, dtype=np.float64).copy()
+    table = {} if profile is None else profile.velocity_limits
+    for j, name in enumerate(robot.joint_names):
+        if name in table:
+            v[j] = min(v[j], table[name])
+    return v
+
+
+def acceleration_limits(robot: Any, profile: Optional[RobotProfile] = None) -> Optional[np.ndarray]:
+    """(dof,) acceleration limits [rad/s² or m/s²] of the active joints from the profile (default
+    :func:`profile_for`), inf where it has none; None when it has none at all."""
+    table = (profile_for(robot) if profile is None else profile).acceleration_limits
+    a = np.array([table.get(name, np.inf) for name in robot.joint_names], dtype=np.float64)
+    return None if np.all(np.isinf(a)) else a
