@@ -119,6 +119,7 @@ class FakeRobot:
 
     lower = np.array([-1.0, 0.0])
     upper = np.array([1.0, 2.0])
+    velocity_limits = np.array([5.0, np.inf])
     sphere_radii = np.array([0.1, 0.1])
     self_collision_pairs = np.array([[0, 1]])
 
@@ -185,3 +186,30 @@ def test_within_limits_shapes():
     assert not m.within_limits([[0.0, 2.1]], [-1, 0], [1, 2])
     with pytest.raises(ValueError, match="lower/upper"):
         m.within_limits([[0.0, 1.0]], [-1], [1])
+
+
+def test_velocity_ratio_is_the_fastest_finite_difference_over_the_limit_and_fails_success():
+    from gfcs.metrics import velocity_ratio
+
+    t = np.linspace(0.0, 1.0, 11)
+    q = np.stack([np.linspace(0.0, 0.6, 11), np.linspace(0.5, 1.5, 11)], axis=1)  # 0.6 and 1.0 units/s
+    assert velocity_ratio(t, q, [1.2, np.inf]) == pytest.approx(0.5)
+    assert velocity_ratio(t, q, [0.3, 0.5]) == pytest.approx(2.0)
+    fast = FakeRobot()
+    fast.velocity_limits = np.array([0.3, np.inf])
+    slow = m.trajectory_metrics(FakeRobot(), FakeFloor(), t, q, q[-1])
+    quick = m.trajectory_metrics(fast, FakeFloor(), t, q, q[-1])
+    assert slow["success"] and slow["velocity_ratio"] == pytest.approx(0.12)
+    assert not quick["success"] and quick["velocity_ratio"] == pytest.approx(2.0)
+
+
+def test_continuous_joints_wrap_the_goal_error_and_have_no_position_limits():
+    import math
+
+    robot = FakeRobot()
+    robot.lower = np.array([-1.0, -math.tau])  # the core's range of a continuous joint
+    robot.upper = np.array([1.0, math.tau])
+    t = np.linspace(0.0, 10.0, 11)
+    q = np.stack([np.zeros(11), np.linspace(0.5, 7.0, 11)], axis=1)  # past 2π: allowed
+    met = m.trajectory_metrics(robot, FakeFloor(), t, q, [0.0, 7.0 - math.tau])
+    assert met["final_error"] == pytest.approx(0.0, abs=1e-12) and met["within_limits"] and met["success"]

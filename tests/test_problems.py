@@ -253,3 +253,58 @@ def test_the_mbm_mesh_panda_gets_the_shipped_spheres(mbm_panda_dir, panda):
             scene.add_sphere(centre + rng.normal(size=3) * 0.1, 0.02)
             spheres = scene.signed_distance(fitted.sphere_centers(qk[None])[0]) - fitted.sphere_radii
             assert spheres.min() <= checker.min_clearance(scene, qk[None]) + 1e-6
+
+
+def _one_joint_robot(kind: str, limits: str = 'lower="-3.14159" upper="3.14159"'):
+    import gfcs
+
+    return gfcs.Robot.from_urdf(f"""<robot name="r"><link name="a"/><link name="b"/>
+      <joint name="j" type="{kind}"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+      <limit {limits} velocity="1" effort="1"/></joint></robot>""")
+
+
+def test_continuous_goals_turn_the_short_way_and_bounds_snap_only_within_tolerance():
+    import math
+
+    from gfcs.joints import continuous_mask, snap_to_bounds, unwrap_goal
+
+    cont = _one_joint_robot("continuous", "")
+    rev = _one_joint_robot("revolute")
+    assert continuous_mask(cont).tolist() == [True] and continuous_mask(rev).tolist() == [False]
+    np.testing.assert_allclose(unwrap_goal([3.0], [-3.0], [True]), [math.tau - 3.0])
+    assert unwrap_goal([3.0], [-3.0], [False]).tolist() == [-3.0]
+    q, moved = snap_to_bounds(rev, [math.pi])  # a request's π against a URDF bound of 3.14159
+    assert q.tolist() == [3.14159] and moved == [f"j = {math.pi!r} -> 3.14159"]
+    q, moved = snap_to_bounds(rev, [3.2])  # too far: left for the problem's check to name
+    assert q.tolist() == [3.2] and moved == []
+    assert snap_to_bounds(cont, [9.0])[0].tolist() == [9.0]
+    problems.Problem("p", cont, gfcs_scene(), [9.0], [-9.0])  # continuous: any angle
+
+
+def gfcs_scene():
+    import gfcs
+
+    return gfcs.Scene()
+
+
+def test_a_request_at_pi_on_a_pi_bound_loads_with_one_warning(tmp_path):
+    import math
+
+    rev = _one_joint_robot("revolute")
+    (tmp_path / "scene0001.yaml").write_text("name: s\nworld:\n  collision_objects: []\n")
+    (tmp_path / "request0001.yaml").write_text(f"""group_name: g
+start_state:
+  joint_state:
+    name: [j]
+    position: [{math.pi!r}]
+goal_constraints:
+  - joint_constraints:
+      - joint_name: j
+        position: {-math.pi!r}
+        tolerance_above: 0.001
+        tolerance_below: 0.001
+        weight: 1.0
+""")
+    with pytest.warns(UserWarning, match="planned on the bound: start j = .* -> 3.14159; goal j"):
+        p = problems.load_mbm(tmp_path / "scene0001.yaml", tmp_path / "request0001.yaml", robot=rev)
+    assert p.q0.tolist() == [3.14159] and p.goal.tolist() == [-3.14159]

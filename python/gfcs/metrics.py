@@ -27,6 +27,8 @@ from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
+from gfcs.joints import continuous_mask, joint_difference
+
 __all__ = [
     "path_length",
     "dimensionless_jerk",
@@ -378,10 +380,13 @@ def trajectory_metrics(
         if ee is None
         else _as_path(ee, "ee")
     )
-    final_error = float(np.linalg.norm(qa[-1] - g))
+    continuous = continuous_mask(robot)
+    final_error = float(np.linalg.norm(joint_difference(qa[-1], g, continuous)))
     clear = float(np.min(obstacle_clearance(robot, scene, qa)))
     self_clear = float(np.min(self_clearance(robot, qa)))
-    limits_ok = within_limits(qa, robot.lower, robot.upper, limit_tol)
+    # continuous joints have no position limits
+    limits_ok = within_limits(qa[:, ~continuous], np.asarray(robot.lower)[~continuous],
+                              np.asarray(robot.upper)[~continuous], limit_tol)
     speed_ratio = velocity_ratio(ta, qa, robot.velocity_limits)
     q_u, dt = uniform_resample(ta, qa)
     ee_u, _ = uniform_resample(ta, ee_a)

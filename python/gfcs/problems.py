@@ -33,6 +33,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from gfcs import pose_goal as _pose_goal
+from gfcs.joints import BOUNDS_TOLERANCE, continuous_mask, snap_to_bounds, unwrap_goal
 from gfcs.results import _enc
 
 __all__ = [
@@ -108,7 +109,8 @@ def _check_within_limits(robot: Any, q: np.ndarray, what: str) -> None:
     from gfcs.metrics import DEFAULT_LIMIT_TOL
 
     lower, upper = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
-    outside = np.flatnonzero((q < lower - DEFAULT_LIMIT_TOL) | (q > upper + DEFAULT_LIMIT_TOL))
+    bounded = ~continuous_mask(robot)  # continuous joints have no position limits
+    outside = np.flatnonzero(bounded & ((q < lower - DEFAULT_LIMIT_TOL) | (q > upper + DEFAULT_LIMIT_TOL)))
     if outside.size:
         j = int(outside[0])
         raise InvalidValueError(f"{what}: joint {robot.joint_names[j]} = {q[j]:.6g} rad lies outside its "
@@ -261,6 +263,15 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
                 f"{', '.join(sorted(table)) or 'nothing'})"
             )
         values[part] = np.array([table[j] for j in robot.joint_names], dtype=np.float64)
+    moved = []
+    for part in values:  # MoveIt's semantics: values rounded just outside a bound lie on it
+        values[part], shifts = snap_to_bounds(robot, values[part])
+        moved += [f"{part} {m}" for m in shifts]
+    if moved:
+        warnings.warn(f"{request_path}: values just outside their joint bounds (by at most {BOUNDS_TOLERANCE} "
+                      f"rad or m) are planned on the bound: {'; '.join(moved)}", UserWarning, stacklevel=3)
+    if "goal" in values:  # continuous joints turn the short way to the goal's orientation
+        values["goal"] = unwrap_goal(values["start"], values["goal"], continuous_mask(robot))
     meta = {"scene_file": str(scene_path), "request_file": str(request_path),
             "group": request.get("group", ""), "start_state": dict(request["start"])}
     if pose_goal is not None:
