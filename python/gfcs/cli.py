@@ -121,15 +121,47 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                         "off it and blended onto the goal, rad (default: see gfcs.optimize; 0: commanded as is)")
     r.add_argument("--integrator", choices=["euler", "rk4"], default="euler", help="integrator (default euler)")
     r.add_argument("--no-acceleration-limits", action="store_true",
-                   help="return the fabric's own timing (default: re-timed along the same path within the "
-                        "robot's known joint acceleration limits, the Panda's)")
+                   help="keep the fabric's own timing where it is within the velocity limits (default: "
+                        "re-timed along the same path within the robot's known joint acceleration limits: "
+                        "its profile's, --joint-limits' or --acceleration-limits'); the URDF velocity limits "
+                        "always hold")
+    r.add_argument("--joint-limits", metavar="YAML", default=None,
+                   help="MoveIt joint_limits.yaml: its max_velocity tightens the URDF's, its max_acceleration "
+                        "sets the acceleration limits of the re-timing")
+    r.add_argument("--acceleration-limits", type=float, nargs="+", metavar="A", default=None,
+                   help="acceleration limit of each active joint in order, rad/s^2 or m/s^2 (one value: all "
+                        "joints); replaces the profile's and --joint-limits'")
 
 
-def _settings(args: argparse.Namespace) -> Any:
+def _joint_limit_settings(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
+    """``velocity_limits`` / ``acceleration_limits`` of the rollout settings from --joint-limits and
+    --acceleration-limits (inf where a joint has none); {} when neither is given."""
+    from gfcs.errors import InvalidValueError
+    from gfcs.profile import read_joint_limits_yaml
+
+    out: Dict[str, Any] = {}
+    names = list(robot.joint_names)
+    if args.joint_limits is not None:
+        table = read_joint_limits_yaml(args.joint_limits)
+        out["velocity_limits"] = tuple(table.velocity_limits.get(j, math.inf) for j in names)
+        out["acceleration_limits"] = tuple(table.acceleration_limits.get(j, math.inf) for j in names)
+    if args.acceleration_limits is not None:
+        values = list(args.acceleration_limits)
+        if len(values) == 1:
+            values *= len(names)
+        if len(values) != len(names) or not all(math.isfinite(a) and a > 0 for a in values):
+            raise InvalidValueError(f"--acceleration-limits: expected 1 or {len(names)} finite values > 0 "
+                                    f"(joints {', '.join(names)}), got {args.acceleration_limits}")
+        out["acceleration_limits"] = tuple(values)
+    return out
+
+
+def _settings(args: argparse.Namespace, robot: Any) -> Any:
     from gfcs.optimize import RolloutSettings
 
     s = RolloutSettings(dt=args.dt, t_max=args.t_max, integrator=args.integrator,
-                        limit_acceleration=not args.no_acceleration_limits)
+                        limit_acceleration=not args.no_acceleration_limits,
+                        **_joint_limit_settings(args, robot))
     if args.tol is not None:
         s.tol = args.tol
     if args.waypoint_tol is not None:
@@ -367,7 +399,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     result = optimize.solve(
         problem, method=args.method, batches=args.batches, population=args.population,
         n_commands=args.commands, seed=args.seed, sampler=_sampler(args), fabric_config=args.config,
-        threads=args.threads, progress=args.progress, settings=_settings(args),
+        threads=args.threads, progress=args.progress, settings=_settings(args, problem.robot),
         **(_no_retry(args.commands) if args.no_retry and args.method == "gfcs" else {}),
         **_solve_options(args),
     )
@@ -561,7 +593,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     suite = _with_mesh_checker(args, load_problems(args, robot, left_out))
     rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
                      n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
-                     threads=args.threads, settings=_settings(args), jsonl=args.json, rrd_dir=args.rrd_dir,
+                     threads=args.threads, settings=_settings(args, robot), jsonl=args.json, rrd_dir=args.rrd_dir,
                      progress=not args.no_progress, retry=not args.no_retry,
                      solve_options=_solve_options(args), results_dir=args.results_dir, left_out=left_out)
     summary = summarize(rows)

@@ -505,6 +505,9 @@ class RolloutSettings:
         acceleration_limits: (dof,) limits [rad/s²], inf where none; None: the robot profile's
             (:func:`gfcs.profile.acceleration_limits`). The URDF velocity limits always hold: every
             recorded trajectory is re-timed within them, whatever this setting.
+        velocity_limits: (dof,) limits [rad/s or m/s] that tighten the URDF's (e.g. a MoveIt
+            ``joint_limits.yaml``, :func:`gfcs.profile.read_joint_limits_yaml`), inf where none; None: the
+            URDF's and the robot profile's (:func:`gfcs.profile.velocity_limits`).
         limit_hold_off: a goal joint nearer a limit than the fabric's joint-limit margin plus this [rad]
             is commanded at that distance instead (:func:`fabric_goal`), and the goal blend covers the
             rest: the limit barrier holds the fabric off a goal at its limit (MotionBenchMaker's cage goals
@@ -529,6 +532,7 @@ class RolloutSettings:
     stall_progress: float = 0.005
     limit_acceleration: bool = True
     acceleration_limits: Optional[Tuple[float, ...]] = None
+    velocity_limits: Optional[Tuple[float, ...]] = None
     limit_hold_off: float = 0.015
 
     def as_kwargs(self) -> Dict[str, Any]:
@@ -624,8 +628,10 @@ def finish_rollout(
     if settings.limit_acceleration:
         accel = settings.acceleration_limits
         accel = _profile.acceleration_limits(robot) if accel is None else accel
-    t, q, qd = limit_dynamics(t, q, qd, settings.dt, velocity=_profile.velocity_limits(robot),
-                              acceleration=accel)
+    velocity = _profile.velocity_limits(robot)
+    if settings.velocity_limits is not None:
+        velocity = np.minimum(velocity, np.asarray(settings.velocity_limits, dtype=np.float64))
+    t, q, qd = limit_dynamics(t, q, qd, settings.dt, velocity=velocity, acceleration=accel)
     traj = Trajectory(t, q, qd)
     return traj, float(seq.cost), bool(seq.reached), np.asarray(seq.t_stars, dtype=np.float64)
 
