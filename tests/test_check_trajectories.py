@@ -378,3 +378,15 @@ def test_rotation_vector_of_known_rotations():
         assert ct.rotation_vector(rotation(axis, angle)) == pytest.approx(angle * axis, abs=1e-12)
     v = ct.rotation_vector(rotation(axis, math.pi))  # either sign at pi
     assert np.abs(v) == pytest.approx(math.pi * np.abs(axis), abs=1e-9)
+
+
+def test_speed_beyond_the_velocity_limit_is_invalid_and_a_rounded_start_on_a_bound_matches(slider):
+    write = slider[2]
+    fast = write("0001", np.linspace(0.0, 0.5, 3), 0.0, 0.5)  # 0.25 rad per 0.1 s: 2.5 x the 1 rad/s limit
+    rounded = write("0002", np.linspace(-0.3, 0.0, 31), -0.3004, 0.0)  # request 0.4 mrad below the bound
+    outside = write("0003", np.linspace(-0.3, 0.0, 31), -0.31, 0.0)  # 10 mrad below: no match
+    code, rows = run(slider, [fast, rounded, outside])
+    assert code == 1
+    assert rows[0]["speed_ratio"] == pytest.approx(2.5) and not rows[0]["valid"]
+    assert rows[1]["start_error"] == 0.0 and rows[1]["valid"]
+    assert rows[2]["start_error"] == pytest.approx(0.01) and not rows[2]["valid"]

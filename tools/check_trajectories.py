@@ -38,7 +38,9 @@ state of its trajectory:
 * end-effector and joint-space path lengths [m, rad], recomputed.
 
 A state in contact is a collision (FCL reports 0 or less for touching or overlapping shapes). The verdict
-``valid`` is: start matches, goal reached, limits kept, no contact with obstacles nor between links.
+``valid`` is: start matches (a start at most 1 mrad outside a bound matches the bound, as MoveIt moves it
+there), goal reached (continuous joints modulo 2π), position limits kept (continuous joints have none), every
+finite-difference speed within the URDF velocity limit, no contact with obstacles nor between links.
 
 Output: one JSON line per result (``--json``, or stdout) and a summary on stderr; exit status 1 when a
 result that claims ``success`` is not valid here, else 2 when a result could not be checked (its line has
@@ -213,6 +215,7 @@ class PoseGoal:
 PRIMITIVE_KINDS = {1: "box", 2: "sphere", 3: "cylinder"}  # shape_msgs/SolidPrimitive
 PRIMITIVE_DIMS = {"box": 3, "sphere": 1, "cylinder": 2}
 GOAL_SLACK = 1e-6  # m for positions, rad for orientations
+START_BOUNDS_TOLERANCE = 1e-3  # rad or m: a request's start this far outside a bound counts as on it
 
 
 def load_request(path: Path, root: Optional[str] = None) -> Tuple[Dict[str, float], Any]:
@@ -424,8 +427,9 @@ class RobotModel:
         lo, up, vel = [], [], []
         for n in names:
             lim = by_name[n].limit
-            lo.append(-math.inf if lim is None or lim.lower is None else float(lim.lower))
-            up.append(math.inf if lim is None or lim.upper is None else float(lim.upper))
+            unbounded = by_name[n].type == "continuous"  # no position limits, whatever <limit> says
+            lo.append(-math.inf if unbounded or lim is None or lim.lower is None else float(lim.lower))
+            up.append(math.inf if unbounded or lim is None or lim.upper is None else float(lim.upper))
             vel.append(math.inf if lim is None or lim.velocity is None else float(lim.velocity))
         return np.array(lo), np.array(up), np.array(vel)
 
@@ -550,7 +554,10 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
         fk_error = max(fk_error, fk_difference(model, names, q[-1], {goal.link: poses[goal.link][-1]}))
         goal_fields = pose_goal_errors(goal, poses[goal.link][-1])
     else:
-        error = float(np.linalg.norm(q[-1] - np.array([goal[n] for n in names])))
+        diff = q[-1] - np.array([goal[n] for n in names])
+        continuous = ~np.isfinite(lo)  # a continuous joint's goal is an orientation: compare modulo 2π
+        diff[continuous] = (diff[continuous] + math.pi) % (2 * math.pi) - math.pi
+        error = float(np.linalg.norm(diff))
         goal_fields = {"goal_kind": "joint", "goal_error": error, "goal_link": None, "goal_position_error": None,
                        "goal_orientation_error": None, "goal_orientation_components": None,
                        "goal_reached": bool(error <= goal_tol)}
@@ -586,13 +593,17 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
     dq = np.diff(q, axis=0)
     dt = np.diff(t)
     speed_ratio = float(np.max(np.abs(dq / dt[:, None]) / vel)) if n > 1 else 0.0
+    # MoveIt moves a start state that lies just outside its bounds (rounding, e.g. π against 3.14159) onto
+    # them before planning; such a start matches the bound
+    snapped = np.where((q_start < lo) & (lo - q_start <= START_BOUNDS_TOLERANCE), lo,
+                       np.where((q_start > up) & (q_start - up <= START_BOUNDS_TOLERANCE), up, q_start))
     ee = poses[model.ee_link][:, :3, 3]
     out = {
         "problem": result.get("problem"),
         "method": result.get("method"),
         "claimed_success": bool(result.get("success")),
         "n_states": int(n),
-        "start_error": float(np.abs(q[0] - q_start).max()),
+        "start_error": float(min(np.abs(q[0] - q_start).max(), np.abs(q[0] - snapped).max())),
         **goal_fields,
         "limit_margin": float(min((q - lo).min(), (up - q).min())),
         "speed_ratio": speed_ratio,
@@ -607,7 +618,7 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
         "fk_error": fk_error,
     }
     out["valid"] = bool(out["start_error"] <= 1e-6 and out["goal_reached"] and out["limit_margin"] >= 0
-                        and clear > 0 and self_clear > 0)
+                        and speed_ratio <= 1.0 + 1e-6 and clear > 0 and self_clear > 0)
     reported = result.get("metrics") or {}
     for key in ("ee_length", "cspace_length"):
         if isinstance(reported.get(key), (int, float)):
