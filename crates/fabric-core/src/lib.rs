@@ -6,6 +6,7 @@
 
 pub mod error;
 pub mod fabric;
+pub mod limits;
 mod linalg;
 pub mod robot;
 pub mod rollout;

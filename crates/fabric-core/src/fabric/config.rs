@@ -494,6 +494,7 @@ impl FabricConfig {
 
     /// Parse YAML text (`source` names the file in errors). Missing fields take their defaults.
     pub fn from_yaml_str(s: &str, source: &str) -> Result<Self> {
+        crate::limits::check_yaml(s).map_err(|m| format_error(source, "<yaml>", m))?;
         let v: Value =
             serde_yaml::from_str(s).map_err(|e| format_error(source, "<yaml>", e.to_string()))?;
         Self::from_value(v, source)
@@ -576,6 +577,14 @@ impl FabricConfig {
             check(&format!("{name}.mass_max"), ee.mass_max, false)?;
             check(&format!("{name}.mass_min"), ee.mass_min, ee.enabled)?;
             check(&format!("{name}.mass_sharpness"), ee.mass_sharpness, false)?;
+            // the mass blends from mass_max far from the target down to mass_min at it
+            if ee.mass_min > ee.mass_max {
+                return Err(format_error(
+                    source,
+                    &format!("{name}.mass_min"),
+                    format!("{} exceeds {name}.mass_max = {}", ee.mass_min, ee.mass_max),
+                ));
+            }
             log_cosh(&format!("{name}.geometry"), &ee.geometry)?;
             log_cosh(&format!("{name}.potential"), &ee.potential)?;
         }
