@@ -373,7 +373,7 @@ fn bad_sphere_files_and_lists() {
 fn bad_srdf() {
     let mut robot = Robot::panda();
     let pairs = robot.self_collision_pairs().to_vec();
-    let field = |r: Result<(), FabricError>| match r {
+    let field = |r: Result<Vec<String>, FabricError>| match r {
         Err(FabricError::Format { file, field, .. }) => {
             assert_eq!(file, "bad.srdf");
             field
@@ -393,11 +393,15 @@ fn bad_srdf() {
         "bad.srdf",
     ));
     assert_eq!(f, "disable_collisions[1] (line 3).link2");
-    let f = field(robot.set_self_collision_from_srdf(
-        "<robot><disable_collisions link1=\"panda_link0\" link2=\"elbow\"/></robot>",
-        "bad.srdf",
-    ));
-    assert_eq!(f, "disable_collisions[0] (line 1).link2");
     // Failed calls leave the model unchanged.
     assert_eq!(robot.self_collision_pairs(), pairs.as_slice());
+    // A link the robot does not have skips its entry (MoveIt warns and skips) and is reported once.
+    let skipped = robot
+        .set_self_collision_from_srdf(
+            "<robot><disable_collisions link1=\"panda_link0\" link2=\"elbow\"/>\
+             <disable_collisions link1=\"elbow\" link2=\"wrist\"/></robot>",
+            "bad.srdf",
+        )
+        .unwrap();
+    assert_eq!(skipped, ["elbow", "wrist"]);
 }

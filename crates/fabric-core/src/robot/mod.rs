@@ -27,3 +27,4 @@ pub use kinematics::{KinematicsWorkspace, TaskPoint};
 pub use model::{Robot, RobotOptions};
 pub use panda::{PANDA_SRDF, PANDA_URDF};
 pub use spheres::CollisionSphere;
+pub use urdf::LOCKED_BOUNDS_TOLERANCE;

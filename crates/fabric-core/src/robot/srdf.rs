@@ -8,16 +8,33 @@ use crate::error::{FabricError, Result};
 impl Robot {
     /// Disable the self-collision link pairs listed by `<disable_collisions>` elements of an SRDF,
     /// replacing any earlier SRDF, and recompute [`Robot::self_collision_pairs`]. `source` names the text
-    /// in errors. Errors: `Format` naming the file and the element (malformed XML, a root other than
-    /// `<robot>`, a missing `link1`/`link2` attribute, a link the robot does not have).
-    pub fn set_self_collision_from_srdf(&mut self, srdf_xml: &str, source: &str) -> Result<()> {
+    /// in errors.
+    ///
+    /// An entry naming a link the robot does not have is skipped, as MoveIt skips it (with a warning):
+    /// SRDFs are often written for a larger model than the URDF at hand. Returns the names of those links,
+    /// sorted and without repeats, for the caller to report.
+    ///
+    /// Errors: `Format` naming the file and the element (malformed XML or XML past the limits of
+    /// [`crate::limits`], a root other than `<robot>`, a missing `link1`/`link2` attribute); the model is
+    /// then unchanged.
+    pub fn set_self_collision_from_srdf(
+        &mut self,
+        srdf_xml: &str,
+        source: &str,
+    ) -> Result<Vec<String>> {
         let err = |field: String, message: String| FabricError::Format {
             file: source.to_string(),
             field,
             message,
         };
-        let doc =
-            roxmltree::Document::parse(srdf_xml).map_err(|e| err("(xml)".into(), e.to_string()))?;
+        crate::limits::check_xml(srdf_xml).map_err(|m| err("(xml)".into(), m))?;
+        let doc = roxmltree::Document::parse(srdf_xml).map_err(|e| {
+            let parser = e.to_string();
+            match crate::limits::xml_truncation(srdf_xml) {
+                Some(why) => err("(xml)".into(), format!("{why} (parser: {parser})")),
+                None => err("(xml)".into(), parser),
+            }
+        })?;
         let root = doc.root_element();
         if root.tag_name().name() != "robot" {
             return Err(err(
@@ -26,27 +43,32 @@ impl Robot {
             ));
         }
         let mut disabled = Vec::new();
+        let mut skipped = Vec::new();
         for (k, node) in root
             .children()
             .filter(|n| n.has_tag_name("disable_collisions"))
             .enumerate()
         {
             let line = doc.text_pos_at(node.range().start).row;
-            let link = |attr: &str| -> Result<usize> {
+            let link = |attr: &str| -> Result<std::result::Result<usize, String>> {
                 let field = format!("disable_collisions[{k}] (line {line}).{attr}");
                 let name = node
                     .attribute(attr)
-                    .ok_or_else(|| err(field.clone(), "missing attribute".into()))?;
-                self.link_index(name).map_err(|e| err(field, e.to_string()))
+                    .ok_or_else(|| err(field, "missing attribute".into()))?;
+                Ok(self.link_index(name).map_err(|_| name.to_string()))
             };
-            let (a, b) = (link("link1")?, link("link2")?);
-            disabled.push((a.min(b), a.max(b)));
+            match (link("link1")?, link("link2")?) {
+                (Ok(a), Ok(b)) => disabled.push((a.min(b), a.max(b))),
+                (a, b) => skipped.extend([a.err(), b.err()].into_iter().flatten()),
+            }
         }
         disabled.sort_unstable();
         disabled.dedup();
+        skipped.sort_unstable();
+        skipped.dedup();
         self.disabled = disabled;
         self.recompute_self_pairs();
-        Ok(())
+        Ok(skipped)
     }
 
     /// Recompute the self-collision sphere pairs from the spheres, the rigid bodies, the adjacency of

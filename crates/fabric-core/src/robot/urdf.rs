@@ -119,6 +119,13 @@ fn choose_active(
     Ok(out)
 }
 
+/// How far (rad or m) a locked joint may be held outside its URDF limits: MoveIt's default
+/// `start_state_max_bounds_error`, within which MoveIt accepts a start state (moving it onto the bound) and
+/// beyond which it refuses it. Held positions inside this band stay where they are asked to be (a
+/// gripper opened slightly wider than its model's limit stays that wide, the conservative choice for
+/// collisions).
+pub const LOCKED_BOUNDS_TOLERANCE: f64 = 0.05;
+
 /// How each URDF joint is driven: (coordinate, scale, offset); position = scale·q[coord] + offset.
 fn drives(
     g: &Graph,
@@ -148,6 +155,17 @@ fn drives(
                 what: format!("locked position of joint '{name}'"),
             });
         }
+        let lim = &joints[j].limit;
+        if joints[j].joint_type != JointType::Continuous
+            && !(*value >= lim.lower - LOCKED_BOUNDS_TOLERANCE
+                && *value <= lim.upper + LOCKED_BOUNDS_TOLERANCE)
+        {
+            return Err(bad(&format!(
+                "position {value} lies outside its limits [{}, {}] by more than {LOCKED_BOUNDS_TOLERANCE} \
+                 (the joint cannot be there)",
+                lim.lower, lim.upper
+            )));
+        }
         locked.insert(j, *value);
     }
     let own = |j: usize| -> (Option<usize>, f64, f64) {
@@ -175,7 +193,7 @@ fn drives(
         }
         // Follow the mimic chain to a non-mimic source, composing q_m = k·q_src + o.
         let (mut k, mut o, mut cur) = (1.0, 0.0, j);
-        let mut steps = 0;
+        let mut seen = std::collections::HashSet::from([j]);
         while let Some(m) = &joints[cur].mimic {
             let src = g
                 .joint_index
@@ -213,11 +231,28 @@ fn drives(
             o += k * off;
             k *= mult;
             cur = src;
-            steps += 1;
-            if steps > joints.len() {
+            if !seen.insert(cur) {
+                // walk the cycle once from the joint met twice
+                let mut names = vec![joints[cur].name.as_str()];
+                let mut c = cur;
+                while let Some(next) = joints[c]
+                    .mimic
+                    .as_ref()
+                    .and_then(|m| g.joint_index.get(m.joint.as_str()).copied())
+                {
+                    c = next;
+                    names.push(joints[c].name.as_str());
+                    if c == cur || names.len() > joints.len() {
+                        break;
+                    }
+                }
                 return Err(urdf_err(
                     g.source,
-                    format!("joint '{}': mimic cycle", joint.name),
+                    format!(
+                        "mimic joints form a cycle: {} (each mimics the next; a chain of mimic joints \
+                         must end at a joint that mimics none)",
+                        names.join(" -> ")
+                    ),
                 ));
             }
         }
@@ -401,7 +436,14 @@ fn collisions(
 }
 
 fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) -> Result<Robot> {
-    let urdf = urdf_rs::read_from_string(xml).map_err(|e| urdf_err(source, e.to_string()))?;
+    crate::limits::check_xml(xml).map_err(|m| urdf_err(source, m))?;
+    let urdf = urdf_rs::read_from_string(xml).map_err(|e| {
+        let parser = e.to_string();
+        match crate::limits::xml_truncation(xml) {
+            Some(why) => urdf_err(source, format!("{why} (parser: {parser})")),
+            None => urdf_err(source, parser),
+        }
+    })?;
     let g = Graph::new(&urdf, source)?;
     let name = urdf.name.clone();
     let find_link = |l: &Option<String>, default: usize| -> Result<usize> {
@@ -506,9 +548,10 @@ impl Robot {
 
     /// A copy with some inactive joints held elsewhere (e.g. a gripper opened as a planning request's start
     /// state says): rebuilt from the same URDF and options, keeping this model's collision spheres,
-    /// SRDF-disabled link pairs and self-collision pairs. Positions may lie outside the joint's URDF limits
-    /// (inactive joints are not planned). Errors: those of [`Robot::from_urdf_str`] for a joint that is
-    /// unknown, active, fixed or a mimic joint, or a position that is not finite.
+    /// SRDF-disabled link pairs and self-collision pairs. A position may lie outside the joint's URDF
+    /// limits by up to [`LOCKED_BOUNDS_TOLERANCE`] (continuous joints: anywhere). Errors: those of
+    /// [`Robot::from_urdf_str`] for a joint that is unknown, active, fixed or a mimic joint, a position
+    /// that is not finite (`NonFinite`), or one further outside the limits (`Value` naming the joint).
     pub fn with_locked_positions(&self, positions: &[(String, f64)]) -> Result<Robot> {
         let mut opts = self.origin.opts.clone();
         for (name, value) in positions {
@@ -590,16 +633,16 @@ mod tests {
             ])
             .unwrap();
         assert_eq!(robot.locked_positions(), [("j2".to_string(), 0.3)]);
-        // Outside j2's limits [0.3, 1] on purpose: a held joint is not planned.
-        let moved = robot.with_locked_positions(&[("j2".into(), 1.5)]).unwrap();
-        assert_eq!(moved.locked_positions(), [("j2".to_string(), 1.5)]);
+        // Outside j2's limits [0.3, 1] within the tolerance: held where asked.
+        let moved = robot.with_locked_positions(&[("j2".into(), 1.04)]).unwrap();
+        assert_eq!(moved.locked_positions(), [("j2".to_string(), 1.04)]);
         assert_eq!(
             (moved.spheres(), moved.self_collision_pairs()),
             (robot.spheres(), robot.self_collision_pairs())
         );
         let expect = Isometry3::from_parts(
             Translation3::new(0.2, 0.0, 0.0),
-            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1.5),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1.04),
         );
         let j2 = moved.joints[2].as_ref().unwrap();
         assert!((j2.pre.to_homogeneous() - expect.to_homogeneous()).norm() < 1e-15);
