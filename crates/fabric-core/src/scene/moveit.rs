@@ -17,8 +17,10 @@
 //! * An object's `header.frame_id`, when present, must name the planning frame (`world`, `/world`,
 //!   empty, or the robot's root link when the caller names it: they coincide in MotionBenchMaker's
 //!   scenes); `robot_state.attached_collision_objects` must be empty (a held object is not part of the
-//!   robot's collision model). Everything else (the robot state's joints, the allowed collision matrix)
-//!   is not used.
+//!   robot's collision model). A later object with the same `id` replaces an earlier one (MoveIt's ADD).
+//!   Everything else is not used; [`parse_scene_str`] lists what would change the problem (an octomap,
+//!   collisions the allowed collision matrix allows with objects, frame transforms, link padding) and
+//!   fields that are not MoveIt's, for callers to warn about.
 //!
 //! Request: `group_name`, `start_state.joint_state.{name, position}` and the goal of
 //! `goal_constraints[0]`: either `joint_constraints[*].{joint_name, position}` (a joint goal, as
@@ -58,9 +60,11 @@ pub struct MotionPlanRequest {
     pub pose_goal: Option<PoseGoal>,
     /// Field paths of constraints and settings the request holds and this reader does not apply:
     /// non-empty `path_constraints.*_constraints`, `trajectory_constraints.constraints`,
-    /// `goal_constraints[1..]` (MoveIt's alternative goals; only the first is used), and
+    /// `goal_constraints[1..]` (MoveIt's alternative goals; only the first is used),
     /// `max_velocity_scaling_factor` / `max_acceleration_scaling_factor` below 1 (the fabric's speed
-    /// control sets the speed). Callers should tell the user.
+    /// control sets the speed), `start_state.multi_dof_joint_state.transforms` other than the identity
+    /// (the robot's base stays at the planning frame's origin), and fields that are not part of a
+    /// `MotionPlanRequest`. Callers should tell the user.
     pub ignored: Vec<String>,
 }
 
@@ -192,22 +196,134 @@ pub(crate) fn read(path: &Path) -> Result<String> {
 /// link's own name: for a scene's collision objects here, for pose goals in the Python package.
 pub const PLANNING_FRAMES: [&str; 3] = ["", "world", "/world"];
 
-/// Parse a `PlanningScene` YAML string into a [`Scene`] (see the module documentation).
-pub(crate) fn scene_from_str(yaml: &str, source: &str, root_frame: Option<&str>) -> Result<Scene> {
+/// Top-level fields of a MoveIt `MotionPlanRequest` message (ROS 1 and ROS 2).
+const REQUEST_FIELDS: [&str; 16] = [
+    "workspace_parameters",
+    "start_state",
+    "goal_constraints",
+    "path_constraints",
+    "trajectory_constraints",
+    "reference_trajectories",
+    "pipeline_id",
+    "planner_id",
+    "group_name",
+    "num_planning_attempts",
+    "allowed_planning_time",
+    "max_velocity_scaling_factor",
+    "max_acceleration_scaling_factor",
+    "cartesian_speed_end_effector_link",
+    "max_cartesian_speed",
+    "cartesian_speed_limited_link",
+];
+
+/// Top-level fields of a MoveIt `PlanningScene` message.
+const SCENE_FIELDS: [&str; 10] = [
+    "name",
+    "robot_state",
+    "robot_model_name",
+    "fixed_frame_transforms",
+    "allowed_collision_matrix",
+    "link_padding",
+    "link_scale",
+    "object_colors",
+    "world",
+    "is_diff",
+];
+
+/// Fields of a MoveIt `CollisionObject` message (`subframe_*` name frames and add no geometry; `type`
+/// names an object database entry).
+const OBJECT_FIELDS: [&str; 13] = [
+    "header",
+    "pose",
+    "id",
+    "type",
+    "primitives",
+    "primitive_poses",
+    "meshes",
+    "mesh_poses",
+    "planes",
+    "plane_poses",
+    "subframe_names",
+    "subframe_poses",
+    "operation",
+];
+
+/// Parse a `PlanningScene` YAML string into a [`Scene`] (see the module documentation), with notes on
+/// the fields it holds and the scene does not apply, each `"<field path>: <why>"`:
+/// * `world.octomap` with data (its occupied cells would be obstacles);
+/// * `allowed_collision_matrix` entries that allow collisions with the scene's objects (the motion keeps
+///   clear of every object anyway);
+/// * `fixed_frame_transforms` that are not the identity, non-empty `link_padding` / `link_scale`;
+/// * a collision object replaced by a later one with the same id (MoveIt's ADD replaces an object of
+///   that id: only the last is kept);
+/// * fields that are not part of the MoveIt messages.
+///
+/// The robot state's joint positions, the robot model's name, the scene's name and object colours do
+/// not change the planning problem and are not reported.
+pub fn parse_scene_str(
+    yaml: &str,
+    source: &str,
+    root_frame: Option<&str>,
+) -> Result<(Scene, Vec<String>)> {
     let doc = Doc { file: source };
     let root = doc.parse(yaml)?;
+    let mut notes = Vec::new();
     if let Some(state) = doc.opt(&root, "robot_state") {
         doc.no_attached_objects(state, "robot_state")?;
     }
+    for key in keys(&root) {
+        if !SCENE_FIELDS.contains(&key.as_str()) {
+            notes.push(format!("{key}: not a PlanningScene field, ignored"));
+        }
+    }
+    doc.scene_settings(&root, &mut notes)?;
     let world = doc.field(&root, "", "world")?;
+    for key in keys(world) {
+        if key != "collision_objects" && key != "octomap" {
+            notes.push(format!("world.{key}: not a PlanningWorld field, ignored"));
+        }
+    }
+    if let Some(octomap) = doc.opt(world, "octomap") {
+        if octomap_has_data(octomap) {
+            notes.push(
+                "world.octomap: octomaps are not supported; its occupied cells are not obstacles"
+                    .into(),
+            );
+        }
+    }
     let mut scene = Scene::new();
     let Some(objects) = doc.opt(world, "collision_objects") else {
-        return Ok(scene);
+        return Ok((scene, notes));
     };
     let objects = doc.seq(objects, "world.collision_objects")?;
+    // MoveIt's ADD of an id already in the world replaces that object: the last of each id counts
+    let mut last_of_id: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    let mut ids = Vec::with_capacity(objects.len());
     for (i, obj) in objects.iter().enumerate() {
         let path = format!("world.collision_objects[{i}]");
         let id = doc.string(doc.field(obj, &path, "id")?, &format!("{path}.id"))?;
+        last_of_id.insert(id.clone(), i);
+        ids.push(id);
+    }
+    doc.collision_matrix(&root, &last_of_id, &mut notes)?;
+    for (i, obj) in objects.iter().enumerate() {
+        let path = format!("world.collision_objects[{i}]");
+        let id = ids[i].clone();
+        let last = last_of_id[&id];
+        if last != i {
+            notes.push(format!(
+                "{path}: id '{id}' is added again by world.collision_objects[{last}], which replaces it \
+                 (MoveIt semantics)"
+            ));
+            continue;
+        }
+        for key in keys(obj) {
+            if !OBJECT_FIELDS.contains(&key.as_str()) {
+                notes.push(format!(
+                    "{path}.{key}: not a CollisionObject field, ignored"
+                ));
+            }
+        }
         let frame = doc.frame(obj, &path)?;
         if !PLANNING_FRAMES.contains(&frame.as_str()) && Some(frame.as_str()) != root_frame {
             return Err(doc.err(
@@ -259,7 +375,39 @@ pub(crate) fn scene_from_str(yaml: &str, source: &str, root_frame: Option<&str>)
                 .map_err(|e| doc.err(&field, e.to_string()))?;
         }
     }
-    Ok(scene)
+    Ok((scene, notes))
+}
+
+/// Parse a `PlanningScene` YAML file ([`parse_scene_str`]). `Err(Io)` when it cannot be read.
+pub fn parse_scene_file(path: &Path, root_frame: Option<&str>) -> Result<(Scene, Vec<String>)> {
+    parse_scene_str(&read(path)?, &path.display().to_string(), root_frame)
+}
+
+/// The string keys of mapping `v` (none when `v` is not a mapping), in file order.
+fn keys(v: &Value) -> Vec<String> {
+    v.as_mapping()
+        .map(|m| {
+            m.keys()
+                .filter_map(|k| k.as_str().map(str::to_string))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Whether a `world.octomap` value (`octomap_msgs/OctomapWithPose`) holds cells: a non-empty
+/// `octomap.data`, or any content in a layout other than that message's.
+fn octomap_has_data(v: &Value) -> bool {
+    match v.get("octomap") {
+        Some(map) if map.is_mapping() => match map.get("data") {
+            None | Some(Value::Null) => false,
+            Some(Value::Sequence(d)) => !d.is_empty(),
+            Some(Value::String(d)) => !d.is_empty(),
+            Some(_) => true,
+        },
+        Some(Value::Null) => false,
+        Some(_) => true,
+        None => v.as_mapping().is_some_and(|m| !m.is_empty()),
+    }
 }
 
 /// (joint name, position) pairs of a joint goal, in file order.
@@ -292,6 +440,7 @@ impl Doc<'_> {
     }
 
     fn parse(&self, yaml: &str) -> Result<Value> {
+        crate::limits::check_yaml(yaml).map_err(|m| self.err("", m))?;
         let root: Value =
             serde_yaml::from_str(yaml).map_err(|e| self.err("", format!("invalid YAML: {e}")))?;
         if !root.is_mapping() {
@@ -408,6 +557,109 @@ impl Doc<'_> {
         }
     }
 
+    /// Notes on the scene-wide settings of `root` that are not applied: `fixed_frame_transforms` other
+    /// than the identity, non-empty `link_padding` and `link_scale`.
+    fn scene_settings(&self, root: &Value, notes: &mut Vec<String>) -> Result<()> {
+        if let Some(list) = self.opt(root, "fixed_frame_transforms") {
+            for (i, t) in self.seq(list, "fixed_frame_transforms")?.iter().enumerate() {
+                let path = format!("fixed_frame_transforms[{i}]");
+                let identity = t.get("transform").is_some_and(|tf| {
+                    let near = |key: &str, keys: &[&str], want: &[f64]| {
+                        tf.get(key).is_some_and(|v| {
+                            self.components(v, key, keys).is_ok_and(|c| {
+                                c.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-9)
+                            })
+                        })
+                    };
+                    near("translation", &["x", "y", "z"], &[0.0, 0.0, 0.0])
+                        && near("rotation", &["x", "y", "z", "w"], &[0.0, 0.0, 0.0, 1.0])
+                });
+                if !identity {
+                    notes.push(format!(
+                        "{path}: frame transforms are not applied (objects are placed in the planning \
+                         frame as given)"
+                    ));
+                }
+            }
+        }
+        for key in ["link_padding", "link_scale"] {
+            if let Some(list) = self.opt(root, key) {
+                if !self.seq(list, key)?.is_empty() {
+                    notes.push(format!(
+                        "{key}: not applied (the robot's collision spheres keep their size)"
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A note when the `allowed_collision_matrix` of `root` allows a collision with one of the scene's
+    /// objects (`objects`: ids): the motion keeps clear of every object all the same. Entries among the
+    /// robot's links only repeat what the SRDF says and are not reported.
+    fn collision_matrix(
+        &self,
+        root: &Value,
+        objects: &std::collections::HashMap<String, usize>,
+        notes: &mut Vec<String>,
+    ) -> Result<()> {
+        let Some(acm) = self.opt(root, "allowed_collision_matrix") else {
+            return Ok(());
+        };
+        let mut allowed = std::collections::BTreeSet::new();
+        let names = |key: &str| -> Result<Vec<String>> {
+            match self.opt(acm, key) {
+                Some(v) => self
+                    .seq(v, &format!("allowed_collision_matrix.{key}"))?
+                    .iter()
+                    .map(|n| Ok(n.as_str().unwrap_or_default().to_string()))
+                    .collect(),
+                None => Ok(Vec::new()),
+            }
+        };
+        let entry_names = names("entry_names")?;
+        let rows = match self.opt(acm, "entry_values") {
+            Some(v) => self.seq(v, "allowed_collision_matrix.entry_values")?,
+            None => &[],
+        };
+        for (i, row) in rows.iter().enumerate() {
+            let values = row
+                .get("enabled")
+                .unwrap_or(row)
+                .as_sequence()
+                .map(|s| s.as_slice())
+                .unwrap_or(&[]);
+            for (j, v) in values.iter().enumerate() {
+                if v.as_bool() == Some(true) {
+                    for k in [i, j] {
+                        if let Some(n) = entry_names.get(k).filter(|n| objects.contains_key(*n)) {
+                            allowed.insert(n.clone());
+                        }
+                    }
+                }
+            }
+        }
+        let defaults = names("default_entry_names")?;
+        let default_values = match self.opt(acm, "default_entry_values") {
+            Some(v) => self.seq(v, "allowed_collision_matrix.default_entry_values")?,
+            None => &[],
+        };
+        for (n, v) in defaults.iter().zip(default_values) {
+            if v.as_bool() == Some(true) && objects.contains_key(n) {
+                allowed.insert(n.clone());
+            }
+        }
+        if !allowed.is_empty() {
+            let list: Vec<String> = allowed.into_iter().map(|n| format!("'{n}'")).collect();
+            notes.push(format!(
+                "allowed_collision_matrix: collisions allowed with {} are not applied (the motion keeps \
+                 clear of every object)",
+                list.join(", ")
+            ));
+        }
+        Ok(())
+    }
+
     /// The constraints and settings of request `root` that are not applied (see
     /// [`MotionPlanRequest::ignored`]); `n_goals` is the length of `goal_constraints`.
     fn ignored(&self, root: &Value, n_goals: usize) -> Result<Vec<String>> {
@@ -449,6 +701,29 @@ impl Doc<'_> {
         }
         if n_goals > 1 {
             out.push(format!("goal_constraints[1..{}]", n_goals - 1));
+        }
+        let multi = self
+            .opt(root, "start_state")
+            .and_then(|s| self.opt(s, "multi_dof_joint_state"))
+            .and_then(|m| self.opt(m, "transforms"))
+            .and_then(Value::as_sequence);
+        for (i, t) in multi.into_iter().flatten().enumerate() {
+            let near = |key: &str, keys: &[&str], want: &[f64]| {
+                t.get(key).is_some_and(|v| {
+                    self.components(v, key, keys)
+                        .is_ok_and(|c| c.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-9))
+                })
+            };
+            if !(near("translation", &["x", "y", "z"], &[0.0; 3])
+                && near("rotation", &["x", "y", "z", "w"], &[0.0, 0.0, 0.0, 1.0]))
+            {
+                out.push(format!("start_state.multi_dof_joint_state.transforms[{i}]"));
+            }
+        }
+        for key in keys(root) {
+            if !REQUEST_FIELDS.contains(&key.as_str()) {
+                out.push(key);
+            }
         }
         Ok(out)
     }
@@ -831,12 +1106,12 @@ impl Scene {
         source: &str,
         root_frame: Option<&str>,
     ) -> Result<Scene> {
-        scene_from_str(yaml, source, root_frame)
+        parse_scene_str(yaml, source, root_frame).map(|(scene, _)| scene)
     }
 
     /// Load a MoveIt `PlanningScene` YAML file (see [`Scene::from_moveit_yaml_str`]). `Err(Io)` when it
     /// cannot be read.
     pub fn from_moveit_yaml_file(path: &Path, root_frame: Option<&str>) -> Result<Scene> {
-        scene_from_str(&read(path)?, &path.display().to_string(), root_frame)
+        parse_scene_file(path, root_frame).map(|(scene, _)| scene)
     }
 }
