@@ -17,7 +17,7 @@ mod rollout;
 mod sequence;
 mod system;
 
-pub use batch::evaluate_batch_system;
+pub use batch::{evaluate_batch_system, max_threads, pool_threads, shared_pool};
 pub use fabric::{evaluate_batch, rollout, rollout_sequence, FabricSystem};
 pub use integrate::{Integrator, StepScratch};
 pub use rollout::{
