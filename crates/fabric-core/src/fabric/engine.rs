@@ -124,15 +124,21 @@ struct SphereGroup {
 
 fn sphere_groups(robot: &Robot) -> Vec<SphereGroup> {
     let mut groups: Vec<SphereGroup> = Vec::new();
+    // group_of_link[l]: the group of link l, in order of first appearance (a direct index keeps this
+    // linear in spheres and links)
+    let mut group_of_link = vec![usize::MAX; robot.link_names().len()];
     for (k, s) in robot.spheres().iter().enumerate() {
-        match groups.iter_mut().find(|g| g.link == s.link) {
-            Some(g) => g.spheres.push(k),
-            None => groups.push(SphereGroup {
-                link: s.link,
-                center: Vector3::zeros(),
-                radius: 0.0,
-                spheres: vec![k],
-            }),
+        match group_of_link[s.link] {
+            usize::MAX => {
+                group_of_link[s.link] = groups.len();
+                groups.push(SphereGroup {
+                    link: s.link,
+                    center: Vector3::zeros(),
+                    radius: 0.0,
+                    spheres: vec![k],
+                });
+            }
+            g => groups[g].spheres.push(k),
         }
     }
     for g in &mut groups {
@@ -183,7 +189,7 @@ struct SelfPairs {
     links: Vec<LinkPair>,
     runs: Vec<PairRun>,
     /// (index in `Robot::self_collision_pairs`, first sphere, second sphere), ordered by link pair
-    /// (in order of first appearance), then as in `Robot::self_collision_pairs`.
+    /// (group indices), then as in `Robot::self_collision_pairs`.
     pairs: Vec<(u32, usize, usize)>,
 }
 
@@ -195,47 +201,46 @@ impl SelfPairs {
                 group_of[k] = gi;
             }
         }
-        // pairs of each link pair, in their original order
-        let mut keys: Vec<(usize, usize)> = Vec::new();
-        let mut members: Vec<Vec<(u32, usize, usize)>> = Vec::new();
-        for (index, &(a, b)) in robot.self_collision_pairs().iter().enumerate() {
-            let (ga, gb) = (group_of[a], group_of[b]);
-            let key = (ga.min(gb), ga.max(gb));
-            let slot = match keys.iter().position(|k| *k == key) {
-                Some(slot) => slot,
-                None => {
-                    keys.push(key);
-                    members.push(Vec::new());
-                    keys.len() - 1
-                }
-            };
-            members[slot].push((index as u32, a, b));
-        }
+        // the pairs sorted by link pair, each link pair's in their original order: one sort, with no
+        // allocation per link pair (a robot of n one-sphere links has ~n²/2 link pairs)
+        let mut sorted: Vec<((u32, u32), u32)> = robot
+            .self_collision_pairs()
+            .iter()
+            .enumerate()
+            .map(|(index, &(a, b))| {
+                let (ga, gb) = (group_of[a] as u32, group_of[b] as u32);
+                ((ga.min(gb), ga.max(gb)), index as u32)
+            })
+            .collect();
+        sorted.sort_unstable();
+        let all = robot.self_collision_pairs();
         let mut out = SelfPairs {
-            links: Vec::with_capacity(keys.len()),
+            links: Vec::new(),
             runs: Vec::new(),
-            pairs: Vec::with_capacity(robot.self_collision_pairs().len()),
+            pairs: Vec::with_capacity(all.len()),
         };
-        for ((a, b), m) in keys.into_iter().zip(members) {
+        for same_link_pair in sorted.chunk_by(|x, y| x.0 == y.0) {
+            let (a, b) = same_link_pair[0].0;
             let first_run = out.runs.len();
-            for p in m {
-                let other = group_of[p.2];
+            for &(_, index) in same_link_pair {
+                let (first, second) = all[index as usize];
+                let other = group_of[second];
                 let i = out.pairs.len();
                 let extends = out.runs.len() > first_run
-                    && matches!(out.runs.last(), Some(r) if r.sphere == p.1 && r.other == other);
+                    && matches!(out.runs.last(), Some(r) if r.sphere == first && r.other == other);
                 match out.runs.last_mut() {
                     Some(r) if extends => r.pairs.end = i + 1,
                     _ => out.runs.push(PairRun {
-                        sphere: p.1,
+                        sphere: first,
                         other,
                         pairs: i..i + 1,
                     }),
                 }
-                out.pairs.push(p);
+                out.pairs.push((index, first, second));
             }
             out.links.push(LinkPair {
-                a,
-                b,
+                a: a as usize,
+                b: b as usize,
                 runs: first_run..out.runs.len(),
             });
         }
