@@ -64,6 +64,10 @@ ConfigError = InvalidValueError
 class IoError(GfcsError, OSError):
     """I/O failure on a path."""
 
+class GfcsWarning(UserWarning):
+    """Input accepted but not fully applied (a MoveIt field, SRDF entries for links the robot lacks), or an
+    argument adjusted (a thread count above 4 x the cores)."""
+
 def _raise_internal_panic() -> None:
     """Test hook: panics in Rust; raises ``GfcsError("internal error: ...")``."""
 

@@ -18,13 +18,21 @@ class                       bases                                  raised for
 ``InvalidValueError``       ``GfcsError``, ``ValueError``          value out of range (radius, time step, gain)
 ``ConfigError``             alias of ``InvalidValueError``
 ``IoError``                 ``GfcsError``, ``OSError``             I/O failure on a path
+``GfcsWarning``             ``UserWarning``                        (a warning) input accepted but not fully
+                                                                   applied: MoveIt scene fields, SRDF entries
+                                                                   for links the robot lacks, a thread count
+                                                                   above the cap
 ==========================  =====================================  ===========================================
+
+Integer arguments (thread counts, iteration counts, obstacle ids, link indices) are checked with their name:
+a negative or non-integer value raises ``InvalidValueError``.
 """
 
 from gfcs._core import (
     ConfigError,
     FormatError,
     GfcsError,
+    GfcsWarning,
     InvalidValueError,
     IoError,
     LinkError,
@@ -45,4 +53,5 @@ __all__ = [
     "InvalidValueError",
     "ConfigError",
     "IoError",
+    "GfcsWarning",
 ]

@@ -86,6 +86,69 @@ pub fn scalar(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<f64> {
     Ok(a.data[0])
 }
 
+/// An integer argument `what` (a Python `int` or anything with `__index__`, not a `bool`) in `min..=max`:
+/// `InvalidValueError` naming the argument otherwise (a negative index or thread count, a float, a value
+/// too large for a machine integer).
+pub fn integer(obj: &Bound<'_, PyAny>, what: &str, min: u64, max: u64) -> PyResult<u64> {
+    let py = obj.py();
+    let bad = |message: String| {
+        error(FabricError::Value {
+            what: what.to_string(),
+            message,
+        })
+    };
+    let range = || {
+        if max == u64::MAX {
+            format!("an integer >= {min}")
+        } else {
+            format!("an integer in [{min}, {max}]")
+        }
+    };
+    let shown = || {
+        obj.repr()
+            .map(|r| r.to_string())
+            .unwrap_or_else(|_| "?".into())
+    };
+    if obj.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(bad(format!("must be {}, got {}", range(), shown())));
+    }
+    let index = py
+        .import("operator")?
+        .getattr("index")?
+        .call1((obj,))
+        .map_err(|_| bad(format!("must be {}, got {}", range(), shown())))?;
+    match index.extract::<u64>() {
+        Ok(v) if (min..=max).contains(&v) => Ok(v),
+        _ => Err(bad(format!("must be {}, got {}", range(), shown()))),
+    }
+}
+
+/// [`integer`] as a `usize` (an index or a count).
+pub fn index(obj: &Bound<'_, PyAny>, what: &str, min: usize) -> PyResult<usize> {
+    let max = u64::try_from(usize::MAX).unwrap_or(u64::MAX);
+    integer(obj, what, min as u64, max).map(|v| v as usize)
+}
+
+/// A `threads` argument: `None` (rayon's pool of one thread per core) or an integer >= 1. A count above
+/// [`fabric_core::rollout::max_threads`] warns (`gfcs.GfcsWarning`) that it runs on that many.
+pub fn threads(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(None);
+    };
+    let n = index(obj, "threads", 1)?;
+    let cap = fabric_core::rollout::max_threads();
+    if n > cap {
+        crate::errors::warn(
+            obj.py(),
+            &format!(
+                "threads={n} exceeds 4 x the {} cores: running on {cap} threads",
+                cap / 4
+            ),
+        )?;
+    }
+    Ok(Some(n))
+}
+
 /// Exactly shape (n,), finite.
 pub fn vector(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<Vec<f64>> {
     let a = array(obj, what)?;

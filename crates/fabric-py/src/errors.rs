@@ -15,6 +15,8 @@
 //! | `Value`                        | `InvalidValueError(GfcsError, ValueError)` (alias `ConfigError`) |
 //! | `Io`                           | `IoError(GfcsError, OSError)`             |
 //! | a Rust panic                   | `GfcsError("internal error: ...")`        |
+//!
+//! `GfcsWarning(UserWarning)` is defined alongside, for input accepted but not fully applied ([`warn`]).
 
 use std::any::Any;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -57,11 +59,15 @@ ConfigError = InvalidValueError
 
 class IoError(GfcsError, OSError):
     '''An I/O failure on a path.'''
+
+class GfcsWarning(UserWarning):
+    '''Input that gfcs accepts but does not fully apply (a MoveIt field, an SRDF entry for a link the
+    robot lacks), or an argument it adjusts (a thread count above the cap).'''
 ";
 
 /// Names of the classes defined by [`DEFINITIONS`], in the order of the fields of [`ErrorTypes`], plus the
 /// alias `ConfigError`. Used to register them on the module.
-pub const EXCEPTION_NAMES: [&str; 10] = [
+pub const EXCEPTION_NAMES: [&str; 11] = [
     "GfcsError",
     "UrdfError",
     "LinkError",
@@ -72,6 +78,7 @@ pub const EXCEPTION_NAMES: [&str; 10] = [
     "InvalidValueError",
     "ConfigError",
     "IoError",
+    "GfcsWarning",
 ];
 
 /// The exception classes, created once per interpreter.
@@ -136,6 +143,15 @@ pub fn make(py: Python<'_>, name: &str, message: String) -> PyErr {
 /// `GfcsError("internal error: {message}")`: a defect of gfcs itself, not of the input.
 pub fn internal(py: Python<'_>, message: &str) -> PyErr {
     make(py, "GfcsError", format!("internal error: {message}"))
+}
+
+/// Issue `message` as a `gfcs.GfcsWarning`, attributed to the caller of the gfcs function (an error when
+/// warnings are turned into errors).
+pub fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
+    let category = exception_type(py, "GfcsWarning")?;
+    let text = std::ffi::CString::new(message.replace('\0', " "))
+        .map_err(|e| internal(py, &e.to_string()))?;
+    PyErr::warn(py, category.as_any(), &text, 1)
 }
 
 /// Map one core error to its Python exception; the message is the core's `Display` text, which names the

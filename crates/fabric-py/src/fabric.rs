@@ -10,7 +10,6 @@ use std::sync::{Arc, Mutex, PoisonError, RwLock};
 use fabric_core::fabric::{Diagnostics, EeTargets, Fabric, FabricWorkspace};
 use fabric_core::rollout::{self as core_rollout, SequenceOptions};
 use fabric_core::scene::{ObstacleId, Scene};
-use fabric_core::FabricError;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -254,10 +253,11 @@ impl PyFabric {
     fn update_obstacle(
         &self,
         py: Python<'_>,
-        id: u64,
+        id: &Bound<'_, PyAny>,
         pose: Option<&Bound<'_, PyAny>>,
         velocity: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
+        let id = convert::integer(id, "id", 0, u64::MAX)?;
         let pose = pose
             .filter(|p| !p.is_none())
             .map(|p| convert::pose(p, "pose"))
@@ -462,7 +462,7 @@ impl PyFabric {
         stall_window: Option<f64>,
         stall_progress: Option<f64>,
         integrator: &str,
-        threads: Option<usize>,
+        threads: Option<&Bound<'py, PyAny>>,
         return_trajectories: bool,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let kwargs = SequenceKwargs {
@@ -496,12 +496,7 @@ impl PyFabric {
             }
         };
         convert::finite("candidates", &cand.data)?;
-        if threads == Some(0) {
-            return Err(error(FabricError::Value {
-                what: "threads".into(),
-                message: "must be >= 1".into(),
-            }));
-        }
+        let threads = convert::threads(threads)?;
         let opts = kwargs.options(n_commands, return_trajectories)?;
         let (fabric, scene) = self.shared();
         let data = cand.data;

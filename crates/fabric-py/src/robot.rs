@@ -19,13 +19,14 @@ use pyo3::types::{PyDict, PyList};
 use crate::convert::{self, output, output_pose, output_vec3, typed_output};
 use crate::errors::{detached, error, guarded};
 
-/// A link given by name (`str`) or by index (`int`).
+/// A link given by name (`str`) or by index (an `int`, as in `Robot.link_names`; anything else is refused
+/// when resolved, naming the argument).
 #[derive(FromPyObject)]
 pub enum LinkRef {
-    /// Link index, as in `Robot.link_names`.
-    Index(usize),
     /// Link name.
     Name(String),
+    /// Link index: checked by [`LinkRef::resolve`].
+    Index(Py<PyAny>),
 }
 
 /// An optional argument that was given: `Some` unless omitted or Python `None`.
@@ -44,11 +45,17 @@ impl LinkRef {
     pub fn resolve(&self, robot: &Robot) -> PyResult<usize> {
         match self {
             LinkRef::Name(name) => robot.link_index(name).map_err(error),
-            LinkRef::Index(i) if *i < robot.link_names().len() => Ok(*i),
-            LinkRef::Index(i) => Err(error(FabricError::MissingLink {
-                robot: robot.name().to_string(),
-                link: format!("#{i} (the robot has {} links)", robot.link_names().len()),
-            })),
+            LinkRef::Index(obj) => {
+                let i = Python::attach(|py| convert::index(obj.bind(py), "link", 0))?;
+                if i < robot.link_names().len() {
+                    Ok(i)
+                } else {
+                    Err(error(FabricError::MissingLink {
+                        robot: robot.name().to_string(),
+                        link: format!("#{i} (the robot has {} links)", robot.link_names().len()),
+                    }))
+                }
+            }
         }
     }
 }
@@ -127,6 +134,28 @@ impl PyRobot {
             Ok(ws)
         })
     }
+}
+
+/// One `gfcs.GfcsWarning` listing the links an SRDF names and `robot` lacks (their entries were skipped,
+/// as MoveIt skips them); nothing when there are none.
+fn warn_skipped_links(
+    py: Python<'_>,
+    robot: &Robot,
+    source: &str,
+    skipped: &[String],
+) -> PyResult<()> {
+    if skipped.is_empty() {
+        return Ok(());
+    }
+    crate::errors::warn(
+        py,
+        &format!(
+            "SRDF {source}: {} link(s) not in robot '{}', their <disable_collisions> entries skipped: {}",
+            skipped.len(),
+            robot.name(),
+            skipped.join(", ")
+        ),
+    )
 }
 
 /// Spheres argument: a path to a JSON sphere file, or a list of `(link, centre (3,), radius)`.
@@ -225,7 +254,8 @@ impl PyRobot {
         }
         if let Some(obj) = srdf.filter(|o| !o.is_none()) {
             let (text, source) = srdf_text(obj)?;
-            guarded(py, || robot.set_self_collision_from_srdf(&text, &source))?;
+            let skipped = guarded(py, || robot.set_self_collision_from_srdf(&text, &source))?;
+            warn_skipped_links(py, &robot, &source, &skipped)?;
         }
         Ok(PyRobot::new(robot))
     }
@@ -240,7 +270,13 @@ impl PyRobot {
     /// A copy of this robot whose self-collision pairs follow the SRDF `srdf` (path or XML text).
     fn with_srdf(&self, py: Python<'_>, srdf: &Bound<'_, PyAny>) -> PyResult<Self> {
         let (text, source) = srdf_text(srdf)?;
-        self.modified(py, |r| r.set_self_collision_from_srdf(&text, &source))
+        let mut skipped = Vec::new();
+        let out = self.modified(py, |r| {
+            skipped = r.set_self_collision_from_srdf(&text, &source)?;
+            Ok(())
+        })?;
+        warn_skipped_links(py, &out.inner, &source, &skipped)?;
+        Ok(out)
     }
 
     /// A copy of this robot with inactive joints held at other positions ({joint name: rad or m}), e.g. a
@@ -441,7 +477,7 @@ impl PyRobot {
         positions: &Bound<'py, PyAny>,
         link: Option<LinkRef>,
         axes: Option<&Bound<'py, PyAny>>,
-        iterations: Option<usize>,
+        iterations: Option<&Bound<'py, PyAny>>,
         damping: Option<f64>,
         tolerance: Option<f64>,
         axis_weight: Option<f64>,
@@ -497,7 +533,10 @@ impl PyRobot {
             .collect();
         let default = IkOptions::default();
         let options = IkOptions {
-            iterations: iterations.unwrap_or(default.iterations),
+            iterations: match given(iterations) {
+                Some(i) => convert::index(i, "iterations", 0)?,
+                None => default.iterations,
+            },
             damping: damping.unwrap_or(default.damping),
             tolerance: tolerance.unwrap_or(default.tolerance),
             axis_weight: axis_weight.unwrap_or(default.axis_weight),
@@ -535,7 +574,7 @@ impl PyRobot {
         cone_deg: f64,
         lower: Option<&Bound<'py, PyAny>>,
         upper: Option<&Bound<'py, PyAny>>,
-        iterations: Option<usize>,
+        iterations: Option<&Bound<'py, PyAny>>,
         damping: Option<f64>,
         tolerance: Option<f64>,
         axis_weight: Option<f64>,
@@ -565,7 +604,10 @@ impl PyRobot {
         let upper = bound(upper, "upper", robot.upper())?;
         let default = PointIkOptions::default();
         let options = PointIkOptions {
-            iterations: iterations.unwrap_or(default.iterations),
+            iterations: match given(iterations) {
+                Some(i) => convert::index(i, "iterations", 0)?,
+                None => default.iterations,
+            },
             damping: damping.unwrap_or(default.damping),
             tolerance: tolerance.unwrap_or(default.tolerance),
             axis_weight: axis_weight.unwrap_or(default.axis_weight),

@@ -101,6 +101,20 @@ impl PyScene {
     }
 }
 
+/// One `gfcs.GfcsWarning` per scene field that the MoveIt loader does not apply
+/// ([`moveit::parse_scene_str`]), each naming the file and the field.
+fn warn_scene_notes(py: Python<'_>, source: &str, notes: &[String]) -> PyResult<()> {
+    for note in notes {
+        crate::errors::warn(py, &format!("{source}: {note}"))?;
+    }
+    Ok(())
+}
+
+/// An obstacle id argument: an integer >= 0, `InvalidValueError` naming `id` otherwise.
+fn obstacle_id(obj: &Bound<'_, PyAny>) -> PyResult<u64> {
+    convert::integer(obj, "id", 0, u64::MAX)
+}
+
 /// Error for an obstacle id that is not in the scene.
 fn unknown_id(id: u64) -> PyErr {
     error(FabricError::Value {
@@ -155,7 +169,10 @@ impl PyScene {
 
     /// Load a MoveIt PlanningScene YAML file (MotionBenchMaker `sceneNNNN.yaml`): box sizes are full edges,
     /// cylinders [height, radius], quaternions [x, y, z, w]. Objects must be in the planning frame (no
-    /// header, "world", or `root_frame`: the robot's root link); attached objects are refused.
+    /// header, "world", or `root_frame`: the robot's root link); attached objects are refused. A later
+    /// object with the same id replaces an earlier one (MoveIt's ADD). Each field that is not applied (an
+    /// octomap, collisions the allowed collision matrix allows with objects, frame transforms, link
+    /// padding, fields MoveIt does not define) gives a `gfcs.GfcsWarning` naming it.
     #[staticmethod]
     #[pyo3(signature = (path, root_frame=None))]
     fn from_moveit_yaml(
@@ -164,7 +181,8 @@ impl PyScene {
         root_frame: Option<&str>,
     ) -> PyResult<Self> {
         let path = path_arg(path)?;
-        let inner = guarded(py, || Scene::from_moveit_yaml_file(&path, root_frame))?;
+        let (inner, notes) = guarded(py, || moveit::parse_scene_file(&path, root_frame))?;
+        warn_scene_notes(py, &path.display().to_string(), &notes)?;
         Ok(PyScene { inner })
     }
 
@@ -177,7 +195,8 @@ impl PyScene {
         source: &str,
         root_frame: Option<&str>,
     ) -> PyResult<Self> {
-        let inner = guarded(py, || Scene::from_moveit_yaml_str(text, source, root_frame))?;
+        let (inner, notes) = guarded(py, || moveit::parse_scene_str(text, source, root_frame))?;
+        warn_scene_notes(py, source, &notes)?;
         Ok(PyScene { inner })
     }
 
@@ -408,14 +427,25 @@ impl PyScene {
     }
 
     /// Remove the obstacle `id`; returns its description (as in `obstacles()`).
-    fn remove<'py>(&mut self, py: Python<'py>, id: u64) -> PyResult<Bound<'py, PyDict>> {
+    fn remove<'py>(
+        &mut self,
+        py: Python<'py>,
+        id: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let id = obstacle_id(id)?;
         let scene = &mut self.inner;
         let removed = guarded(py, || scene.remove(ObstacleId(id)))?;
         obstacle_dict(py, id, &removed)
     }
 
     /// Move the obstacle `id` to `pose` (world frame).
-    fn set_pose(&mut self, py: Python<'_>, id: u64, pose: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_pose(
+        &mut self,
+        py: Python<'_>,
+        id: &Bound<'_, PyAny>,
+        pose: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        let id = obstacle_id(id)?;
         let pose = convert::pose(pose, "pose")?;
         let scene = &mut self.inner;
         guarded(py, || scene.set_pose(ObstacleId(id), pose))
@@ -425,9 +455,10 @@ impl PyScene {
     fn set_velocity(
         &mut self,
         py: Python<'_>,
-        id: u64,
+        id: &Bound<'_, PyAny>,
         velocity: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
+        let id = obstacle_id(id)?;
         let v = convert::vector3(velocity, "velocity")?;
         let scene = &mut self.inner;
         guarded(py, || scene.set_velocity(ObstacleId(id), v))
@@ -461,7 +492,8 @@ impl PyScene {
     }
 
     /// Description of the obstacle `id` (as in `obstacles()`).
-    fn get<'py>(&self, py: Python<'py>, id: u64) -> PyResult<Bound<'py, PyDict>> {
+    fn get<'py>(&self, py: Python<'py>, id: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
+        let id = obstacle_id(id)?;
         obstacle_dict(py, id, self.obstacle(id)?)
     }
 

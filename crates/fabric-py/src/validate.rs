@@ -117,8 +117,9 @@ impl PyMeshChecker {
         py: Python<'_>,
         scene: PyRef<'_, PyScene>,
         q: &Bound<'_, PyAny>,
-        threads: Option<usize>,
+        threads: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
+        let threads = convert::threads(threads)?;
         let checker = &self.inner;
         let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let scene = &scene.inner;
@@ -136,8 +137,9 @@ impl PyMeshChecker {
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
-        threads: Option<usize>,
+        threads: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
+        let threads = convert::threads(threads)?;
         let checker = &self.inner;
         let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let values = match batch {
@@ -156,8 +158,9 @@ impl PyMeshChecker {
         py: Python<'_>,
         scene: PyRef<'_, PyScene>,
         q: &Bound<'_, PyAny>,
-        threads: Option<usize>,
+        threads: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<f64> {
+        let threads = convert::threads(threads)?;
         let checker = &self.inner;
         let (qs, _) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let scene = &scene.inner;
@@ -170,8 +173,9 @@ impl PyMeshChecker {
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
-        threads: Option<usize>,
+        threads: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<f64> {
+        let threads = convert::threads(threads)?;
         let checker = &self.inner;
         let (qs, _) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         detached(py, || checker.min_trajectory_self_clearance(&qs, threads))
