@@ -224,10 +224,11 @@ def load_mbm(
     copy of ``robot``.
 
     Raises:
-        gfcs.LinkError: a joint of the robot is missing from the request's start state or goal (the
-            message names the joint and the file).
+        gfcs.LinkError: a joint of the robot is missing from the request's start state or goal, or the goal
+            constrains a joint the robot does not have (the message names the joint and the file).
         gfcs.IoError / gfcs.FormatError: unreadable or malformed files (from the core).
-        gfcs.InvalidValueError: the request's start or goal lies outside the robot's joint limits.
+        gfcs.InvalidValueError: the request's start or goal lies outside the robot's joint limits, or its
+            start state holds a locked joint (e.g. a finger) more than 0.05 outside its limits.
         ValueError: a pose goal in a frame other than the robot's root, on an unknown link, or without a
             valid inverse-kinematics solution.
     """
@@ -246,11 +247,14 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
     request = gfcs.load_motion_plan_request(str(request_path))
     for field_path in request.get("ignored", []):
         warnings.warn(f"{request_path}: {field_path} is not supported and is ignored (the motion does not "
-                      "follow it)", UserWarning, stacklevel=3)
+                      "follow it)", gfcs.errors.GfcsWarning, stacklevel=3)
     checker = mesh_checker if mesh_checker is not None else mesh_checker_for(robot)
-    robot = held_as_requested(robot, request["start"])
-    if checker is not None:
-        checker = held_as_requested(checker, request["start"])
+    try:
+        robot = held_as_requested(robot, request["start"])
+        if checker is not None:
+            checker = held_as_requested(checker, request["start"])
+    except gfcs.errors.InvalidValueError as e:
+        raise gfcs.errors.InvalidValueError(f"{request_path}: start_state: {e}") from e
     values = {}
     pose_goal = request.get("pose_goal")
     for part in ("start", "goal") if pose_goal is None else ("start",):
@@ -263,6 +267,14 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
                 f"{', '.join(sorted(table)) or 'nothing'})"
             )
         values[part] = np.array([table[j] for j in robot.joint_names], dtype=np.float64)
+    if pose_goal is None:  # a goal the robot cannot reach in some joint is no goal at all
+        known = set(robot.joint_names) | set(robot.locked_positions)
+        unknown = [j for j in request["goal"] if j not in known]
+        if unknown:
+            raise _missing_joint_error(
+                f"{request_path}: goal_constraints name joint(s) {', '.join(repr(j) for j in unknown)} that "
+                f"robot '{robot.name}' does not have (its joints: {', '.join(robot.joint_names)})"
+            )
     moved = []
     for part in values:  # MoveIt's semantics: values rounded just outside a bound lie on it
         values[part], shifts = snap_to_bounds(robot, values[part])
@@ -358,7 +370,8 @@ def load_mbm_dir(
         mesh_checker: shared by all problems (default: as :func:`load_mbm`).
         skip: leave out the first ``skip`` problems of each class (by number), e.g. ``skip=40`` keeps the
             test problems 41-50 of the GFCS split (train on 1-40, test on 41-50).
-        invalid: when a list, problems whose start or goal lies outside ``robot``'s joint limits, or whose
+        invalid: when a list, problems that cannot be loaded (a malformed file: any :class:`gfcs.GfcsError`),
+            whose start or goal lies outside ``robot``'s joint limits, or whose
             pose goal has no valid joint configuration (:class:`gfcs.pose_goal.PoseGoalError`), are left
             out and appended to it as (name, message) instead of raising (MotionBenchMaker's URDF lets
             joint 4 of the Panda reach 0.0873 rad, Franka's limits and :meth:`gfcs.Robot.panda` -0.0698).
@@ -399,10 +412,10 @@ def load_mbm_dir(
                             if (class_dir / f"request{digits}{ext}").is_file()), None)
             if request is None:
                 raise FileNotFoundError(f"{scene_path}: no matching request{digits}.yaml")
-            try:  # Problem raises InvalidValueError only for a start or goal outside the joint limits
+            try:  # a problem that cannot be loaded (malformed file, values outside the limits) is left out
                 problems.append(Problem(**_mbm_fields(scene_path, request, robot, f"{class_dir.name}/{digits}",
                                                       class_dir.name, mesh_checker)))
-            except (gfcs.InvalidValueError, _pose_goal.PoseGoalError) as e:
+            except (gfcs.GfcsError, _pose_goal.PoseGoalError) as e:
                 if invalid is None:
                     raise
                 invalid.append((f"{class_dir.name}/{digits}", str(e)))
