@@ -61,6 +61,52 @@ EXIT_USER_ERROR = 2
 
 
 # ------------------------------------------------------------------------------------ shared options
+def _integer(minimum: int) -> Any:
+    """An argparse ``type``: an integer >= ``minimum`` (argparse reports anything else as a usage error,
+    naming the option)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        return value
+
+    parse.__name__ = f"integer >= {minimum}"
+    return parse
+
+
+def _writable_file(path: Optional[str], option: str) -> None:
+    """``ValueError`` naming ``option`` unless ``path`` (a file to write; None or '-' for stdout: nothing to
+    check) can be written: its directory exists and is writable, and the path is not a directory. Checked
+    before solving, so that a long run does not end in a write error."""
+    if path is None or path == "-":
+        return
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    if target.is_dir():
+        raise ValueError(f"{option} {path}: is a directory")
+    if not folder.is_dir():
+        raise ValueError(f"{option} {path}: directory {folder} does not exist")
+    if not os.access(folder, os.W_OK) or (target.exists() and not os.access(target, os.W_OK)):
+        raise ValueError(f"{option} {path}: not writable")
+
+
+def _writable_dir(path: Optional[str], option: str) -> None:
+    """``ValueError`` naming ``option`` unless ``path`` (a folder to create or fill; None: nothing to check)
+    is a writable directory or can be created in one."""
+    if path is None:
+        return
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise ValueError(f"{option} {path}: exists and is not a directory")
+    existing = next((p for p in (target, *target.parents) if p.exists()), Path("."))
+    if not os.access(existing, os.W_OK):
+        raise ValueError(f"{option} {path}: {existing} is not writable")
+
+
 def _add_robot_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("robot (default: the shipped Panda)")
     g.add_argument("--robot", metavar="URDF",
@@ -86,11 +132,13 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     else:
         g.add_argument("--method", choices=["gfcs", "gf"], default="gfcs",
                        help="gfcs: optimise commands with CMA-ES; gf: local fabric only (default gfcs)")
-    g.add_argument("--batches", type=int, default=5, help="CMA-ES batches (default 5)")
-    g.add_argument("--population", type=int, default=32, help="candidates per batch (default 32)")
-    g.add_argument("--commands", type=int, default=1, help="free commands n before the goal (default 1)")
-    g.add_argument("--seed", type=int, default=0, help="optimiser seed (default 0)")
-    g.add_argument("--threads", type=int, default=None, help="worker threads (default: all cores)")
+    g.add_argument("--batches", type=_integer(1), default=5, help="CMA-ES batches (default 5)")
+    g.add_argument("--population", type=_integer(2), default=32, help="candidates per batch (default 32)")
+    g.add_argument("--commands", type=_integer(0), default=1,
+                   help="free commands n before the goal (default 1)")
+    g.add_argument("--seed", type=_integer(0), default=0, help="optimiser seed (default 0)")
+    g.add_argument("--threads", type=_integer(1), default=None,
+                   help="worker threads (default: all cores; at most 4 x the cores are used)")
     g.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON)")
     g.add_argument("--sampler", metavar="approach|uniform|MODEL.pt", default="approach",
                    help="warm-start sampler: approach (default: half the first batch at the goal's approach "
@@ -393,6 +441,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     """`gfcs solve`: exit 0 when the problem is solved, 1 when not."""
     from gfcs import optimize
 
+    _writable_file(args.json, "--json")
+    _writable_file(args.rrd, "--rrd")
     if args.rrd:
         _viz()  # fail before solving when the extra is missing
     problem = _solve_problem(args)
@@ -426,7 +476,8 @@ def _register_solve(sub: Any) -> None:
                           "(position and orientation constraints), turned into a joint goal by IK")
     src.add_argument("--class", dest="problem_class", default=DEFAULT_DEMO_CLASS,
                      help=f"class of the generated problem (default {DEFAULT_DEMO_CLASS})")
-    src.add_argument("--problem-seed", type=int, default=0, help="seed of the generated problem (default 0)")
+    src.add_argument("--problem-seed", type=_integer(0), default=0,
+                     help="seed of the generated problem (default 0)")
     _add_robot_options(p)
     _add_solver_options(p)
     out = p.add_argument_group("output")
@@ -440,8 +491,9 @@ def _register_solve(sub: Any) -> None:
 # --------------------------------------------------------------------------------------------- bench
 def load_mbm_suite(folder: str, classes: Optional[Sequence[str]], limit: Optional[int], robot: Any,
                    skip: int = 0, left_out: Optional[List[Tuple[str, str]]] = None) -> List[Any]:
-    """:func:`gfcs.problems.load_mbm_dir`, leaving out (and listing on stderr) the problems whose start or
-    goal lies outside the robot's joint limits: one such problem does not stop a whole suite.
+    """:func:`gfcs.problems.load_mbm_dir`, leaving out (and listing on stderr) the problems that cannot be
+    loaded (a malformed file) or whose start or goal lies outside the robot's joint limits: one such
+    problem does not stop a whole suite.
 
     Args:
         left_out: when a list, (problem name, reason) of each problem left out is appended to it.
@@ -451,7 +503,7 @@ def load_mbm_suite(folder: str, classes: Optional[Sequence[str]], limit: Optiona
     invalid: List[Tuple[str, str]] = []
     suite = problems.load_mbm_dir(folder, classes=classes, limit=limit, robot=robot, skip=skip, invalid=invalid)
     if invalid:
-        print(f"gfcs: left out {len(invalid)} problem(s) not valid for this robot:", file=sys.stderr)
+        print(f"gfcs: left out {len(invalid)} problem(s) not valid for this robot or not loadable:", file=sys.stderr)
         for _, message in invalid:
             print(f"  {message}", file=sys.stderr)
     if left_out is not None:
@@ -528,6 +580,23 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     return rows, results
 
 
+def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, message: str) -> List[Dict[str, Any]]:
+    """The rows of a problem whose solve raised ``message``: one failed row per method (the labels of
+    :func:`bench_problem`'s final rows), every measure NaN, with the error under ``"error"``."""
+    from gfcs.results import bench_row
+
+    metrics: Dict[str, Any] = {k: math.nan for k in ("ee_length", "cspace_length", "ee_ldj", "cspace_ldj",
+                                                      "min_clearance", "final_error")}
+    metrics["success"] = False
+    rows = []
+    for method in methods:
+        label, n = ("GF", 0) if method == "gf" else (f"Ours ({batches} b)", batches)
+        row = bench_row(problem.name, problem.cls, label, method, n, seed, math.nan, math.inf, metrics, math.nan)
+        row["error"] = message
+        rows.append(row)
+    return rows
+
+
 def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5, population: int = 32,
               seed: int = 0, n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
               threads: Optional[int] = None, settings: Any = None, jsonl: Optional[str] = None,
@@ -568,8 +637,13 @@ def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5,
         bar = tqdm(problems, desc="bench", unit="problem", disable=not progress)
         for problem in bar:
             bar.set_postfix_str(problem.name)
-            new, results = bench_problem(problem, methods, batches, population, seed, n_commands, sampler,
-                                         fabric_config, threads, settings, retry, solve_options)
+            try:
+                new, results = bench_problem(problem, methods, batches, population, seed, n_commands, sampler,
+                                             fabric_config, threads, settings, retry, solve_options)
+            except _user_error_types() as e:  # one bad problem does not end the bench
+                message = f"{type(e).__name__}: {_message(e)}"
+                print(f"gfcs: bench: {problem.name}: {message}", file=sys.stderr)
+                new, results = error_rows(problem, methods, batches, seed, message), []
             rows.extend(new)
             write(new)
             stem = problem.name.replace("/", "_")
@@ -588,6 +662,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
     """`gfcs bench`: run the suite, print the tables (and write rows / markdown)."""
     from gfcs.results import format_table, format_totals, summarize
 
+    for path, option in ((args.json, "--json"), (args.markdown, "--markdown")):
+        _writable_file(path, option)
+    for path, option in ((args.rrd_dir, "--rrd-dir"), (args.results_dir, "--results-dir")):
+        _writable_dir(path, option)
     robot = _robot(args)
     left_out: List[Tuple[str, str]] = []
     suite = _with_mesh_checker(args, load_problems(args, robot, left_out))
@@ -615,10 +693,10 @@ def _register_bench(sub: Any) -> None:
     src = p.add_argument_group("problems")
     src.add_argument("--problems", metavar="DIR", help="MotionBenchMaker folder (class folders or one class)")
     src.add_argument("--classes", nargs="+", metavar="CLASS", help="only these classes")
-    src.add_argument("--limit", type=int, help="problems per class (generated suite: default 10)")
-    src.add_argument("--skip", type=int, default=0, help="leave out the first N problems of each class of "
+    src.add_argument("--limit", type=_integer(1), help="problems per class (generated suite: default 10)")
+    src.add_argument("--skip", type=_integer(0), default=0, help="leave out the first N problems of each class of "
                      "--problems (e.g. --skip 40: the test problems 41-50)")
-    src.add_argument("--problem-seed", type=int, default=0, help="seed of a generated suite (default 0)")
+    src.add_argument("--problem-seed", type=_integer(0), default=0, help="seed of a generated suite (default 0)")
     _add_robot_options(p)
     _add_solver_options(p, methods_nargs="+")
     out = p.add_argument_group("output")
@@ -656,8 +734,8 @@ def _register_generate(sub: Any) -> None:
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--classes", nargs="+", metavar="CLASS", help="classes (default: all)")
-    p.add_argument("--n", type=int, default=10, help="problems per class (default 10)")
-    p.add_argument("--seed", type=int, default=0, help="generator seed (default 0)")
+    p.add_argument("--n", type=_integer(1), default=10, help="problems per class (default 10)")
+    p.add_argument("--seed", type=_integer(0), default=0, help="generator seed (default 0)")
     p.add_argument("--pose-goals", action="store_true",
                    help="write each goal as the hand TCP's pose (position within 1 mm, orientation within "
                         "0.01 rad; MoveIt position and orientation constraints) instead of joint positions")
