@@ -117,6 +117,20 @@ def _check_within_limits(robot: Any, q: np.ndarray, what: str) -> None:
                                 f"limits [{lower[j]:.6g}, {upper[j]:.6g}]")
 
 
+def _check_start_velocity(robot: Any, qd: np.ndarray, what: str) -> None:
+    """``gfcs.InvalidValueError`` naming ``what`` and the first joint whose start speed exceeds its velocity
+    limit: the robot cannot be in that state, and no time parameterisation can change the state it starts
+    in."""
+    from gfcs.errors import InvalidValueError
+
+    limits = np.asarray(robot.velocity_limits, dtype=np.float64)
+    over = np.flatnonzero(np.abs(qd) > limits)
+    if over.size:
+        j = int(over[0])
+        raise InvalidValueError(f"{what}: joint {robot.joint_names[j]} starts at {qd[j]:.6g} rad/s or m/s, beyond "
+                                f"its velocity limit {limits[j]:.6g}")
+
+
 @dataclass
 class Problem:
     """One motion problem (a GFCOP instance, GFCS eq. 4-8).
@@ -159,6 +173,7 @@ class Problem:
         self.qd0 = np.zeros(dof) if self.qd0 is None else _vector(self.qd0, "qd0", dof)
         for what, q in (("q0", self.q0), ("goal", self.goal)):
             _check_within_limits(self.robot, q, f"problem {self.name!r}: {what}")
+        _check_start_velocity(self.robot, self.qd0, f"problem {self.name!r}: qd0")
 
     @property
     def dof(self) -> int:
