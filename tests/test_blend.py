@@ -159,7 +159,7 @@ def test_solve_returns_trajectories_within_the_panda_limits():
     limits = acceleration_limits(gfcs.Robot.panda())
     sampler = optimize.ApproachSampler(retract=0.0)
     raw = optimize.solve(p, batches=1, population=8, seed=0, sampler=sampler,
-                         settings=optimize.RolloutSettings(limit_acceleration=False))
+                         finish=optimize.FinishOptions(limit_acceleration=False))
     r = optimize.solve(p, batches=1, population=8, seed=0, sampler=sampler)
     assert r.success and raw.success and np.array_equal(r.commands, raw.commands)
     assert np.max(np.abs(_fd_acceleration(raw.trajectory.t, raw.trajectory.q)) / limits) > 1.2

@@ -67,37 +67,28 @@ def make_problem(source: Tuple[Any, ...]) -> Any:
 
 
 def solve_recorded(problem: Any, options: Dict[str, Any]) -> Tuple[Any, List[Dict[str, Any]]]:
-    """``solve(problem, **options)`` and the attempts it made, in order: which robot model (``"thin"`` when
-    the attempt's robot is not the problem's own), free commands, obstacle margin, goal-contact margins and
-    clearance floor, and outcome."""
+    """``solve(problem, **options)`` and the attempts it made, in order (from ``result.attempt_records``):
+    which robot model (``"thin"`` when the attempt's robot is not the problem's own), free commands,
+    obstacle margin, goal-contact margins and clearance floor, and outcome."""
     from gfcs import optimize
 
     options = dict(options)
     if options.get("sampler") == "uniform":
         options["sampler"] = optimize.UniformSampler(options.get("n_commands", 1))
+    result = optimize.solve(problem, **options)
     attempts: List[Dict[str, Any]] = []
-    original = optimize._solve_commands
-
-    def spy(prob: Any, fabric: Any, mesh_checker: Any, common: Any, n: int, sampler: Any, **kw: Any) -> Any:
-        result = original(prob, fabric, mesh_checker, common, n, sampler, **kw)
-        margins = fabric.obstacle_margins
+    for record in result.attempt_records:
+        attempt, ran = record.attempt, record.result
         attempts.append({
-            "model": "own" if prob.robot is problem.robot else "thin",
-            "n_commands": int(n),
-            "obstacle_margin": float(fabric.config.to_dict()["obstacles"]["margin"]),
-            "goal_contact_margins": None if margins is None else np.asarray(margins).tolist(),
-            "clearance_floor": float(kw.get("clearance_floor", 0.0)),
-            "success": bool(result.success),
-            "cost": float(result.cost),
-            "n_evaluations": int(result.n_evaluations),
+            "model": "own" if attempt.model.robot is problem.robot else "thin",
+            "n_commands": int(attempt.n_commands),
+            "obstacle_margin": float(ran.fabric_config["obstacles"]["margin"]),
+            "goal_contact_margins": None if attempt.obstacle_margins is None else list(attempt.obstacle_margins),
+            "clearance_floor": float(attempt.clearance_floor),
+            "success": bool(ran.success),
+            "cost": float(ran.cost),
+            "n_evaluations": int(ran.n_evaluations),
         })
-        return result
-
-    optimize._solve_commands = spy
-    try:
-        result = optimize.solve(problem, **options)
-    finally:
-        optimize._solve_commands = original
     return result, attempts
 
 

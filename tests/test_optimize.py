@@ -330,11 +330,12 @@ def test_length_slack_prefers_the_shorter_hand_path_among_near_optimal_candidate
     result = fake_optimum([detour, direct], [1.0, 1.08])
 
     def pick(slack, mesh_candidates=32, result=result):
-        commands, _, _, _, _, met = opt._select_candidate(fabric, p, result, 1, settings, None,
-                                                          mesh_candidates, slack)
+        chosen = opt.select_candidate(fabric, p, result, 1, settings, None,
+                                      opt.SelectionOptions(length_slack=slack, mesh_candidates=mesh_candidates))
+        met = chosen.metrics
         assert "mesh_candidates_checked" not in met and met["ee_length"] == pytest.approx(
-            hand["direct" if np.array_equal(commands[0], direct) else "detour"])
-        return commands[0], met["selection_rank"]
+            hand["direct" if np.array_equal(chosen.commands[0], direct) else "detour"])
+        return chosen.commands[0], met["selection_rank"]
 
     np.testing.assert_array_equal(pick(0.1)[0], direct)
     assert pick(0.1)[1] == 1

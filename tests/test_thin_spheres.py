@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import gfcs
+import gfcs.planning.models
 from gfcs import optimize, problems
 
 
@@ -111,7 +112,7 @@ def test_thin_spheres_keep_a_wider_obstacle_margin(mbm_dir, monkeypatch):
     met = gfcs.metrics.trajectory_metrics(result.robot, cage15.scene, result.trajectory.t,
                                           result.trajectory.q, cage15.goal, mesh_checker=cage15.mesh_checker)
     assert met["success"] and met["mesh_clearance"] >= gfcs.metrics.DEFAULT_MESH_MARGIN
-    monkeypatch.setattr(optimize, "THIN_SPHERE_MARGIN", 0.0)
+    monkeypatch.setattr(gfcs.planning.models, "THIN_SPHERE_MARGIN", 0.0)
     plain = optimize.solve(cage15, sphere_fallback=False)
     assert not plain.success and plain.settings["sphere_model"] == "thin"
     assert plain.metrics["sphere_success"] and plain.metrics["mesh_clearance"] < gfcs.metrics.DEFAULT_MESH_MARGIN

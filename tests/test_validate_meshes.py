@@ -468,11 +468,15 @@ def test_selection_skips_candidates_whose_meshes_collide(sphere_and_mesh_sliders
                                  "ee_position": {"enabled": False}})
     settings = opt.RolloutSettings(waypoint_tol=0.1)
     result = fake_optimum([[0.25], [-0.9], [-0.3]], [1.0, 150.0, 2.0])
-    commands, _, _, reached, _, met = opt._select_candidate(fabric, p, result, 1, settings, checker, 8)
-    assert reached and met["success"] and met["mesh_clearance"] > 0
-    assert commands[0, 0] == -0.3 and met["selection_rank"] == 1 and met["mesh_candidates_checked"] == 2
-    commands, _, _, _, _, met = opt._select_candidate(fabric, p, result, 1, settings, checker, 1)
-    assert commands[0, 0] == 0.25 and not met["success"] and met["mesh_clearance"] < 0
+    chosen = opt.select_candidate(fabric, p, result, 1, settings, checker,
+                                  opt.SelectionOptions(length_slack=0.0, mesh_candidates=8))
+    met = chosen.metrics
+    assert chosen.reached and met["success"] and met["mesh_clearance"] > 0
+    assert chosen.commands[0, 0] == -0.3 and met["selection_rank"] == 1 and met["mesh_candidates_checked"] == 2
+    chosen = opt.select_candidate(fabric, p, result, 1, settings, checker,
+                                  opt.SelectionOptions(length_slack=0.0, mesh_candidates=1))
+    met = chosen.metrics
+    assert chosen.commands[0, 0] == 0.25 and not met["success"] and met["mesh_clearance"] < 0
     assert met["mesh_candidates_checked"] == 1
 
 
@@ -505,7 +509,7 @@ def test_the_cli_no_retry_options_turn_every_retry_off(shelf):
     thin = base + opt.THIN_SPHERE_MARGIN
     assert retried.settings["obstacle_margins_tried"] == pytest.approx(
         [m + k * 0.002 for m in (thin, base) for k in (0, 0, 1, 1, 2, 2)])
-    once = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2, **cli._no_retry(1))
+    once = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2, **cli._no_retry())
     assert not once.success and "commands_tried" not in once.settings and once.n_evaluations == 8
     assert once.settings["sphere_model"] == "thin"  # the thin spheres are the first model, not a retry
 

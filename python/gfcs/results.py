@@ -1,7 +1,7 @@
 """Results of GFCS solves and benchmark rows (GFCS Sec. V, Table I).
 
 * :class:`Trajectory`: a sampled joint trajectory (t, q, q̇).
-* :class:`SolveResult`: everything :func:`gfcs.optimize.solve` produces for one problem, with
+* :class:`SolveResult`: everything :func:`gfcs.planning.solve` produces for one problem, with
   ``to_json()`` / ``from_json()`` (strict JSON: NaN and ±inf are written as the strings ``"NaN"``,
   ``"Infinity"``, ``"-Infinity"`` and read back as floats).
 * Benchmark rows: :func:`bench_row` builds one flat dict per (problem, method label) — the line format of
@@ -176,7 +176,7 @@ class SolveResult:
         n_evaluations: number of candidate sequences evaluated.
         solve_time: wall time of the optimisation [s] (Σ batch_times; the GF rollout time for ``"gf"``):
             the paper's "time" (GFCS Table I).
-        wall_time: wall time of the whole :func:`gfcs.optimize.solve` call [s]: the optimisation, the
+        wall_time: wall time of the whole :func:`gfcs.planning.solve` call [s]: the optimisation, the
             rollout and validation of the returned candidate (and of the ones it checked before it) and
             every retry; 0 when unknown (results from before this field).
         settings: rollout and optimiser settings used (dt, t_max, tol, ...).
@@ -185,6 +185,11 @@ class SolveResult:
             columns ([] when unknown: results from before this field).
         pose_goal: the request's pose goal when the problem had one (``problem.meta["pose_goal"]``, see
             :mod:`gfcs.pose_goal`; ``goal`` is the joint goal found for it), else None.
+        preset: the planner preset (``"default"`` or ``"paper"``, :mod:`gfcs.planning.presets`); "" when
+            unknown.
+        time_limit: the solve's time budget [s], None for none.
+        attempts: every attempt of the solve, in order (:meth:`gfcs.planning.attempts.AttemptRecord.to_dict`:
+            label, proposing policy, settings, outcome, cost, time, evaluations); [] for ``"gf"``.
     """
 
     problem: str
@@ -212,9 +217,15 @@ class SolveResult:
     fabric_config: Optional[Dict[str, Any]] = None
     joint_names: List[str] = field(default_factory=list)
     pose_goal: Optional[Dict[str, Any]] = None
+    preset: str = ""
+    time_limit: Optional[float] = None
+    attempts: List[Dict[str, Any]] = field(default_factory=list)
     #: The robot the result was solved with (in memory only, not serialised); used by
-    #: :func:`gfcs.optimize.replay`.
+    #: :func:`gfcs.planning.replay`.
     robot: Any = field(default=None, repr=False, compare=False)
+    #: The solve's :class:`gfcs.planning.attempts.AttemptRecord` list with each attempt's own result (in
+    #: memory only); ``gfcs bench`` builds its rows from it.
+    attempt_records: List[Any] = field(default_factory=list, repr=False, compare=False)
 
     @property
     def dof(self) -> int:
@@ -252,6 +263,9 @@ class SolveResult:
             "settings": _enc(self.settings),
             "fabric_config": _enc(self.fabric_config),
             "joint_names": list(self.joint_names),
+            "preset": self.preset,
+            "time_limit": _enc(self.time_limit),
+            "attempts": _enc(self.attempts),
         }
         if self.pose_goal is not None:
             d["pose_goal"] = self.pose_goal
@@ -300,6 +314,9 @@ class SolveResult:
             fabric_config=_dec_value(d.get("fabric_config")),
             joint_names=[str(n) for n in d.get("joint_names", [])],
             pose_goal=d.get("pose_goal"),
+            preset=str(d.get("preset", "")),
+            time_limit=None if d.get("time_limit") is None else _dec_float(d["time_limit"]),
+            attempts=_dec_value(d.get("attempts", [])),
         )
 
     @classmethod
@@ -320,9 +337,10 @@ TABLE_COLUMNS: Tuple[Tuple[str, str], ...] = (
 
 
 def planned_robot(result: Any, problem: Any) -> Any:
-    """The robot ``result`` was planned on: its own ``robot`` (set by :func:`gfcs.optimize.solve`, e.g. the
-    shipped Panda's thin spheres), else ``problem.robot`` (a result loaded from JSON carries none)."""
-    return getattr(result, "robot", None) or problem.robot
+    """The robot ``result`` was planned on: :func:`gfcs.planning.models.planned_robot`."""
+    from gfcs.planning.models import planned_robot as resolve
+
+    return resolve(result, problem)
 
 
 def bench_row(

@@ -1,0 +1,126 @@
+"""A problem's robot models, resolved once per solve: what the fabric plans with, what judges the motion,
+and the robot's limits and profile.
+
+* Planning models, in the order a solve tries them (:class:`PlanningModel`): for a robot with a thinner
+  sphere model on record and a collision-mesh validator (the shipped Panda and Franka descriptions given
+  its spheres, :func:`gfcs.problems.thin_sphere_model`), first the thin spheres with a wider obstacle
+  margin, then the robot's own (covering) spheres; for any other robot, its own spheres.
+* The validator: the problem's mesh checker (collision meshes or polytopes), or None (spheres only).
+* Limits and profile: the URDF's joint and velocity limits, the profile's acceleration limits and approach
+  axis (:mod:`gfcs.profile`).
+
+Everything that asks which model a result was planned on (the CLI's hints, the viewer, replay, the
+reactivity experiment) goes through :func:`planned_robot`.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Optional, Tuple
+
+import numpy as np
+
+from gfcs import problems as _problems
+from gfcs import profile as _profile
+
+__all__ = ["PlanningModel", "RobotModels", "models_for", "model_named", "planned_robot", "with_robot",
+           "THIN_SPHERE_MARGIN"]
+
+#: How much wider [m] than the fabric's obstacle margin the thin spheres are kept from obstacles: they miss
+#: the Franka meshes by up to 8.3 mm, and at the plain margin a motion can bring a collision polytope into
+#: an obstacle with every sphere clear; 4 mm more keeps the polytopes clear for most motions, and the
+#: mesh-retry policy widens it further where they still touch (BENCHMARKS.md).
+THIN_SPHERE_MARGIN = 0.004
+
+
+@dataclass(frozen=True)
+class PlanningModel:
+    """A collision-sphere model the fabric plans with.
+
+    Attributes:
+        name: ``"thin"`` (a thinner model than the robot's own, with :data:`THIN_SPHERE_MARGIN`) or
+            ``"spheres"`` (the robot's own spheres).
+        robot: the ``gfcs.Robot`` carrying those spheres.
+        margin_offset: added to the fabric's obstacle margin when planning with it [m].
+    """
+
+    name: str
+    robot: Any
+    margin_offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class RobotModels:
+    """What a solve knows about the problem's robot (see the module docstring).
+
+    Attributes:
+        robot: the problem's robot.
+        planning: the planning models, in the order tried (at least one).
+        validator: the mesh checker that judges motions, or None.
+        profile: the robot's :class:`gfcs.profile.RobotProfile`.
+    """
+
+    robot: Any
+    planning: Tuple[PlanningModel, ...]
+    validator: Any
+    profile: Any
+
+    @property
+    def velocity_limits(self) -> np.ndarray:
+        """(dof,) velocity limits [rad/s or m/s] (the URDF's, tightened by the profile)."""
+        return _profile.velocity_limits(self.robot, self.profile)
+
+    @property
+    def acceleration_limits(self) -> Optional[np.ndarray]:
+        """(dof,) acceleration limits, inf where unknown; None when none is known."""
+        return _profile.acceleration_limits(self.robot, self.profile)
+
+    def model(self, name: str) -> PlanningModel:
+        """The planning model called ``name`` (KeyError naming the known ones otherwise)."""
+        for m in self.planning:
+            if m.name == name:
+                return m
+        raise KeyError(f"no planning model {name!r}; this robot has {[m.name for m in self.planning]}")
+
+
+def models_for(problem: Any, thin_spheres: bool = True) -> RobotModels:
+    """The :class:`RobotModels` of ``problem`` (its robot and mesh checker). ``thin_spheres``: plan on a thin
+    model first when the robot has one and the problem a validator to judge it (False: own spheres only,
+    the ``paper`` preset)."""
+    robot = problem.robot
+    validator = getattr(problem, "mesh_checker", None)
+    own = PlanningModel("spheres", robot)
+    thin = _problems.thin_sphere_model(robot) if thin_spheres and validator is not None else None
+    planning = (PlanningModel("thin", thin, THIN_SPHERE_MARGIN), own) if thin is not None else (own,)
+    return RobotModels(robot, planning, validator, _profile.profile_for(robot))
+
+
+def with_robot(problem: Any, robot: Any) -> Any:
+    """``problem`` with ``robot`` in place of its own (a copy; ``problem`` is unchanged)."""
+    if robot is problem.robot:
+        return problem
+    if dataclasses.is_dataclass(problem):
+        return dataclasses.replace(problem, robot=robot)
+    other = copy.copy(problem)
+    other.robot = robot
+    return other
+
+
+def model_named(robot: Any, name: Optional[str]) -> Any:
+    """``robot`` as the planning model ``name`` carries it: its thin model for ``"thin"`` (``robot`` itself
+    when it has none, e.g. when it already is that model), else ``robot``."""
+    if name == "thin":
+        return _problems.thin_sphere_model(robot) or robot
+    return robot
+
+
+def planned_robot(result: Any, problem: Any) -> Any:
+    """The robot ``result`` was planned on: its own ``robot`` (set by solve, e.g. the thin spheres), else,
+    for a result loaded from JSON, ``problem.robot`` as the model the result names
+    (``settings["sphere_model"]``)."""
+    robot = getattr(result, "robot", None)
+    if robot is not None:
+        return robot
+    return model_named(problem.robot, (getattr(result, "settings", None) or {}).get("sphere_model"))

@@ -1,0 +1,199 @@
+"""Retry policies: named objects that propose a solve's next attempt from what the earlier ones gave.
+
+After each failed attempt :func:`gfcs.planning.solve.solve` asks its policies, in order, for the next
+attempt; the first proposal runs, and the solve ends when an attempt succeeds, when no policy proposes one,
+or when the time budget leaves no room for another. An empty list is a solve without retries. The
+``default`` preset's list, in order (:func:`default_policies`):
+
+* :class:`MoreCommands`: the same attempt with one more free command (an approach corridor entered in two
+  steps);
+* :class:`WiderMargin`: after a round whose attempts failed only because a collision *mesh* touched
+  (spheres clear, goal reached), a new round with the obstacle margin one step wider;
+* :class:`GoalContact`: when the goal itself puts collision spheres nearer the obstacles than the fabric's
+  margin while its meshes clear them (conservative spheres at a grasp), one attempt with those spheres'
+  margins lowered to the goal's clearance and the meshes judging the contact;
+* :class:`ModelCascade`: when every attempt on one planning model failed, start again on the next one
+  (thin spheres, then the covering spheres: :mod:`gfcs.planning.models`).
+
+A policy sees a :class:`PlanContext` and the records so far; it proposes only from the attempts of the
+model being tried (the last record's), so the cascade restarts every other policy on the next model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Callable, List, Optional, Protocol, Sequence, Tuple
+
+import numpy as np
+
+from gfcs import metrics as _metrics
+from gfcs.planning._check import integer_at_least, non_negative
+from gfcs.planning.attempts import Attempt, AttemptRecord
+from gfcs.planning.models import RobotModels
+
+__all__ = ["Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "ModelCascade",
+           "default_policies", "goal_contact"]
+
+
+@dataclass
+class PlanContext:
+    """What policies know about the solve.
+
+    Attributes:
+        problem: the problem as given (its robot is the robot's own model).
+        models: its :class:`gfcs.planning.models.RobotModels`.
+        n_commands: the solve's free commands n (a round starts there).
+        mesh_margin: the clearance [m] the meshes must keep for success.
+        model_fabric: ``model_fabric(model)``: the fabric of a planning model at its own margin.
+        model_problem: ``model_problem(model)``: the problem with that model's robot.
+    """
+
+    problem: Any
+    models: RobotModels
+    n_commands: int
+    mesh_margin: float
+    model_fabric: Callable[[Any], Any]
+    model_problem: Callable[[Any], Any]
+
+
+class Policy(Protocol):
+    """A retry policy: ``name`` and ``propose(context, records)`` -> the next :class:`Attempt` or None."""
+
+    name: str
+
+    def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
+        ...  # pragma: no cover
+
+
+def _same_model(records: Sequence[AttemptRecord]) -> List[AttemptRecord]:
+    """The records of the last record's planning model."""
+    model = records[-1].attempt.model
+    return [r for r in records if r.attempt.model == model]
+
+
+@dataclass
+class MoreCommands:
+    """After a failed plan attempt with n < ``n_commands + extra`` commands: the same with n + 1."""
+
+    extra: int = 1
+    name: str = "more commands"
+
+    def __post_init__(self) -> None:
+        self.extra = integer_at_least("MoreCommands.extra", self.extra, 0)
+
+    def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
+        last = records[-1].attempt
+        if last.kind != "plan" or last.n_commands >= context.n_commands + self.extra:
+            return None
+        return dataclasses.replace(last, n_commands=last.n_commands + 1)
+
+
+@dataclass
+class WiderMargin:
+    """After a round of plan attempts (one margin, n_commands upward) that failed with a mesh-only failure
+    among them: a new round with the obstacle margin ``step`` [m] wider, at most ``rounds`` times. The
+    thin and covering sphere models miss parts of the meshes; a wider margin keeps those parts clear."""
+
+    step: float = 0.002
+    rounds: int = 2
+    name: str = "wider margin"
+
+    def __post_init__(self) -> None:
+        self.step = non_negative("WiderMargin.step", self.step, " [m]")
+        self.rounds = integer_at_least("WiderMargin.rounds", self.rounds, 0)
+
+    def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
+        last = records[-1].attempt
+        k = last.margin_round
+        if last.kind != "plan" or self.step == 0 or k >= self.rounds:
+            return None
+        round_ = [r for r in _same_model(records) if r.attempt.kind == "plan" and r.attempt.margin_round == k]
+        if not any(r.mesh_collision_only for r in round_):
+            return None
+        return Attempt(last.model, context.n_commands, margin_round=k + 1, margin_step=self.step)
+
+
+def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
+                 mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN) -> Optional[Tuple[np.ndarray, float]]:
+    """Per-sphere obstacle margins for a goal at which collision spheres come nearer the obstacles than
+    ``fabric``'s margin: (margins (S,) m, clearance floor m), or None when no sphere does, when the goal's
+    meshes do not clear the obstacles and each other by more than ``mesh_margin``, or when a sphere's centre
+    lies within ``slack`` of an obstacle's inside (the sphere model cannot describe that contact).
+
+    margin_i = min(m, c_i − slack) with m = ``obstacles.margin`` and c_i the clearance of sphere i at the
+    goal; floor = min(0, min_i c_i) − 2·slack: the barrier's slack, and as much again for semi-implicit
+    Euler steps overshooting a barrier by a millimetre or so.
+    """
+    goal = np.asarray(problem.goal, dtype=np.float64)
+    robot, scene = problem.robot, problem.scene
+    clearance = _metrics.sphere_clearances(robot, scene, goal[None])[0]
+    margin = float(fabric.config.to_dict()["obstacles"]["margin"])
+    margins = np.minimum(margin, clearance - slack)
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    if not np.any(margins < margin) or np.any(margins <= -radii):
+        return None
+    if not _metrics.mesh_verdict(mesh_checker, scene, goal, mesh_margin)[2]:
+        return None
+    return margins, float(min(0.0, clearance.min()) - 2.0 * slack)
+
+
+@dataclass
+class GoalContact:
+    """Once per model, after its plan attempts failed: if the goal is in sphere contact that the meshes
+    clear (:func:`goal_contact` with ``slack`` [m]), one attempt with n_commands commands, the contact
+    spheres' margins lowered, and spheres judged down to the clearance floor (the meshes judge the rest).
+    Needs a mesh validator."""
+
+    slack: float = 0.002
+    name: str = "goal contact"
+
+    def __post_init__(self) -> None:
+        self.slack = non_negative("GoalContact.slack", self.slack, " [m]")
+
+    def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
+        last = records[-1].attempt
+        validator = context.models.validator
+        if self.slack == 0 or validator is None or last.kind != "plan":
+            return None
+        if any(r.attempt.kind == "goal_contact" for r in _same_model(records)):
+            return None
+        found = goal_contact(context.model_problem(last.model), context.model_fabric(last.model), self.slack,
+                             validator, context.mesh_margin)
+        if found is None:
+            return None
+        margins, floor = found
+        return Attempt(last.model, context.n_commands, kind="goal_contact",
+                       obstacle_margins=tuple(float(m) for m in margins), clearance_floor=floor)
+
+
+@dataclass
+class ModelCascade:
+    """When the attempts on one planning model failed and no other policy proposes more: the first attempt
+    on the next model (:attr:`gfcs.planning.models.RobotModels.planning`)."""
+
+    name: str = "model cascade"
+
+    def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
+        planning = list(context.models.planning)
+        i = planning.index(records[-1].attempt.model)
+        if i + 1 >= len(planning):
+            return None
+        return Attempt(planning[i + 1], context.n_commands)
+
+
+def default_policies(more_commands: int = 1, margin_step: float = 0.002, margin_rounds: int = 2,
+                     goal_contact_slack: float = 0.002, cascade: bool = True) -> List[Any]:
+    """The ``default`` preset's policies in order: :class:`MoreCommands`, :class:`WiderMargin`,
+    :class:`GoalContact`, :class:`ModelCascade`; a policy whose parameter turns it off (0 extra commands,
+    a 0 step or 0 rounds, a 0 slack, ``cascade=False``) is left out."""
+    policies: List[Any] = []
+    if integer_at_least("more_commands", more_commands, 0) > 0:
+        policies.append(MoreCommands(more_commands))
+    if non_negative("margin_step", margin_step, " [m]") > 0 and integer_at_least("margin_rounds", margin_rounds, 0):
+        policies.append(WiderMargin(margin_step, margin_rounds))
+    if non_negative("goal_contact_slack", goal_contact_slack, " [m]") > 0:
+        policies.append(GoalContact(goal_contact_slack))
+    if cascade:
+        policies.append(ModelCascade())
+    return policies

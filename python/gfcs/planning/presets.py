@@ -1,0 +1,86 @@
+"""Presets: named sets of planner settings.
+
+* ``default``: the planner as the project ships it: the approach/retract warm start, the command blend, the
+  near-optimal shortest-hand-path choice, mesh-validated candidate selection, the finished trajectory
+  (smooth start, goal blend, velocity and acceleration re-timing), the thin-then-covering sphere models and
+  every retry policy (:func:`gfcs.planning.policies.default_policies`).
+* ``paper``: GFCS as the paper writes it (GFCS Sec. IV-A, Alg. 1): a uniform first batch (or the learned
+  sampler when one is given), the lowest-cost candidate of eq. 4, the command switch of eq. 7 (no blend),
+  the goal tolerance ε = 0.01 rad, eq. 4's cost without a collision term, no stall exit, the paper's
+  barriers (no braking cap or damper, exact curvature: ``braking_time`` and ``min_curvature_radius`` 0),
+  the robot's own spheres, no retries and the trajectory as the fabric integrates it (no re-timing, no
+  blend). With a mesh model the returned motion is still judged on the meshes; it is not chosen by them.
+
+Both presets keep a time budget when one is given (``time_limit``): a budget bounds how long a solve may
+run, it does not change the method. :func:`gfcs.planning.solve.solve` has no budget unless asked;
+``gfcs solve`` and ``gfcs bench`` default to 5 s for both presets.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List
+
+from gfcs.errors import InvalidValueError
+from gfcs.planning.finish import FinishOptions
+from gfcs.planning.policies import default_policies
+from gfcs.planning.rollout import RolloutSettings
+
+__all__ = ["Preset", "PRESETS", "get_preset", "PAPER_BARRIERS"]
+
+#: Fabric configuration of the paper's barriers (GF Sec. VII-A): no braking cap or damper, the exact
+#: curvature of the distance field.
+PAPER_BARRIERS: Dict[str, Dict[str, float]] = {
+    "obstacles": {"braking_time": 0.0, "min_curvature_radius": 0.0},
+    "self_collision": {"braking_time": 0.0, "min_curvature_radius": 0.0},
+    "joint_limits": {"braking_time": 0.0},
+}
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named set of planner settings (see the module docstring).
+
+    Attributes:
+        name: ``"default"`` or ``"paper"``.
+        settings: the rollout settings (a solve given ``settings`` uses those instead).
+        finish: the finishing options (a solve given ``finish`` uses those instead).
+        length_slack: ε of the near-optimal preference (0: the lowest cost, eq. 4).
+        mesh_candidates: at most this many candidates judged on the meshes (1: the lowest-cost one only).
+        sampler: the first batch without a sampler given: ``"approach"`` or ``"uniform"``.
+        thin_spheres: plan on a thinner sphere model first when the robot has one.
+        policies: ``policies()`` -> the retry policies, in order.
+        fabric: configuration overrides applied over the fabric configuration given to the solve.
+    """
+
+    name: str
+    settings: RolloutSettings
+    finish: FinishOptions
+    length_slack: float
+    mesh_candidates: int
+    sampler: str
+    thin_spheres: bool
+    policies: Callable[[], List[Any]]
+    fabric: Dict[str, Any] = field(default_factory=dict)
+
+
+PRESETS: Dict[str, Preset] = {
+    "default": Preset("default", RolloutSettings(), FinishOptions(), length_slack=0.1, mesh_candidates=32,
+                      sampler="approach", thin_spheres=True, policies=default_policies),
+    "paper": Preset("paper",
+                    RolloutSettings(tol=0.01, collision_penalty=0.0, blend_time=0.0, stall_window=0.0,
+                                    limit_hold_off=0.0),
+                    FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,
+                                  limit_acceleration=False),
+                    length_slack=0.0, mesh_candidates=1, sampler="uniform", thin_spheres=False,
+                    policies=list, fabric=PAPER_BARRIERS),
+}
+
+
+def get_preset(preset: Any) -> Preset:
+    """A :class:`Preset` by name (or the preset itself); InvalidValueError naming ``preset`` otherwise."""
+    if isinstance(preset, Preset):
+        return preset
+    if preset not in PRESETS:
+        raise InvalidValueError(f"preset must be one of {sorted(PRESETS)}, got {preset!r}")
+    return PRESETS[preset]

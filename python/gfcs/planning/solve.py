@@ -1,0 +1,358 @@
+"""The robot-level planner: :func:`solve` runs attempts (:mod:`gfcs.planning.attempts`) chosen by retry
+policies (:mod:`gfcs.planning.policies`) under a preset (:mod:`gfcs.planning.presets`) and a time budget
+(:mod:`gfcs.planning.budget`); :func:`replay` re-runs a solved command sequence in a changed scene.
+
+The flow of one solve::
+
+    preset (settings, finish, selection, sampler, models, policies)   problem   time_limit
+                         \\                                            |          /
+        models_for(problem): planning models (thin, covering), validator, limits, profile
+                                          |
+        first attempt: first planning model, n_commands ----------------+
+                                          |                             |
+        run_attempt: Alg. 1 (CMA-ES, deadline) -> select_candidate -> AttemptRecord
+                                          |                             |
+        success, or the budget leaves no room -> stop                   |
+        else the first policy that proposes -> next attempt ------------+
+                                          |
+        combine_records: the last attempt if it succeeded, else the lowest cost; every record listed
+
+``method="gf"`` is the local baseline: the goal is the only command, nothing is optimised.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from gfcs import metrics as _metrics
+from gfcs.errors import InvalidValueError
+from gfcs.planning._check import integer_at_least, non_negative, optional_time_limit
+from gfcs.planning.attempts import Attempt, AttemptRecord, OptimOptions, combine_records, run_attempt
+from gfcs.planning.budget import Budget
+from gfcs.planning.finish import FinishOptions, rollout_commands
+from gfcs.planning.gfcop import BatchInfo
+from gfcs.planning.models import PlanningModel, RobotModels, model_named, models_for, with_robot
+from gfcs.planning.policies import MoreCommands, PlanContext, default_policies
+from gfcs.planning.presets import Preset, get_preset
+from gfcs.planning.rollout import RolloutSettings, make_fabric
+from gfcs.planning.samplers import ApproachSampler, Sampler, UniformSampler
+from gfcs.planning.selection import SelectionOptions
+from gfcs.results import SolveResult
+
+__all__ = ["solve", "replay"]
+
+
+def solve(
+    problem: Any,
+    method: str = "gfcs",
+    batches: int = 5,
+    population: int = 32,
+    n_commands: int = 1,
+    seed: int = 0,
+    sampler: Optional[Sampler] = None,
+    fabric_config: Any = None,
+    threads: Optional[int] = None,
+    progress: bool = False,
+    *,
+    preset: Any = "default",
+    policies: Optional[Sequence[Any]] = None,
+    time_limit: Optional[float] = None,
+    settings: Optional[RolloutSettings] = None,
+    finish: Optional[FinishOptions] = None,
+    top_m: int = 4,
+    sigma0: float = 0.25,
+    mesh_candidates: Optional[int] = None,
+    length_slack: Optional[float] = None,
+    callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
+    mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
+    thin_spheres: Optional[bool] = None,
+    record_first_batch: bool = False,
+    max_commands: Optional[int] = None,
+    mesh_retry_margin: Optional[float] = None,
+    mesh_retries: Optional[int] = None,
+    goal_contact_slack: Optional[float] = None,
+    sphere_fallback: Optional[bool] = None,
+) -> SolveResult:
+    """Solve a motion problem with GFCS (Alg. 1 and the preset's retry policies) or with the local fabric
+    alone (``method="gf"``).
+
+    Args:
+        problem: a :class:`gfcs.problems.Problem` (robot, scene, q0, qd0, goal, optional ``mesh_checker``
+            that judges motions on collision meshes).
+        method: ``"gfcs"`` or ``"gf"``.
+        batches: CMA-ES batches per attempt (the paper reports 1 and 5).
+        population: candidates per batch.
+        n_commands: free commands n of the first attempt (the paper: 1, sequences of length two).
+        seed: seed of the sampler and CMA-ES (every attempt uses it).
+        sampler: warm-start sampler (protocol :class:`gfcs.planning.samplers.Sampler`); None: the preset's
+            (``default``: :class:`ApproachSampler`, ``paper``: :class:`UniformSampler`).
+        fabric_config: fabric gains (None, ``gfcs.FabricConfig``, dict, or file path); the preset's
+            overrides (``paper``: the paper's barriers) apply on top.
+        threads: worker threads of the batch evaluation (None: all cores).
+        progress: a tqdm bar over the batches.
+        preset: ``"default"`` or ``"paper"`` (:mod:`gfcs.planning.presets`), or a :class:`Preset`.
+        policies: retry policies in order (:mod:`gfcs.planning.policies`); None: the preset's; ``[]``: no
+            retry.
+        time_limit: budget of this call [s] (None: none). The solve returns the best motion found within
+            it; attempts the budget left no room for are listed as not run (:mod:`gfcs.planning.budget`).
+        settings: :class:`RolloutSettings` (None: the preset's).
+        finish: :class:`FinishOptions` (None: the preset's).
+        top_m: best candidates kept in ``result.top`` (Alg. 1's output).
+        sigma0: initial CMA-ES step as a fraction of the joint ranges.
+        mesh_candidates: with a mesh checker, at most this many candidates judged on the meshes (None: the
+            preset's, 32 / 1).
+        length_slack: ε ≥ 0 of the near-optimal shortest-hand-path preference (None: the preset's, 0.1 / 0).
+        callback: called after every batch with a :class:`BatchInfo`; True stops that attempt's batches.
+        mesh_margin: clearance [m] the collision meshes must keep for success.
+        thin_spheres: plan on the robot's thinner sphere model first, when it has one and the problem a
+            mesh checker (None: the preset's).
+        record_first_batch: also select and judge what each attempt held after its first batch
+            (``attempt_records[i].first_batch``; ``gfcs bench``'s "1 b" row). That work counts neither in
+            the attempts' times nor in ``wall_time``.
+        max_commands, mesh_retry_margin, mesh_retries, goal_contact_slack, sphere_fallback: parameters of
+            the default policies (:func:`gfcs.planning.policies.default_policies`), used when ``policies``
+            is None: the most free commands (default n + 1 with the preset's sampler, n with one of your
+            own), the wider-margin step [m] and rounds (0.002, 2), the goal-contact slack [m] (0.002), and
+            whether the model cascade runs (True).
+
+    Returns:
+        :class:`gfcs.results.SolveResult` (the chosen attempt's motion and metrics; ``attempts``: every
+        attempt's label, settings, outcome and time; ``solve_time`` the optimisation; ``wall_time`` this
+        call).
+
+    Raises:
+        gfcs.InvalidValueError: a bad argument (the message names it).
+    """
+    budget = Budget(optional_time_limit(time_limit))
+    chosen = get_preset(preset)
+    if method not in ("gfcs", "gf"):
+        raise InvalidValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
+    mesh_margin = non_negative("mesh_margin", mesh_margin, " [m]")
+    settings = settings if settings is not None else dataclasses.replace(chosen.settings)
+    finish = finish if finish is not None else dataclasses.replace(chosen.finish)
+    fabric = _preset_fabric(problem, fabric_config, chosen)
+    recorded = {"preset": chosen.name, "time_limit": budget.limit, "mesh_margin": mesh_margin,
+                **finish.to_dict()}
+    if method == "gf":
+        result = _solve_gf(problem, fabric, settings, finish, mesh_margin, seed, recorded)
+    else:
+        n_commands = integer_at_least("n_commands", n_commands, 1)
+        plan = _policies(chosen, policies, sampler, n_commands, max_commands, mesh_retry_margin, mesh_retries,
+                         goal_contact_slack, sphere_fallback)
+        slack = non_negative("length_slack", chosen.length_slack if length_slack is None else length_slack)
+        checks = integer_at_least("mesh_candidates",
+                                  chosen.mesh_candidates if mesh_candidates is None else mesh_candidates, 1)
+        options = OptimOptions(batches, population, seed, threads, progress, top_m, sigma0, callback,
+                               SelectionOptions(slack, checks, mesh_margin), bool(record_first_batch))
+        recorded.update(batches=int(batches), population=int(population), sigma0=float(sigma0),
+                        top_m=int(top_m), length_slack=slack)
+        models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres))
+        planner = _Planner(problem, models, fabric, n_commands, sampler, chosen, settings, finish, options,
+                           recorded, budget)
+        result = combine_records(planner.run(plan))
+    measuring = sum(r.measuring_time for r in result.attempt_records)  # record_first_batch's own work
+    return dataclasses.replace(result, wall_time=time.perf_counter() - budget.start - measuring,
+                               preset=chosen.name, time_limit=budget.limit)
+
+
+def _preset_fabric(problem: Any, fabric_config: Any, preset: Preset) -> Any:
+    """The fabric of ``problem`` with ``fabric_config`` and the preset's overrides on top."""
+    fabric = make_fabric(problem, fabric_config)
+    if preset.fabric:
+        fabric = make_fabric(problem, fabric.config.replace(preset.fabric))
+    return fabric
+
+
+def _common(problem: Any, robot: Any, fabric: Any, seed: int) -> Dict[str, Any]:
+    """The SolveResult fields every attempt of a solve shares (robot and configuration: the attempt's)."""
+    return dict(problem=str(problem.name), cls=str(getattr(problem, "cls", "")), seed=int(seed),
+                q0=np.asarray(problem.q0, dtype=np.float64), qd0=np.asarray(problem.qd0, dtype=np.float64),
+                goal=np.asarray(problem.goal, dtype=np.float64), fabric_config=fabric.config.to_dict(),
+                robot=robot, joint_names=list(robot.joint_names),
+                pose_goal=(getattr(problem, "meta", None) or {}).get("pose_goal"))
+
+
+def _solve_gf(problem: Any, fabric: Any, settings: RolloutSettings, finish: FinishOptions, mesh_margin: float,
+              seed: int, recorded: Dict[str, Any]) -> SolveResult:
+    """The GF baseline: one rollout toward the goal."""
+    robot, dof = problem.robot, int(problem.robot.dof)
+    common = _common(problem, robot, fabric, seed)
+    start = time.perf_counter()
+    traj, cost, reached, t_stars = rollout_commands(fabric, common["q0"], common["qd0"], common["goal"],
+                                                    np.zeros((0, dof)), settings, finish)
+    elapsed = time.perf_counter() - start
+    met = _metrics.trajectory_metrics(robot, problem.scene, traj.t, traj.q, common["goal"],
+                                      mesh_checker=getattr(problem, "mesh_checker", None), mesh_margin=mesh_margin)
+    return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached, t_stars=t_stars,
+                       trajectory=traj, success=bool(met["success"]), metrics=met, n_evaluations=1,
+                       solve_time=elapsed, settings={**dataclasses.asdict(settings), **recorded}, **common)
+
+
+def _policies(preset: Preset, policies: Optional[Sequence[Any]], sampler: Any, n_commands: int,
+              max_commands: Optional[int], mesh_retry_margin: Optional[float], mesh_retries: Optional[int],
+              goal_contact_slack: Optional[float], sphere_fallback: Optional[bool]) -> List[Any]:
+    """The policy list of a solve: ``policies``, else the default policies with the given parameters when
+    any is given, else the preset's; without the preset's sampler, no :class:`MoreCommands` (a sampler of
+    your own proposes a fixed number of commands)."""
+    given = {k: v for k, v in (("max_commands", max_commands), ("mesh_retry_margin", mesh_retry_margin),
+                               ("mesh_retries", mesh_retries), ("goal_contact_slack", goal_contact_slack),
+                               ("sphere_fallback", sphere_fallback)) if v is not None}
+    if policies is not None:
+        if given:
+            raise InvalidValueError(f"{', '.join(given)}: parameters of the default policies; with policies= "
+                                    "given, set them on the policy objects")
+        chosen = list(policies)
+        if sampler is not None and any(isinstance(p, MoreCommands) for p in chosen):
+            raise InvalidValueError("policies: MoreCommands needs the preset's sampler; a sampler of your own "
+                                    f"proposes {n_commands} command(s) per candidate")
+        return chosen
+    if not given:
+        chosen = preset.policies()
+        return [p for p in chosen if not isinstance(p, MoreCommands)] if sampler is not None else chosen
+    default_max = n_commands + 1 if sampler is None else n_commands
+    most = integer_at_least("max_commands", default_max if max_commands is None else max_commands, 1)
+    if most < n_commands:
+        raise InvalidValueError(f"max_commands must be ≥ n_commands ({n_commands}), got {max_commands}")
+    if sampler is not None and most != n_commands:
+        raise InvalidValueError("max_commands > n_commands needs the default sampler: a sampler of your own "
+                                f"proposes {n_commands} command(s) per candidate")
+    step = non_negative("mesh_retry_margin", 0.002 if mesh_retry_margin is None else mesh_retry_margin, " [m]")
+    rounds = integer_at_least("mesh_retries", 2 if mesh_retries is None else mesh_retries, 0)
+    slack = non_negative("goal_contact_slack", 0.002 if goal_contact_slack is None else goal_contact_slack, " [m]")
+    return default_policies(more_commands=most - n_commands, margin_step=step, margin_rounds=rounds,
+                            goal_contact_slack=slack, cascade=True if sphere_fallback is None else bool(sphere_fallback))
+
+
+class _Planner:
+    """Runs one solve's attempts: the first on the first planning model, then what the policies propose,
+    until an attempt succeeds, no policy proposes, or the budget leaves no room."""
+
+    def __init__(self, problem: Any, models: RobotModels, fabric: Any, n_commands: int, sampler: Any,
+                 preset: Preset, settings: RolloutSettings, finish: FinishOptions, options: OptimOptions,
+                 recorded: Dict[str, Any], budget: Budget) -> None:
+        self.problem, self.models, self.fabric, self.n_commands = problem, models, fabric, n_commands
+        self.sampler, self.preset, self.settings, self.finish = sampler, preset, settings, finish
+        self.options, self.recorded, self.budget = options, recorded, budget
+        self.base_margin = float(fabric.config.to_dict()["obstacles"]["margin"])
+        self._fabrics: Dict[Tuple[str, int], Any] = {}
+        self.context = PlanContext(problem, models, n_commands, options.selection.mesh_margin,
+                                   lambda model: self.fabric_for(Attempt(model, n_commands)), self.problem_for)
+
+    def problem_for(self, model: PlanningModel) -> Any:
+        return with_robot(self.problem, model.robot)
+
+    def fabric_for(self, attempt: Attempt) -> Any:
+        """The fabric of ``attempt``'s model at its obstacle margin (goal contact: with per-sphere margins)."""
+        key = (attempt.model.name, attempt.margin_round)
+        if key not in self._fabrics:
+            if attempt.model.margin_offset == 0 and attempt.margin_round == 0:
+                fabric = make_fabric(self.problem_for(attempt.model), self.fabric.config)
+            else:
+                margin = attempt.obstacle_margin(self.base_margin)
+                config = self.fabric.config.replace({"obstacles": {"margin": margin}})
+                fabric = make_fabric(self.problem_for(attempt.model), config)
+            self._fabrics[key] = fabric
+        fabric = self._fabrics[key]
+        if attempt.obstacle_margins is not None:
+            fabric = fabric.with_obstacle_margins(np.asarray(attempt.obstacle_margins, dtype=np.float64))
+        return fabric
+
+    def sampler_for(self, n: int) -> Any:
+        if self.sampler is not None:
+            return self.sampler
+        return ApproachSampler(n) if self.preset.sampler == "approach" else UniformSampler(n)
+
+    def attempt(self, attempt: Attempt, policy: str) -> AttemptRecord:
+        fabric = self.fabric_for(attempt)
+        model_fabric = self.fabric_for(dataclasses.replace(attempt, obstacle_margins=None))
+        common = _common(self.problem, attempt.model.robot, model_fabric, self.options.seed)
+        record = run_attempt(self.problem_for(attempt.model), fabric, self.models.validator, common, attempt,
+                             self.sampler_for(attempt.n_commands), self.settings, self.finish, self.options,
+                             self.recorded, self.budget)
+        record.policy, record.base_margin = policy, self.base_margin
+        return record
+
+    def run(self, policies: Sequence[Any]) -> List[AttemptRecord]:
+        records: List[AttemptRecord] = []
+        proposal: Optional[Attempt] = Attempt(self.models.planning[0], self.n_commands)
+        policy = ""
+        while proposal is not None:
+            if records and not self.budget.allows_attempt():
+                records.append(AttemptRecord(proposal, policy, base_margin=self.base_margin))
+                break
+            records.append(self.attempt(proposal, policy))
+            if records[-1].success:
+                break
+            proposal, policy = None, ""
+            for p in policies:
+                proposal = p.propose(self.context, records)
+                if proposal is not None:
+                    policy = p.name
+                    break
+        return records
+
+
+def replay(
+    result: SolveResult,
+    scene: Any,
+    robot: Any = None,
+    fabric_config: Any = None,
+    settings: Optional[RolloutSettings] = None,
+    commands: Optional[Any] = None,
+    mesh_checker: Optional[Any] = None,
+    mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
+    finish: Optional[FinishOptions] = None,
+) -> SolveResult:
+    """Replay a solved command sequence in another scene without re-optimising (GFCS Sec. V, Fig. 4).
+
+    The fabric's local avoidance reacts to obstacles the optimisation never saw; the commands stay fixed.
+
+    Args:
+        result: a :class:`SolveResult` (from :func:`solve` or :meth:`SolveResult.from_json`).
+        scene: the new ``gfcs.Scene``.
+        robot: the robot; default ``result.robot`` (results loaded from JSON need it passed). A result
+            planned on the thin spheres (``settings["sphere_model"] == "thin"``) replays on the thin model
+            of it (:func:`gfcs.planning.models.planned_robot`), the fabric it was planned with.
+        fabric_config: default: the configuration stored in ``result``.
+        settings, finish: default: those stored in ``result``.
+        commands: (n, dof) commands to replay instead of ``result.commands``.
+        mesh_checker: optional :class:`gfcs.MeshChecker`: the replay's metrics then include the mesh
+            clearances, and success requires them > ``mesh_margin`` [m].
+
+    Returns:
+        A copy of ``result`` whose trajectory, cost, reached flag, t_stars, metrics and success are those of
+        the replay (optimisation data unchanged).
+
+    Raises:
+        gfcs.InvalidValueError: no robot.
+    """
+    robot = robot if robot is not None else result.robot
+    if robot is None:
+        raise InvalidValueError("robot: this result carries no robot (loaded from JSON?): pass robot=")
+    robot = model_named(robot, result.settings.get("sphere_model"))
+    stored = result.settings
+    if settings is None:
+        names = {f.name for f in dataclasses.fields(RolloutSettings)}
+        settings = RolloutSettings(**{k: v for k, v in stored.items() if k in names})
+    if finish is None:
+        names = {f.name for f in dataclasses.fields(FinishOptions)}
+        finish = FinishOptions(**{k: v for k, v in stored.items() if k in names})
+    if fabric_config is None:
+        fabric_config = result.fabric_config
+    import gfcs
+
+    if isinstance(fabric_config, os.PathLike):
+        fabric_config = str(fabric_config)
+    fabric = gfcs.Fabric(robot, scene, fabric_config)
+    cmds = np.asarray(result.commands if commands is None else commands, dtype=np.float64).reshape(-1, result.dof)
+    traj, cost, reached, t_stars = rollout_commands(fabric, result.q0, result.qd0, result.goal, cmds, settings,
+                                                    finish)
+    met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, mesh_checker=mesh_checker,
+                                      mesh_margin=mesh_margin)
+    return dataclasses.replace(result, commands=cmds, trajectory=traj, cost=cost, reached=reached,
+                               t_stars=t_stars, metrics=met, success=bool(met["success"]), robot=robot)
