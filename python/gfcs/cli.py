@@ -140,34 +140,43 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     g.add_argument("--threads", type=_integer(1), default=None,
                    help="worker threads (default: all cores; at most 4 x the cores are used)")
     g.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON)")
-    g.add_argument("--sampler", metavar="approach|uniform|MODEL.pt", default="approach",
-                   help="warm-start sampler: approach (default: half the first batch at the goal's approach "
-                        "corridor, half with the hand pulled in toward the base), uniform (the paper's), or a "
-                        "model trained by `gfcs train` (needs torch)")
+    g.add_argument("--preset", choices=["default", "paper"], default="default",
+                   help="planner preset: default (the shipped planner: approach warm start, command blend, "
+                        "shortest-hand-path and mesh-validated choice, finished trajectories, thin then "
+                        "covering spheres, every retry) or paper (GFCS as written: uniform first batch, "
+                        "lowest cost of eq. 4, command switch, the paper's barriers, no retries, no "
+                        "post-processing); recorded in every result (default: default)")
+    g.add_argument("--time-limit", type=float, metavar="S", default=5.0,
+                   help="time budget of each solve in s: the best motion found within it is returned (default "
+                        "5; 0: no limit)")
+    g.add_argument("--sampler", metavar="approach|uniform|MODEL.pt", default=None,
+                   help="warm-start sampler: approach (half the first batch at the goal's approach corridor, "
+                        "half with the hand pulled in toward the base), uniform (the paper's), or a model "
+                        "trained by `gfcs train` (needs torch); default: the preset's (approach / uniform)")
     g.add_argument("--sgld-noise", type=float, metavar="TAU",
                    help="with --sampler MODEL.pt: SGLD noise scale of the sampler (default: the model "
                         "file's; 1 is the paper's eq. 10-11)")
     g.add_argument("--length-slack", type=float, metavar="EPS", default=None,
                    help="prefer the shortest hand path among reached candidates within (1 + EPS) x the "
-                        "lowest cost (default 0.1; 0: the lowest-cost candidate, the paper's choice)")
+                        "lowest cost (default: the preset's, 0.1 / 0; 0: the lowest-cost candidate, eq. 4)")
     g.add_argument("--mesh-margin", type=float, metavar="M", default=None,
                    help="clearance in m the collision meshes must keep for a motion to succeed, when a mesh "
                         "model validates it (default 0.001; 0: contact only)")
     g.add_argument("--no-retry", action="store_true",
-                   help="do not retry a failed solve (with the default sampler: with one more command; "
-                        "after a collision of the meshes only: with a 2 mm, then 4 mm wider obstacle margin; when the "
-                        "goal's spheres overlap obstacles its meshes clear: with those spheres' margins "
-                        "lowered to the goal's; for the shipped Panda, whose solve runs on its thin spheres: "
-                        "on its covering spheres)")
+                   help="run no retry policy (gfcs.planning.policies: one more command, a wider obstacle "
+                        "margin after a mesh-only collision, the goal-contact attempt, the covering spheres "
+                        "after the thin ones): the first attempt is returned")
     r = p.add_argument_group("rollout (GFCS eq. 1-8)")
-    r.add_argument("--dt", type=float, default=0.01, help="integration step, s (default 0.01)")
-    r.add_argument("--t-max", type=float, default=7.0, help="time budget per command, s (default 7)")
-    r.add_argument("--tol", type=float, default=None, help="goal tolerance, rad (default: see gfcs.optimize)")
+    r.add_argument("--dt", type=float, default=None, help="integration step, s (default 0.01)")
+    r.add_argument("--t-max", type=float, default=None, help="time budget per command, s (default 7)")
+    r.add_argument("--tol", type=float, default=None,
+                   help="goal tolerance, rad (default: the preset's, 0.02 / 0.01)")
     r.add_argument("--waypoint-tol", type=float, default=None, help="tolerance of intermediate commands, rad")
     r.add_argument("--limit-hold-off", type=float, default=None, metavar="RAD",
                    help="a goal joint nearer its limit than the barrier margin plus this is commanded that far "
-                        "off it and blended onto the goal, rad (default: see gfcs.optimize; 0: commanded as is)")
-    r.add_argument("--integrator", choices=["euler", "rk4"], default="euler", help="integrator (default euler)")
+                        "off it and blended onto the goal, rad (default: the preset's, 0.015 / 0; 0: commanded "
+                        "as is)")
+    r.add_argument("--integrator", choices=["euler", "rk4"], default=None, help="integrator (default euler)")
     r.add_argument("--no-acceleration-limits", action="store_true",
                    help="keep the fabric's own timing where it is within the velocity limits (default: "
                         "re-timed along the same path within the robot's known joint acceleration limits: "
@@ -182,7 +191,7 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
 
 
 def _joint_limit_settings(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
-    """``velocity_limits`` / ``acceleration_limits`` of the rollout settings from --joint-limits and
+    """``velocity_limits`` / ``acceleration_limits`` of the finishing options from --joint-limits and
     --acceleration-limits (inf where a joint has none); {} when neither is given."""
     from gfcs.errors import InvalidValueError
     from gfcs.profile import read_joint_limits_yaml
@@ -204,25 +213,34 @@ def _joint_limit_settings(args: argparse.Namespace, robot: Any) -> Dict[str, Any
     return out
 
 
-def _settings(args: argparse.Namespace, robot: Any) -> Any:
-    from gfcs.optimize import RolloutSettings
+def _settings(args: argparse.Namespace) -> Any:
+    """The preset's rollout settings with the options given on the command line."""
+    from gfcs.planning import get_preset
 
-    s = RolloutSettings(dt=args.dt, t_max=args.t_max, integrator=args.integrator,
-                        limit_acceleration=not args.no_acceleration_limits,
-                        **_joint_limit_settings(args, robot))
-    if args.tol is not None:
-        s.tol = args.tol
-    if args.waypoint_tol is not None:
-        s.waypoint_tol = args.waypoint_tol
-    if args.limit_hold_off is not None:
-        s.limit_hold_off = args.limit_hold_off
-    return s
+    given = {"dt": args.dt, "t_max": args.t_max, "integrator": args.integrator, "tol": args.tol,
+             "waypoint_tol": args.waypoint_tol, "limit_hold_off": args.limit_hold_off}
+    return dataclasses.replace(get_preset(args.preset).settings, **{k: v for k, v in given.items() if v is not None})
 
 
-def _solve_options(args: argparse.Namespace) -> Dict[str, Any]:
-    """Keyword arguments of :func:`gfcs.optimize.solve` given on the command line (others: its defaults)."""
+def _finish(args: argparse.Namespace, robot: Any) -> Any:
+    """The preset's finishing options with the limits of --joint-limits / --acceleration-limits, and without
+    the acceleration re-timing for --no-acceleration-limits."""
+    from gfcs.planning import get_preset
+
+    finish = dataclasses.replace(get_preset(args.preset).finish, **_joint_limit_settings(args, robot))
+    return dataclasses.replace(finish, limit_acceleration=False) if args.no_acceleration_limits else finish
+
+
+def _solve_options(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
+    """Keyword arguments of :func:`gfcs.planning.solve` from the command line: preset, time budget, rollout
+    and finishing options, and the selection options given (others: the preset's)."""
+    from gfcs.errors import InvalidValueError
+
+    if not (math.isfinite(args.time_limit) and args.time_limit >= 0):
+        raise InvalidValueError(f"--time-limit must be a number of seconds ≥ 0 (0: no limit), got {args.time_limit}")
     given = {"length_slack": args.length_slack, "mesh_margin": args.mesh_margin}
-    return {k: v for k, v in given.items() if v is not None}
+    return {"preset": args.preset, "time_limit": args.time_limit or None, "settings": _settings(args),
+            "finish": _finish(args, robot), **{k: v for k, v in given.items() if v is not None}}
 
 
 def _robot(args: argparse.Namespace) -> Any:
@@ -271,13 +289,15 @@ def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:
 
 
 def _sampler(args: argparse.Namespace) -> Any:
-    from gfcs.optimize import UniformSampler
+    from gfcs.planning import ApproachSampler, UniformSampler
 
-    if args.sampler in ("approach", "uniform"):
+    if args.sampler in (None, "approach", "uniform"):
         if args.sgld_noise is not None:
             raise ValueError("--sgld-noise needs --sampler MODEL.pt")
-        # approach: solve's default (ApproachSampler), with its retry on failure
-        return None if args.sampler == "approach" else UniformSampler(args.commands)
+        preset_sampler = "approach" if args.preset == "default" else "uniform"
+        if args.sampler in (None, preset_sampler):
+            return None  # the preset's own sampler, which the more-commands policy can widen
+        return UniformSampler(args.commands) if args.sampler == "uniform" else ApproachSampler(args.commands)
     try:
         from gfcs.learning.sampler import EBMSampler
     except ImportError as e:
@@ -431,27 +451,26 @@ def _record(problem: Any, results: Any, path: str) -> None:
     _viz().record(problem, results, path)
 
 
-def _no_retry(n_commands: int) -> Dict[str, Any]:
-    """Keyword arguments of :func:`gfcs.optimize.solve` that turn all of its retries off."""
-    return {"max_commands": n_commands, "mesh_retry_margin": 0.0, "goal_contact_slack": 0.0,
-            "sphere_fallback": False}
+def _no_retry() -> Dict[str, Any]:
+    """Keyword arguments of :func:`gfcs.planning.solve` that turn all of its retries off: no policy."""
+    return {"policies": []}
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
     """`gfcs solve`: exit 0 when the problem is solved, 1 when not."""
-    from gfcs import optimize
+    from gfcs import planning
 
     _writable_file(args.json, "--json")
     _writable_file(args.rrd, "--rrd")
     if args.rrd:
         _viz()  # fail before solving when the extra is missing
     problem = _solve_problem(args)
-    result = optimize.solve(
+    result = planning.solve(
         problem, method=args.method, batches=args.batches, population=args.population,
         n_commands=args.commands, seed=args.seed, sampler=_sampler(args), fabric_config=args.config,
-        threads=args.threads, progress=args.progress, settings=_settings(args, problem.robot),
-        **(_no_retry(args.commands) if args.no_retry and args.method == "gfcs" else {}),
-        **_solve_options(args),
+        threads=args.threads, progress=args.progress,
+        **(_no_retry() if args.no_retry and args.method == "gfcs" else {}),
+        **_solve_options(args, problem.robot),
     )
     text = summary_text(result, problem)
     if args.json:
@@ -532,49 +551,41 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
                   threads: Optional[int] = None, settings: Any = None,
                   retry: bool = True, solve_options: Optional[Dict[str, Any]] = None,
                   ) -> Tuple[List[Dict[str, Any]], List[Any]]:
-    """Rows (:func:`gfcs.results.bench_row`) and results of the methods on one problem.
+    """Rows (:func:`gfcs.results.bench_row`) and results of the methods on one problem, one solve each.
 
-    GFCS yields the paper's Table I rows with n = ``n_commands`` free commands and no retry: "Ours (1 b)"
-    (what :func:`gfcs.optimize.solve` returns after one batch: a solve with ``batches=1`` and the same
-    seed, whose batch is the first batch of the longer solve) and "Ours (B b)" (after all B batches);
-    with ``retry`` (and the default sampler) a third row, "Ours (B b, retry)", is what
-    :func:`gfcs.optimize.solve` returns by default: the same unless that failed, then its retries (n + 1
-    commands; a wider obstacle margin after a mesh-only collision; lowered margins for a goal in sphere
-    contact that the meshes clear; time = every attempt). GF yields
-    "GF". ``solve_options``: further keyword arguments of :func:`gfcs.optimize.solve` for every method
-    (e.g. ``mesh_margin``; GF ignores the GFCS-only ones such as ``length_slack``).
+    GFCS yields the paper's Table I rows from the solve's attempt records: "Ours (1 b)" (what its first
+    attempt held after one batch, selected and judged as a one-batch solve would: the same seed gives the
+    same first batch) and "Ours (B b)" (its first attempt after all B batches: a solve without retries);
+    with ``retry`` and a preset that has retry policies a third row, "Ours (B b, retry)", is what the solve
+    returned (time: every attempt). GF yields "GF". ``solve_options``: further keyword arguments of
+    :func:`gfcs.planning.solve` for every method (e.g. ``preset``, ``time_limit``, ``mesh_margin``; GF
+    ignores the GFCS-only ones such as ``length_slack``).
     """
-    from gfcs import optimize
+    from gfcs import planning
     from gfcs.results import bench_row
 
+    options = {"settings": settings, **(solve_options or {})}
+    has_policies = bool(planning.get_preset(options.get("preset", "default")).policies())
     rows: List[Dict[str, Any]] = []
     results: List[Any] = []
     for method in methods:
-        once = {**(_no_retry(n_commands) if method == "gfcs" else {}), **(solve_options or {})}
-
-        def run(n_batches: int) -> Any:
-            return optimize.solve(problem, method=method, batches=n_batches, population=population,
-                                  n_commands=n_commands, seed=seed, sampler=sampler,
-                                  fabric_config=fabric_config, threads=threads, settings=settings, **once)
-
-        res = run(batches)
+        gfcs_only = {"record_first_batch": batches > 1, **({} if retry else _no_retry())} if method == "gfcs" else {}
+        res = planning.solve(problem, method=method, batches=batches, population=population, n_commands=n_commands,
+                             seed=seed, sampler=sampler, fabric_config=fabric_config, threads=threads,
+                             **gfcs_only, **options)
         results.append(res)
         if method == "gf":
             rows.append(bench_row(problem.name, problem.cls, "GF", "gf", 0, seed, res.solve_time,
                                   res.cost, res.metrics, res.wall_time))
             continue
+        first = res.attempt_records[0]
         if batches > 1:
-            first = run(1)
+            one = first.first_batch
             rows.append(bench_row(problem.name, problem.cls, "Ours (1 b)", "gfcs", 1, seed,
-                                  first.solve_time, first.cost, first.metrics, first.wall_time))
+                                  one.solve_time, one.cost, one.metrics, one.wall_time))
         rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b)", "gfcs", batches, seed,
-                              res.solve_time, res.cost, res.metrics, res.wall_time))
-        if retry and sampler is None:
-            if not res.success:  # solve's default, whose first attempt (deterministic) is the one above
-                res = optimize.solve(problem, batches=batches, population=population, n_commands=n_commands,
-                                     seed=seed, fabric_config=fabric_config, threads=threads, settings=settings,
-                                     **(solve_options or {}))
-                results[-1] = res
+                              first.result.solve_time, first.result.cost, first.result.metrics, first.time))
+        if retry and has_policies:
             rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b, retry)", "gfcs", batches,
                                   seed, res.solve_time, res.cost, res.metrics, res.wall_time))
     return rows, results
@@ -671,9 +682,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     suite = _with_mesh_checker(args, load_problems(args, robot, left_out))
     rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
                      n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
-                     threads=args.threads, settings=_settings(args, robot), jsonl=args.json, rrd_dir=args.rrd_dir,
+                     threads=args.threads, jsonl=args.json, rrd_dir=args.rrd_dir,
                      progress=not args.no_progress, retry=not args.no_retry,
-                     solve_options=_solve_options(args), results_dir=args.results_dir, left_out=left_out)
+                     solve_options=_solve_options(args, robot), results_dir=args.results_dir, left_out=left_out)
     summary = summarize(rows)
     totals = format_totals(rows) if rows else ""
     print(format_table(summary, markdown=False) + "\n" + totals, end="")

@@ -80,10 +80,13 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     alg.add_argument("--max-cost", type=float, help="keep only candidates with cost <= this (s)")
     alg.add_argument("--shuffle", action="store_const", const=True, help="seeded random problem order")
     alg.add_argument("--device", help="torch device (default: cuda if available, else cpu)")
-    opt = p.add_argument_group("GFCS solves (gfcs.optimize.solve, method gfcs)")
+    opt = p.add_argument_group("GFCS solves (gfcs.planning.solve, method gfcs)")
     opt.add_argument("--batches", type=int, help="CMA-ES batches per problem (default 5)")
     opt.add_argument("--population", type=int, help="candidates per batch (default 32)")
     opt.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON) of the solves")
+    opt.add_argument("--preset", choices=["default", "paper"],
+                     help="planner preset of the solves (gfcs.planning.presets; default: default), recorded in "
+                          "the checkpoint's configuration")
     p.add_argument("--history", metavar="JSON", help="write the training history (solves, losses) as JSON")
     p.add_argument("--plot", metavar="FIG.png", help="draw the solve costs, losses and validation scores "
                    "(as `gfcs plot HISTORY.json`)")
@@ -134,7 +137,7 @@ def _config(args: argparse.Namespace):
     from .train import RESUME_OVERRIDABLE, TrainConfig, load_checkpoint
 
     given = {field: getattr(args, flag) for flag, field in _CONFIG_FLAGS.items() if getattr(args, flag) is not None}
-    solve = {k: getattr(args, k) for k in ("batches", "population") if getattr(args, k) is not None}
+    solve = {k: getattr(args, k) for k in ("batches", "population", "preset") if getattr(args, k) is not None}
     if args.config is not None:
         solve["fabric_config"] = str(args.config)
     if args.resume is not None:

@@ -40,19 +40,22 @@ def evaluate_first_batch(
     solve_fn: Optional[Callable[..., Any]] = None,
     progress: bool = False,
     per_problem: Optional[List[Dict[str, Any]]] = None,
+    preset: str = "default",
 ) -> List[Dict[str, Any]]:
     """Solve every problem with one CMA-ES batch warm-started by each sampler; one row per sampler.
 
     Args:
         problems: :class:`gfcs.problems.Problem` list.
-        sampler_a, sampler_b: sampler-protocol objects (``None``: :func:`gfcs.optimize.solve`'s default,
-            :class:`~gfcs.optimize.ApproachSampler`), e.g. ``UniformSampler()`` (the paper's "No
+        sampler_a, sampler_b: sampler-protocol objects (``None``: the preset's,
+            :class:`~gfcs.planning.ApproachSampler` for ``default``), e.g. ``UniformSampler()`` (the paper's "No
             learning") and ``EBMSampler("model.pt")``.
         labels: row labels for ``sampler_a`` and ``sampler_b``.
         population: candidates in the batch; n_commands: free commands.
         seed: problem ``i`` is solved with seed ``seed + i`` by both samplers.
         solve_fn: ``solve_fn(problem, batches=1, population=…, n_commands=…, seed=…, sampler=…)`` returning
-            a :class:`gfcs.results.SolveResult`; default :func:`gfcs.optimize.solve`.
+            a :class:`gfcs.results.SolveResult`; default :func:`gfcs.planning.solve` with no retry policy
+            (``policies=[]``) and ``preset``, so that each row is one attempt of one batch.
+        preset: the planner preset of the default ``solve_fn`` (``"default"`` or ``"paper"``).
         progress: tqdm bar over the problems.
         per_problem: if a list is given, the per-problem benchmark rows are appended to it.
 
@@ -72,7 +75,11 @@ def evaluate_first_batch(
     population = check_positive_int("population", population)
     n_commands = check_positive_int("n_commands", n_commands)
     if solve_fn is None:
-        from gfcs.optimize import solve as solve_fn
+        from functools import partial
+
+        from gfcs.planning import solve
+
+        solve_fn = partial(solve, policies=[], preset=preset)
     rows: List[Dict[str, Any]] = []
     for i, problem in enumerate(tqdm(problems, disable=not progress, desc="first batch", unit="problem")):
         for label, sampler in zip(labels, (sampler_a, sampler_b)):
