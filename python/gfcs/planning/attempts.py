@@ -186,7 +186,8 @@ def _optimise(problem: Any, fabric: Any, common: Dict[str, Any], n_commands: int
                            np.tile(np.asarray(robot.upper), n_commands),
                            sampler=_warm_start(sampler, problem, n_commands, goal), batches=options.batches,
                            population=options.population, sigma0=options.sigma0, seed=options.seed,
-                           top_m=options.top_m, callback=on_batch, deadline=deadline)
+                           top_m=options.top_m, callback=on_batch, deadline=deadline,
+                           reserve_batches=0.0 if deadline is None else 1.0)
     finally:
         if bar is not None:
             bar.close()

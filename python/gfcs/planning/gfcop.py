@@ -185,6 +185,7 @@ def solve_gfcop(
     top_m: int = 4,
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
     deadline: Optional[float] = None,
+    reserve_batches: float = 0.0,
 ) -> OptimResult:
     """Algorithm 1 (SolveGFCOP) with warm-started CMA-ES over the box [lower, upper].
 
@@ -207,6 +208,8 @@ def solve_gfcop(
             first batch always runs; before each later one, the time per candidate measured so far says
             how many candidates fit before the deadline: none -> stop, fewer than ``population`` -> that
             many of CMA-ES's candidates are evaluated as the last batch (no update follows it).
+        reserve_batches: with a deadline, the time of this many whole batches (as measured) is left free
+            before it, for what the caller does after the optimisation (rolling the best candidates out).
 
     Returns:
         :class:`OptimResult` with all candidates, the top-m and the per-batch best costs and times.
@@ -253,7 +256,8 @@ def solve_gfcop(
     elapsed = 0.0
     per_candidate = 0.0
     for j in range(int(batches)):
-        fit = int(population) if j == 0 else _candidates_before(deadline, per_candidate, int(population))
+        fit = int(population) if j == 0 else _candidates_before(deadline, per_candidate, int(population),
+                                                                reserve_batches)
         if fit == 0:
             break
         start = time.perf_counter()
@@ -306,12 +310,14 @@ def solve_gfcop(
     )
 
 
-def _candidates_before(deadline: Optional[float], per_candidate: float, population: int) -> int:
-    """How many candidates of the next batch fit before ``deadline`` at ``per_candidate`` seconds each: the
-    whole ``population`` without a deadline, else between 0 and ``population``."""
+def _candidates_before(deadline: Optional[float], per_candidate: float, population: int,
+                       reserve_batches: float = 0.0) -> int:
+    """How many candidates of the next batch fit before ``deadline`` at ``per_candidate`` seconds each, with
+    ``reserve_batches`` whole batches' time kept free: the whole ``population`` without a deadline, else
+    between 0 and ``population``."""
     if deadline is None:
         return population
-    remaining = deadline - time.perf_counter()
+    remaining = deadline - time.perf_counter() - reserve_batches * per_candidate * population
     if remaining <= 0.0:
         return 0
     if per_candidate <= 0.0:

@@ -101,13 +101,15 @@ def _preference(opt: OptimResult, penalty: float, options: SelectionOptions, rol
                 robot: Any, deadline: Optional[float]) -> List[int]:
     """Candidate indices in the order they are tried (see the module docstring): the lowest-cost one, then
     those that reached the goal (cost < ``penalty``), at most ``mesh_candidates``; with ``length_slack`` the
-    near-optimal ones first, shortest hand path first. The near-optimal reordering is skipped past the
-    deadline (it rolls out every near-optimal candidate)."""
+    near-optimal ones first, shortest hand path first. The near-optimal reordering rolls every near-optimal
+    candidate out in one batch; it is skipped when the longest optimiser batch would not end before the
+    deadline."""
     order = np.argsort(opt.all_costs, kind="stable")
     keep = [int(order[0])] + [int(k) for k in order[1:] if opt.all_costs[k] < penalty]
     keep = keep[:max(1, int(options.mesh_candidates))]
     best = float(opt.all_costs[keep[0]])
-    if options.length_slack > 0 and best < penalty and not _past(deadline):
+    longest = float(np.max(opt.batch_times)) if len(opt.batch_times) else 0.0
+    if options.length_slack > 0 and best < penalty and not _past(deadline, longest):
         near = [k for k in keep if opt.all_costs[k] <= (1.0 + options.length_slack) * best]
         roll(*near)
         hand = {k: _metrics.path_length(robot.ee_position(roll(k).trajectory.q)) for k in near}
@@ -116,8 +118,9 @@ def _preference(opt: OptimResult, penalty: float, options: SelectionOptions, rol
     return keep
 
 
-def _past(deadline: Optional[float]) -> bool:
-    return deadline is not None and time.perf_counter() >= deadline
+def _past(deadline: Optional[float], needed: float = 0.0) -> bool:
+    """Whether work of ``needed`` seconds started now would end after ``deadline``."""
+    return deadline is not None and time.perf_counter() + needed > deadline
 
 
 def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
@@ -127,8 +130,8 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
 
     Without a mesh checker the first candidate of the preference order (see the module docstring) is
     returned; with one, the first whose trajectory succeeds with meshes included, or, if none does, the
-    first of the order. Past ``deadline`` (a ``time.perf_counter()`` value) no further candidate is judged:
-    the first judged one is returned unless a later one already succeeded.
+    first of the order. With a ``deadline`` (a ``time.perf_counter()`` value) a further candidate is judged
+    only when the longest judgement so far would end before it; the first candidate always is.
     """
     roll = _Rollouts(fabric, problem, opt, n_commands, settings, finish or FinishOptions(), threads)
     order = np.argsort(opt.all_costs, kind="stable")
@@ -137,11 +140,12 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
         keep = keep[:1]
     goal = np.asarray(problem.goal, dtype=np.float64)
     first: Optional[Candidate] = None
-    checked = 0
+    checked, judging = 0, 0.0
     for k in keep:
-        if first is not None and _past(deadline):
+        if first is not None and _past(deadline, judging):
             break
         checked += 1
+        started = time.perf_counter()
         candidate = roll(k)
         traj = candidate.trajectory
         met = _metrics.trajectory_metrics(problem.robot, problem.scene, traj.t, traj.q, goal,
@@ -151,6 +155,7 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
         if mesh_checker is not None:
             met["mesh_candidates_checked"] = checked
         candidate.metrics = met
+        judging = max(judging, time.perf_counter() - started)
         if first is None:
             first = candidate
         if mesh_checker is None or met["success"]:
