@@ -59,7 +59,8 @@ def _record(model, n, success=False, mesh_only=False, kind="plan", margin_round=
     if mesh_only:
         metrics.update(mesh_clearance=-0.001, sphere_success=True)
     result = SimpleNamespace(success=success, metrics=metrics, cost=1.0, n_evaluations=1, batch_times=[0.1])
-    attempt = _attempts.Attempt(model, n, kind=kind, margin_round=margin_round, margin_step=0.002 if margin_round else 0.0)
+    step = 0.002 if margin_round else 0.0
+    attempt = _attempts.Attempt(model, n, kind=kind, margin_round=margin_round, margin_step=step)
     return _attempts.AttemptRecord(attempt, result=result)
 
 

@@ -15,7 +15,6 @@ from typing import Any, Callable, Dict, List, Optional
 
 import numpy as np
 
-from gfcs import metrics as _metrics
 from gfcs.errors import InvalidValueError
 from gfcs.planning.finish import FinishOptions
 from gfcs.planning.gfcop import BatchInfo, OptimResult, solve_gfcop
@@ -212,9 +211,9 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
 
     ``common``: the SolveResult fields shared by every attempt of the solve (problem, start, goal, robot,
     fabric configuration, ...). ``recorded``: the result's ``settings`` besides the rollout settings (the
-    attempt's own entries are added). ``budget``: the solve's :class:`gfcs.planning.budget.Budget`, or None. A ``clearance_floor`` below 0
-    also raises ``settings.collision_tol`` to its overlap: what success accepts is no collision in the cost
-    either.
+    attempt's own entries are added). ``budget``: the solve's :class:`gfcs.planning.budget.Budget`, or
+    None. A ``clearance_floor`` below 0 also raises ``settings.collision_tol`` to its overlap: what success
+    accepts is no collision in the cost either.
     """
     started = time.perf_counter()
     floor = float(attempt.clearance_floor)

@@ -215,6 +215,42 @@ def solve_gfcop(
         :class:`OptimResult` with all candidates, the top-m and the per-batch best costs and times.
     """
     cma = _import_cma()
+    dim = _check_arguments(dim, batches, population, top_m, sigma0, seed)
+    lo, up = _box(lower, upper, dim)
+    span = up - lo
+    sampler_rng, cma_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(2))
+
+    # The warm start is part of the first batch (Alg. 1 line 2), so its time counts in batch 0's.
+    start = time.perf_counter()
+    y0 = _initial_batch(sampler, int(population), dim, sampler_rng, lo, up)
+    sampling_time = time.perf_counter() - start
+    u0 = (y0 - lo) / span
+    es = _strategy(cma, u0, float(sigma0), int(population), cma_rng)
+
+    history = _History(y0[0])
+    per_candidate = 0.0
+    for j in range(int(batches)):
+        fit = int(population) if j == 0 else _candidates_before(deadline, per_candidate, int(population),
+                                                                reserve_batches)
+        if fit == 0:
+            break
+        start = time.perf_counter()
+        if j == 0:
+            es.inject([es.boundary_handler.inverse(u) for u in u0], force=True)
+        asked = es.ask()
+        y = y0 if j == 0 else np.clip(lo + np.asarray(asked) * span, lo, up)[:fit]
+        costs = _evaluate(cost_fn, y)
+        if fit == int(population):  # a cut batch is the last: nothing to update
+            _tell(es, asked, costs)
+        per_candidate = max(per_candidate, (time.perf_counter() - start) / y.shape[0])
+        info = history.add(j, y, costs, time.perf_counter() - start + (sampling_time if j == 0 else 0.0))
+        if (callback is not None and callback(info)) or fit < int(population):
+            break
+    return history.result(int(top_m))
+
+
+def _check_arguments(dim: Any, batches: Any, population: Any, top_m: Any, sigma0: Any, seed: Any) -> int:
+    """The arguments of :func:`solve_gfcop` checked, each error naming its argument; ``dim`` as an int."""
     dim = int(dim)
     if dim < 1:
         raise InvalidValueError(f"dim must be ≥ 1, got {dim}")
@@ -228,86 +264,70 @@ def solve_gfcop(
         raise InvalidValueError(f"sigma0 must be a positive number, got {sigma0}")
     if int(seed) < 0:
         raise InvalidValueError(f"seed must be a non-negative integer, got {seed}")
-    lo, up = _box(lower, upper, dim)
-    span = up - lo
-    sampler_rng, cma_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(2))
+    return dim
 
-    # The warm start is part of the first batch (Alg. 1 line 2), so its time counts in batch 0's.
-    start = time.perf_counter()
-    y0 = _initial_batch(sampler, int(population), dim, sampler_rng, lo, up)
-    sampling_time = time.perf_counter() - start
-    u0 = (y0 - lo) / span
+
+def _strategy(cma: Any, u0: np.ndarray, sigma0: float, population: int, rng: np.random.Generator) -> Any:
+    """CMA-ES in the unit box, its mean at the warm start's mean, its normal variates from ``rng``."""
     options = {
         "bounds": [0.0, 1.0],
-        "popsize": int(population),
+        "popsize": population,
         "seed": math.nan,  # do not touch numpy's global RNG; randn below is our own generator
-        "randn": lambda *shape: cma_rng.standard_normal(shape),
+        "randn": lambda *shape: rng.standard_normal(shape),
         "verbose": -9,
     }
-    es = cma.CMAEvolutionStrategy(np.clip(u0.mean(axis=0), 0.0, 1.0).tolist(), float(sigma0), options)
+    return cma.CMAEvolutionStrategy(np.clip(u0.mean(axis=0), 0.0, 1.0).tolist(), sigma0, options)
 
-    all_x: List[np.ndarray] = []
-    all_c: List[np.ndarray] = []
-    all_b: List[np.ndarray] = []
-    best_costs: List[float] = []
-    best_xs: List[np.ndarray] = []
-    times: List[float] = []
-    best_x, best_cost = y0[0].copy(), math.inf
-    elapsed = 0.0
-    per_candidate = 0.0
-    for j in range(int(batches)):
-        fit = int(population) if j == 0 else _candidates_before(deadline, per_candidate, int(population),
-                                                                reserve_batches)
-        if fit == 0:
-            break
-        start = time.perf_counter()
-        if j == 0:
-            es.inject([es.boundary_handler.inverse(u) for u in u0], force=True)
-        asked = es.ask()
-        y = y0 if j == 0 else np.clip(lo + np.asarray(asked) * span, lo, up)[:fit]
-        costs = np.asarray(cost_fn(y), dtype=np.float64).reshape(-1)
-        if costs.shape != (y.shape[0],):
-            raise InvalidValueError(f"cost_fn: expected {y.shape[0]} costs, got shape {costs.shape}")
-        costs = np.where(np.isnan(costs), math.inf, costs)
-        finite = costs[np.isfinite(costs)]
-        worst = float(finite.max()) if finite.size else 0.0
-        if fit == int(population):
-            # CMA-ES ranks candidates; infinite costs rank last, one step behind the worst finite one
-            es.tell(asked, np.where(np.isfinite(costs), costs, worst + 1.0 + abs(worst)).tolist())
-        per_candidate = max(per_candidate, (time.perf_counter() - start) / y.shape[0])
-        batch_time = time.perf_counter() - start + (sampling_time if j == 0 else 0.0)
-        elapsed += batch_time
 
+def _evaluate(cost_fn: Callable[[np.ndarray], Any], y: np.ndarray) -> np.ndarray:
+    """The costs (N,) of the candidates ``y`` (N, dim), NaN as +inf."""
+    costs = np.asarray(cost_fn(y), dtype=np.float64).reshape(-1)
+    if costs.shape != (y.shape[0],):
+        raise InvalidValueError(f"cost_fn: expected {y.shape[0]} costs, got shape {costs.shape}")
+    return np.where(np.isnan(costs), math.inf, costs)
+
+
+def _tell(es: Any, asked: Any, costs: np.ndarray) -> None:
+    """Update CMA-ES with a whole batch. CMA-ES ranks candidates; infinite costs rank last, one step behind
+    the worst finite one."""
+    finite = costs[np.isfinite(costs)]
+    worst = float(finite.max()) if finite.size else 0.0
+    es.tell(asked, np.where(np.isfinite(costs), costs, worst + 1.0 + abs(worst)).tolist())
+
+
+class _History:
+    """Every candidate, cost and batch of one run of :func:`solve_gfcop`, and the best so far."""
+
+    def __init__(self, first: np.ndarray) -> None:
+        self.x: List[np.ndarray] = []
+        self.c: List[np.ndarray] = []
+        self.b: List[np.ndarray] = []
+        self.best_costs: List[float] = []
+        self.best_xs: List[np.ndarray] = []
+        self.times: List[float] = []
+        self.best_x, self.best_cost = first.copy(), math.inf
+        self.elapsed = 0.0
+
+    def add(self, j: int, y: np.ndarray, costs: np.ndarray, batch_time: float) -> BatchInfo:
+        """Record batch ``j``; what the per-batch callback receives."""
+        self.elapsed += batch_time
         k = int(np.argmin(costs))
-        if costs[k] < best_cost:
-            best_cost, best_x = float(costs[k]), y[k].copy()
-        all_x.append(y.copy())
-        all_c.append(costs)
-        all_b.append(np.full(y.shape[0], j))
-        best_costs.append(best_cost)
-        best_xs.append(best_x.copy())
-        times.append(batch_time)
-        if callback is not None:
-            stop = callback(BatchInfo(j, y.copy(), costs.copy(), best_x.copy(), best_cost, batch_time, elapsed))
-            if stop:
-                break
-        if fit < int(population):
-            break
+        if costs[k] < self.best_cost:
+            self.best_cost, self.best_x = float(costs[k]), y[k].copy()
+        self.x.append(y.copy())
+        self.c.append(costs)
+        self.b.append(np.full(y.shape[0], j))
+        self.best_costs.append(self.best_cost)
+        self.best_xs.append(self.best_x.copy())
+        self.times.append(batch_time)
+        return BatchInfo(j, y.copy(), costs.copy(), self.best_x.copy(), self.best_cost, batch_time, self.elapsed)
 
-    xs, cs, bs = np.vstack(all_x), np.concatenate(all_c), np.concatenate(all_b)
-    order = np.argsort(cs, kind="stable")[: int(top_m)]
-    return OptimResult(
-        best_x=best_x,
-        best_cost=best_cost,
-        top_x=xs[order],
-        top_costs=cs[order],
-        all_x=xs,
-        all_costs=cs,
-        all_batches=bs,
-        batch_best_costs=np.asarray(best_costs),
-        batch_best_x=np.vstack(best_xs),
-        batch_times=np.asarray(times),
-    )
+    def result(self, top_m: int) -> OptimResult:
+        xs, cs, bs = np.vstack(self.x), np.concatenate(self.c), np.concatenate(self.b)
+        order = np.argsort(cs, kind="stable")[:top_m]
+        return OptimResult(best_x=self.best_x, best_cost=self.best_cost, top_x=xs[order], top_costs=cs[order],
+                           all_x=xs, all_costs=cs, all_batches=bs, batch_best_costs=np.asarray(self.best_costs),
+                           batch_best_x=np.vstack(self.best_xs), batch_times=np.asarray(self.times))
 
 
 def _candidates_before(deadline: Optional[float], per_candidate: float, population: int,

@@ -128,6 +128,7 @@ def solve(
     Raises:
         gfcs.InvalidValueError: a bad argument (the message names it).
     """
+    # Long only by its docstring, which documents every argument of the public API; the work is in helpers.
     budget = Budget(optional_time_limit(time_limit))
     chosen = get_preset(preset)
     if method not in ("gfcs", "gf"):
@@ -224,8 +225,9 @@ def _policies(preset: Preset, policies: Optional[Sequence[Any]], sampler: Any, n
     step = non_negative("mesh_retry_margin", 0.002 if mesh_retry_margin is None else mesh_retry_margin, " [m]")
     rounds = integer_at_least("mesh_retries", 2 if mesh_retries is None else mesh_retries, 0)
     slack = non_negative("goal_contact_slack", 0.002 if goal_contact_slack is None else goal_contact_slack, " [m]")
+    cascade = True if sphere_fallback is None else bool(sphere_fallback)
     return default_policies(more_commands=most - n_commands, margin_step=step, margin_rounds=rounds,
-                            goal_contact_slack=slack, cascade=True if sphere_fallback is None else bool(sphere_fallback))
+                            goal_contact_slack=slack, cascade=cascade)
 
 
 class _Planner:
