@@ -232,17 +232,17 @@ def test_bench_records_a_malformed_problem_and_goes_on(tmp_path, capsys):
 
 
 def test_bench_records_a_problem_whose_solve_fails_and_goes_on(tmp_path, monkeypatch, capsys):
-    from gfcs import generators, optimize
+    from gfcs import generators, planning
 
     suite = generators.generate("box", 2, seed=0)
-    real = optimize.solve
+    real = planning.solve
 
     def solve(problem, *args, **kwargs):
         if problem.name == suite[0].name:
             raise gfcs.InvalidValueError("qd0: deliberately unreachable start")
         return real(problem, *args, **kwargs)
 
-    monkeypatch.setattr(optimize, "solve", solve)
+    monkeypatch.setattr(planning, "solve", solve)
     rows = cli.run_bench(suite, ["gf"], batches=1, population=4, progress=False,
                          jsonl=str(tmp_path / "rows.jsonl"))
     assert [r["problem"] for r in rows] == [suite[0].name, suite[1].name]
