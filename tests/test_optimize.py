@@ -7,6 +7,7 @@ import types
 import numpy as np
 import pytest
 
+import gfcs
 from gfcs import metrics
 from gfcs import optimize as opt
 
@@ -483,8 +484,9 @@ def test_fabric_goal_moves_only_joints_within_the_barrier_margin_plus_hold_off(l
     np.testing.assert_array_equal(opt.fabric_goal(fabric, far, 0.015), far)
     off = opt.make_fabric(limit_problem, {"joint_limits": {"enabled": False}})
     np.testing.assert_array_equal(opt.fabric_goal(off, goal, 0.015), goal)
-    for bad in (-0.01, math.nan, math.inf, "a lot", None):
-        with pytest.raises(ValueError, match="limit_hold_off"):
+    np.testing.assert_array_equal(opt.fabric_goal(fabric, goal, None), goal)  # None: the goal as it is
+    for bad in (-0.01, math.nan, math.inf, "a lot"):
+        with pytest.raises(gfcs.GfcsError, match="limit_hold_off"):
             opt.fabric_goal(fabric, goal, bad)
 
 

@@ -157,7 +157,7 @@ def test_paper_preset_is_the_method_as_written(retried_problem):
     s = r.settings
     assert r.preset == "paper" and len(r.attempts) == 1 and s["sampler"] == "UniformSampler"
     assert s["blend_time"] == 0 and s["tol"] == 0.01 and s["collision_penalty"] == 0 and s["length_slack"] == 0
-    assert s["limit_hold_off"] == 0 and s["stall_window"] == 0
+    assert s["limit_hold_off"] is None and s["stall_window"] == 0
     assert not any(s[k] for k in ("retime_start", "goal_blend", "limit_velocity", "limit_acceleration"))
     for barrier in ("obstacles", "self_collision", "joint_limits"):
         assert r.fabric_config[barrier]["braking_time"] == 0

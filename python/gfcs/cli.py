@@ -174,8 +174,8 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     r.add_argument("--waypoint-tol", type=float, default=None, help="tolerance of intermediate commands, rad")
     r.add_argument("--limit-hold-off", type=float, default=None, metavar="RAD",
                    help="a goal joint nearer its limit than the barrier margin plus this is commanded that far "
-                        "off it and blended onto the goal, rad (default: the preset's, 0.015 / 0; 0: commanded "
-                        "as is)")
+                        "off it and blended onto the goal, rad (default: the preset's: 0.015; the paper preset "
+                        "commands every goal as it is)")
     r.add_argument("--integrator", choices=["euler", "rk4"], default=None, help="integrator (default euler)")
     r.add_argument("--no-acceleration-limits", action="store_true",
                    help="keep the fabric's own timing where it is within the velocity limits (default: "

@@ -6,7 +6,8 @@
   every retry policy (:func:`gfcs.planning.policies.default_policies`).
 * ``paper``: GFCS as the paper writes it (GFCS Sec. IV-A, Alg. 1): a uniform first batch (or the learned
   sampler when one is given), the lowest-cost candidate of eq. 4, the command switch of eq. 7 (no blend),
-  the goal tolerance ε = 0.01 rad, eq. 4's cost without a collision term, no stall exit, the paper's
+  the goal tolerance ε = 0.01 rad, the goal commanded as it is, eq. 4's cost without a collision term, no
+  stall exit, the paper's
   barriers (no braking cap or damper, exact curvature: ``braking_time`` and ``min_curvature_radius`` 0),
   the robot's own spheres, no retries and the trajectory as the fabric integrates it (no re-timing, no
   blend). With a mesh model the returned motion is still judged on the meshes; it is not chosen by them.
@@ -69,7 +70,7 @@ PRESETS: Dict[str, Preset] = {
                       sampler="approach", thin_spheres=True, policies=default_policies),
     "paper": Preset("paper",
                     RolloutSettings(tol=0.01, collision_penalty=0.0, blend_time=0.0, stall_window=0.0,
-                                    limit_hold_off=0.0),
+                                    limit_hold_off=None),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,
                                   limit_acceleration=False),
                     length_slack=0.0, mesh_candidates=1, sampler="uniform", thin_spheres=False,

@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from dataclasses import dataclass
-from typing import Any, Dict
+from typing import Any, Dict, Optional
 
 import numpy as np
 
@@ -25,7 +25,7 @@ __all__ = ["RolloutSettings", "make_fabric", "fabric_goal"]
 class RolloutSettings:
     """Rollout parameters of GFCS eq. 1-8. The defaults are the ``default`` preset's; the ``paper`` preset
     (:mod:`gfcs.planning.presets`) sets ``tol`` 0.01, ``collision_penalty`` 0, ``blend_time`` 0,
-    ``stall_window`` 0 and ``limit_hold_off`` 0.
+    ``stall_window`` 0 and ``limit_hold_off`` None.
 
     Attributes:
         dt: integration step [s] (Euler at 100 Hz in the paper).
@@ -54,7 +54,8 @@ class RolloutSettings:
             (0 = off): it saves the steps of candidates stuck at a local minimum.
         limit_hold_off: a goal joint nearer a limit than the fabric's joint-limit margin plus this [rad] is
             commanded that far off the limit instead (:func:`fabric_goal`), and the goal blend covers the
-            rest: the limit barrier holds the fabric off a goal at its limit. 0: goals commanded as they are.
+            rest: the limit barrier holds the fabric off a goal at its limit. None: every goal is commanded
+            as it is (the paper's command; a goal within the barrier's margin of a limit is then not reached).
 
     The defaults equal the core's (``RolloutOptions`` / ``SequenceOptions`` in ``fabric-core``) except
     ``collision_penalty`` (0 in the core) and ``tol`` (0.01 in the core, whose rollouts have no blend).
@@ -72,7 +73,7 @@ class RolloutSettings:
     integrator: str = "euler"
     stall_window: float = 0.5
     stall_progress: float = 0.005
-    limit_hold_off: float = 0.015
+    limit_hold_off: Optional[float] = 0.015
 
     def as_kwargs(self) -> Dict[str, Any]:
         """Keyword arguments for ``gfcs.Fabric.rollout_sequence`` / ``evaluate`` (every field but
@@ -96,14 +97,16 @@ def make_fabric(problem: Any, fabric_config: Any = None, scene: Any = None) -> A
     return gfcs.Fabric(problem.robot, problem.scene if scene is None else scene, config)
 
 
-def fabric_goal(fabric: Any, goal: Any, hold_off: float) -> np.ndarray:
+def fabric_goal(fabric: Any, goal: Any, hold_off: Optional[float]) -> np.ndarray:
     """The configuration (dof,) [rad] the fabric is commanded for ``goal`` (dof,): each joint at least
     ``joint_limits.margin`` + ``hold_off`` [rad, ≥ 0] from its limits (``goal`` itself when every joint is
-    that far already, or when the fabric's limit barrier is off). The barrier holds the fabric off any
+    that far already, when the fabric's limit barrier is off, or when ``hold_off`` is None). The barrier holds the fabric off any
     configuration nearer its limit than that, so a rollout could not reach such a goal; the goal blend
     (:func:`gfcs.planning.finish.finish_rollout`) then covers the rest. A joint whose range is narrower than
     twice that room keeps its goal."""
     goal = np.asarray(goal, dtype=np.float64)
+    if hold_off is None:
+        return goal
     hold_off = non_negative("limit_hold_off", hold_off, " [rad]")
     limits = fabric.config.to_dict()["joint_limits"]
     if not limits["enabled"]:
