@@ -23,7 +23,7 @@ import the compiled extension.
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -40,6 +40,7 @@ __all__ = [
     "mesh_clearance",
     "mesh_verdict",
     "uniform_resample",
+    "link_path_lengths",
     "trajectory_metrics",
     "DEFAULT_SUCCESS_TOL",
     "DEFAULT_LIMIT_TOL",
@@ -283,6 +284,20 @@ def mesh_verdict(mesh_checker: Any, scene: Any, q: Any,
     return clear, self_clear, clear > margin and self_clear > margin
 
 
+def link_path_lengths(robot: Any, q: Any, links: Sequence[str]) -> Dict[str, float]:
+    """Path length [m] of the origin of each link in ``links`` along the joint path ``q`` (T, dof): the hand
+    paths of a robot with several end effectors (e.g. a group spanning two arms).
+
+    Uses ``robot.link_poses`` ((T, L, 4, 4) world poses) and ``robot.link_index``.
+
+    Returns:
+        {link name: Σ‖p_{k+1} − p_k‖} in the order of ``links``.
+    """
+    qa = _as_path(q, "q")
+    poses = np.asarray(robot.link_poses(qa), dtype=np.float64).reshape(qa.shape[0], -1, 4, 4)
+    return {str(link): path_length(poses[:, int(robot.link_index(link)), :3, 3]) for link in links}
+
+
 def uniform_resample(t: Any, x: Any) -> "tuple[np.ndarray, float]":
     """Resample a path onto a uniform time grid by linear interpolation (for the LDJ).
 
@@ -326,6 +341,7 @@ def trajectory_metrics(
     mesh_checker: Optional[Any] = None,
     mesh_margin: float = DEFAULT_MESH_MARGIN,
     clearance_floor: float = 0.0,
+    ee_links: Optional[Sequence[str]] = None,
 ) -> Dict[str, Any]:
     """Everything GFCS Table I reports about one trajectory, plus the success criterion.
 
@@ -345,6 +361,8 @@ def trajectory_metrics(
             penetration). Below 0 only with a checker, whose meshes then judge the contact: for a goal at
             which conservative spheres overlap an obstacle that the meshes clear (:func:`gfcs.optimize.solve`'s
             goal-contact attempt).
+        ee_links: the end-effector links whose hand paths ``ee_lengths`` reports (default: just
+            ``robot.ee_link``, when the robot has one), e.g. both hands of a two-arm group (``problem.meta["ee_links"]``).
 
     Returns:
         dict with keys ``success`` (bool: ``sphere_success`` and, with a checker, mesh clearances >
@@ -354,7 +372,8 @@ def trajectory_metrics(
         position and velocity limits respected: the verdict of the sphere model alone), ``final_error``
         [rad], ``velocity_ratio`` (:func:`velocity_ratio`, ≤ 1 within the velocity limits), ``min_clearance``
         [m] (obstacles, spheres), ``min_self_clearance`` [m], ``within_limits`` (bool), ``duration`` [s],
-        ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``, ``cspace_ldj`` (NaN when undefined),
+        ``ee_length`` [m], ``ee_lengths`` ({link: hand path [m]} of each of ``ee_links``, see
+        :func:`link_path_lengths`), ``cspace_length`` [rad], ``ee_ldj``, ``cspace_ldj`` (NaN when undefined),
         ``n_samples``, and with a checker ``mesh_clearance`` [m] (min over the samples, see
         :func:`mesh_clearance`) and ``mesh_self_clearance`` [m] (min over the samples of
         ``mesh_checker.self_clearance``: link meshes on non-adjacent bodies not disabled by the SRDF).
@@ -397,6 +416,10 @@ def trajectory_metrics(
         mesh_clear, mesh_self, mesh_ok = mesh_verdict(mesh_checker, scene, qa, mesh_margin)
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
+    # every hand's path; a robot object without an end-effector link (a stand-in) reports none
+    hands = list(ee_links) if ee_links else ([robot.ee_link] if hasattr(robot, "ee_link") else [])
+    if hands:
+        extra["ee_lengths"] = link_path_lengths(robot, qa, hands)
     sphere_ok = bool(final_error <= tol and clear >= floor and self_clear >= 0.0 and limits_ok
                      and speed_ratio <= 1.0 + VELOCITY_RATIO_TOL)
     return {
