@@ -636,3 +636,136 @@ def generate(
                                f"after {max_scenes} scenes")
         problems.append(problem)
     return problems
+
+
+# ------------------------------------------------------------------------------------ two-arm robot
+#: Arm prefixes and base offsets [m] (along y) of :func:`two_arm_panda`.
+TWO_ARM_MOUNTS = (("left_", 0.35), ("right_", -0.35))
+#: The planning group of both arms in :func:`two_arm_panda`'s SRDF (subgroups ``left_arm``, ``right_arm``).
+TWO_ARM_GROUP = "both_arms"
+
+
+def _prefixed(element: Any, prefix: str) -> Any:
+    """A copy of a URDF ``<link>`` or ``<joint>`` element with ``prefix`` on every link and joint name."""
+    import copy
+
+    el = copy.deepcopy(element)
+    el.set("name", prefix + el.get("name"))
+    for child in el:
+        if child.tag in ("parent", "child"):
+            child.set("link", prefix + child.get("link"))
+        elif child.tag == "mimic":
+            child.set("joint", prefix + child.get("joint"))
+    return el
+
+
+def two_arm_panda() -> Tuple[str, str, List[Tuple[str, List[float], float]]]:
+    """A two-arm robot built from the shipped Panda, for planning groups that span two arms.
+
+    Two copies of :func:`gfcs.panda_urdf` (links and joints prefixed ``left_`` / ``right_``, see
+    :data:`TWO_ARM_MOUNTS`) on fixed joints from one ``base`` link, at y = ±0.35 m; the shipped Panda's
+    collision spheres on both arms; an SRDF with the groups ``left_arm`` and ``right_arm`` (chains from
+    each arm's ``panda_link0`` to its ``panda_hand``) and :data:`TWO_ARM_GROUP` (the two as subgroups), the
+    shipped Panda's disabled collision pairs for each arm, and the base's adjacent pairs.
+
+    Returns:
+        (URDF text, SRDF text, spheres: [(link, centre (3,) m in the link frame, radius m)]) for
+        :meth:`gfcs.Robot.from_urdf` or :func:`gfcs.srdf_groups.robot_for_group`.
+    """
+    import xml.etree.ElementTree as ET
+
+    import gfcs
+
+    panda = ET.fromstring(gfcs.panda_urdf())
+    urdf = ET.Element("robot", name="two_arm_panda")
+    ET.SubElement(urdf, "link", name="base")
+    srdf = ET.Element("robot", name="two_arm_panda")
+    shipped_pairs = ET.fromstring(gfcs.panda_srdf()).findall("disable_collisions")
+    for prefix, y in TWO_ARM_MOUNTS:
+        mount = ET.SubElement(urdf, "joint", name=f"{prefix}mount_joint", type="fixed")
+        ET.SubElement(mount, "parent", link="base")
+        ET.SubElement(mount, "child", link=f"{prefix}panda_link0")
+        ET.SubElement(mount, "origin", xyz=f"0 {y} 0", rpy="0 0 0")
+        for element in panda:
+            if element.tag in ("link", "joint"):
+                urdf.append(_prefixed(element, prefix))
+        group = ET.SubElement(srdf, "group", name=f"{prefix}arm")
+        ET.SubElement(group, "chain", base_link=f"{prefix}panda_link0", tip_link=f"{prefix}panda_hand")
+    both = ET.SubElement(srdf, "group", name=TWO_ARM_GROUP)
+    for prefix, _ in TWO_ARM_MOUNTS:
+        ET.SubElement(both, "group", name=f"{prefix}arm")
+    for prefix, _ in TWO_ARM_MOUNTS:
+        ET.SubElement(srdf, "disable_collisions", link1="base", link2=f"{prefix}panda_link0", reason="Adjacent")
+        for pair in shipped_pairs:
+            ET.SubElement(srdf, "disable_collisions", link1=prefix + pair.get("link1"),
+                          link2=prefix + pair.get("link2"), reason=pair.get("reason", "Never"))
+    shipped = gfcs.Robot.panda()
+    spheres = [(prefix + link, [float(v) for v in centre], float(radius))
+               for prefix, _ in TWO_ARM_MOUNTS
+               for link, centre, radius in zip(shipped.sphere_links, shipped.sphere_centers_local,
+                                               shipped.sphere_radii)]
+    return ET.tostring(urdf, encoding="unicode"), ET.tostring(srdf, encoding="unicode"), spheres
+
+
+def two_arm_robot() -> Tuple[Any, List[str]]:
+    """The :func:`two_arm_panda` robot planning for :data:`TWO_ARM_GROUP` (14 joints; end effector
+    ``left_panda_hand``) with its fingers held as the shipped Panda holds them (0.04 m), and the group's
+    tips (both hands), from :func:`gfcs.srdf_groups.robot_for_group`."""
+    import gfcs
+    from gfcs.srdf_groups import robot_for_group
+
+    urdf, srdf, spheres = two_arm_panda()
+    robot, tips = robot_for_group(urdf, srdf, TWO_ARM_GROUP, spheres=spheres)
+    fingers = gfcs.Robot.panda().locked_positions
+    held = {prefix + joint: value for prefix, _ in TWO_ARM_MOUNTS for joint, value in fingers.items()}
+    return robot.with_locked_positions(held), tips
+
+
+#: The obstacle of :func:`two_arm_problems`: a wall between the two arms, in front of the base.
+TWO_ARM_DIVIDER = Primitive("divider", "box", (0.3, 0.1, 0.6), (0.55, 0.0, 0.3), (0.0, 0.0, 0.0, 1.0))
+
+
+def two_arm_problems(n: int, seed: int = 0, spread: float = 0.6, margin: float = 0.02,
+                     min_distance: float = 0.8, tries: int = 500) -> List[Problem]:
+    """``n`` seeded joint-goal problems of the :func:`two_arm_robot` (both arms, 14 joints) around
+    :data:`TWO_ARM_DIVIDER`: each arm starts and ends within ``spread`` rad of the Panda ready pose (per
+    joint, uniform, inside the joint limits), and every start and goal keeps the spheres ``margin`` m from
+    the divider and :data:`SELF_MARGIN` apart, across the arms too (:func:`is_collision_free`, the robot's
+    ``self_clearance``). Problem ``i`` depends only on (seed, i). ``meta["ee_links"]`` holds both hands,
+    whose paths the metrics report; ``meta["group"]`` the group.
+
+    Raises:
+        ValueError: n < 0. RuntimeError: no valid start/goal pair within ``tries`` draws (names seed, index).
+    """
+    if int(n) < 0:
+        raise ValueError(f"n must be ≥ 0, got {n}")
+    robot, tips = two_arm_robot()
+    scene = build_scene([TWO_ARM_DIVIDER])
+    lo = np.asarray(robot.lower, dtype=np.float64) + 0.05
+    up = np.asarray(robot.upper, dtype=np.float64) - 0.05
+    centre = np.clip(np.concatenate([READY, READY]), lo, up)
+    out = []
+    for i in range(int(n)):
+        rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(len(CLASSES), i)))
+
+        def draw() -> Optional[np.ndarray]:
+            for _ in range(int(tries)):
+                q = np.clip(centre + rng.uniform(-spread, spread, size=centre.shape), lo, up)
+                if is_collision_free(robot, scene, q, margin):
+                    return q
+            return None
+
+        q0 = draw()
+        goal = None
+        for _ in range(int(tries) if q0 is not None else 0):
+            goal = draw()
+            if goal is not None and np.linalg.norm(goal - q0) >= min_distance:
+                break
+            goal = None
+        if q0 is None or goal is None:
+            raise RuntimeError(f"two_arm_problems(seed={seed}): no valid start/goal for problem {i} in {tries} draws")
+        out.append(Problem(
+            name=f"two_arm/gen{int(seed)}_{i:04d}", robot=robot, scene=scene, q0=q0, goal=goal, cls="two_arm",
+            meta={"generator": "two_arm", "seed": int(seed), "index": i, "group": TWO_ARM_GROUP,
+                  "ee_links": list(tips), "primitives": [dataclasses.asdict(TWO_ARM_DIVIDER)]}))
+    return out
