@@ -17,7 +17,8 @@ and validation of the returned motion, retries), ``cost`` (GFCS eq. 4), ``ee_len
 ``cspace_ldj``, ``min_clearance`` [m] (collision spheres), ``final_error`` [rad]; when the trajectory was
 validated against collision meshes also ``mesh_clearance`` and ``mesh_self_clearance`` [m] (the smallest
 mesh distance to the obstacles and between non-adjacent links; ``inf``: none within the checker's
-``max_distance``).
+``max_distance``); for a robot with several end effectors (a group spanning two arms) also ``ee_lengths``
+({link: hand path [m]}, every hand; ``ee_length`` is the first's).
 
 A problem of the suite that was not run (its start or goal outside the robot's joint limits, see
 :func:`gfcs.cli.load_mbm_suite`) has one row of its own, :func:`left_out_row`: ``problem``, ``class`` and
@@ -357,6 +358,10 @@ def bench_row(
 ) -> Dict[str, Any]:
     """One benchmark row (see the module docstring for the keys) from trajectory metrics."""
     mesh = {key: float(metrics[key]) for key in ("mesh_clearance", "mesh_self_clearance") if key in metrics}
+    # a robot with several end effectors (a group spanning two arms) reports every hand's path
+    hands = metrics.get("ee_lengths") or {}
+    if len(hands) > 1:
+        mesh["ee_lengths"] = {str(link): float(v) for link, v in hands.items()}
     return {
         "problem": problem,
         "class": cls,
