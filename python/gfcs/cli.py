@@ -115,6 +115,10 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
                         "collision-free for its spheres); a URDF X.urdf without collision spheres takes "
                         "those of X_spherized.urdf beside it")
     g.add_argument("--srdf", metavar="SRDF", help="SRDF whose disabled collisions prune self-collision pairs")
+    g.add_argument("--group", metavar="NAME",
+                   help="SRDF planning group to plan for: its joints move, the others are held at the request's "
+                        "start values; the end effector is its first tip link, and the metrics report every tip's "
+                        "path (default with --srdf: the group_name of the problems' first request)")
     g.add_argument("--spheres", metavar="JSON", help="collision sphere file (replaces URDF spheres)")
     g.add_argument("--ee-link", metavar="LINK", help="end-effector link (default: deepest active link)")
     g.add_argument("--mesh-dir", metavar="DIR", help="directory resolving package:// mesh paths")
@@ -247,8 +251,8 @@ def _robot(args: argparse.Namespace) -> Any:
     import gfcs
 
     if args.robot is None or args.robot == "mbm":
-        if args.srdf or args.spheres or args.ee_link or args.mesh_dir:
-            raise ValueError("--srdf/--spheres/--ee-link/--mesh-dir need --robot URDF")
+        if args.srdf or args.spheres or args.ee_link or args.mesh_dir or getattr(args, "group", None):
+            raise ValueError("--srdf/--group/--spheres/--ee-link/--mesh-dir need --robot URDF")
         if args.robot == "mbm":
             from gfcs.problems import mbm_panda
 
@@ -256,11 +260,20 @@ def _robot(args: argparse.Namespace) -> Any:
         return gfcs.Robot.panda()
     from gfcs.problems import spherized_urdf_for, with_gap_spheres, with_shipped_panda_spheres
 
-    robot = gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
-                                 srdf=args.srdf, spheres=args.spheres)
+    group = _group_name(args)
+    if group is not None:  # the group's joints active, its first tip the end effector (unless --ee-link)
+        from gfcs.srdf_groups import robot_for_group
+
+        robot, args.group_tips = robot_for_group(args.robot, args.srdf, group, mesh_dir=args.mesh_dir,
+                                                 spheres=args.spheres,
+                                                 **({"ee_link": args.ee_link} if args.ee_link else {}))
+    else:
+        robot = gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
+                                     srdf=args.srdf, spheres=args.spheres)
     sibling = spherized_urdf_for(args.robot) if len(robot.sphere_radii) == 0 else None
     if sibling is not None:  # a mesh model with its spherized twin beside it (MotionBenchMaker's panda.urdf)
-        twin = gfcs.Robot.from_urdf(sibling, ee_link=args.ee_link, mesh_dir=args.mesh_dir)
+        twin = gfcs.Robot.from_urdf(sibling, ee_link=robot.ee_link, active_joints=list(robot.joint_names),
+                                    mesh_dir=args.mesh_dir)
         robot = robot.with_spheres(list(zip(twin.sphere_links, twin.sphere_centers_local, twin.sphere_radii)))
         print(f"gfcs: {args.robot} has no collision spheres; the fabric uses those of {sibling}",
               file=sys.stderr)
@@ -272,12 +285,48 @@ def _robot(args: argparse.Namespace) -> Any:
     return with_gap_spheres(robot)  # MotionBenchMaker's panda_spherized.urdf gets --robot mbm's spheres
 
 
+def _group_name(args: argparse.Namespace) -> Optional[str]:
+    """The SRDF group to plan for: ``--group``, else with ``--srdf`` the ``group_name`` of the problems'
+    first request (``--request``, or the first of ``--problems`` in suite order), as MoveIt plans the
+    request's group; None without an SRDF or a request naming a group (the robot's default joints)."""
+    import gfcs
+    from gfcs import problems
+
+    if getattr(args, "group", None):
+        if not args.srdf:
+            raise ValueError("--group needs --srdf (the SRDF defines the groups)")
+        return str(args.group)
+    if not args.srdf:
+        return None
+    request = getattr(args, "request", None)
+    folder = getattr(args, "problems", None)
+    if not request and folder and Path(folder).is_dir():
+        wanted = set()
+        for c in getattr(args, "classes", None) or []:
+            wanted.add(str(c))
+            try:
+                wanted.add(problems.canonical_class(c))
+            except ValueError:
+                pass
+        firsts = (sorted(d.glob("request*.y*ml")) for d in problems._class_dirs(Path(folder))
+                  if not wanted or d.name in wanted)
+        request = next((found[0] for found in firsts if found), None)
+    if not request:
+        return None
+    return gfcs.load_motion_plan_request(str(request)).get("group") or None
+
+
 def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:
     """The problems with the mesh checker of ``--mesh-urdf`` (or the one found for ``--robot URDF``, see
     :func:`gfcs.problems.mesh_urdf_for`); unchanged when there is none (the shipped Panda, whose problems
-    carry its collision polytopes, or a sphere-only robot file)."""
+    carry its collision polytopes, or a sphere-only robot file). For a robot built for an SRDF group
+    (:func:`_robot`) each problem's ``meta["ee_links"]`` holds the group's tips, whose paths the metrics
+    report."""
     from gfcs import problems
 
+    tips = getattr(args, "group_tips", None)
+    if tips:
+        suite = [dataclasses.replace(p, meta={**p.meta, "ee_links": list(tips)}) for p in suite]
     urdf = args.mesh_urdf
     if urdf is None and args.robot not in (None, "mbm"):
         urdf = problems.mesh_urdf_for(args.robot)

@@ -550,10 +550,11 @@ def mbm_mesh_checker(path: Optional[PathLike] = None) -> Any:
     return _mesh_checker(urdf, root, srdf if srdf.is_file() else None)
 
 
-def _mesh_checker(urdf: Path, mesh_dir: Optional[PathLike], srdf: Optional[PathLike]) -> Any:
+def _mesh_checker(urdf: Path, mesh_dir: Optional[PathLike], srdf: Optional[PathLike],
+                  active_joints: Optional[Sequence[str]] = None) -> Any:
     import gfcs
 
-    robot = gfcs.Robot.from_urdf(str(urdf), mesh_dir=str(mesh_dir or urdf.parent),
+    robot = gfcs.Robot.from_urdf(str(urdf), mesh_dir=str(mesh_dir or urdf.parent), active_joints=active_joints,
                                  srdf=None if srdf is None else str(srdf))
     return gfcs.MeshChecker(robot)
 
@@ -565,7 +566,8 @@ def urdf_mesh_checker(urdf: PathLike, robot: Any, mesh_dir: Optional[PathLike] =
 
     Args:
         urdf: URDF file with the collision geometry.
-        robot: the robot that moves (its joints must be the URDF's active joints, in the same order).
+        robot: the robot that moves; its active joints (e.g. those of a planning group) are the checker's,
+            the URDF's other movable joints locked.
         mesh_dir: directory resolving ``package://`` mesh paths (default: the URDF's folder).
         srdf: SRDF whose disabled collisions prune the self-collision pairs (as for ``robot``).
 
@@ -573,7 +575,7 @@ def urdf_mesh_checker(urdf: PathLike, robot: Any, mesh_dir: Optional[PathLike] =
         ValueError: the URDF's joints differ from ``robot``'s (the message names both).
         gfcs.IoError / gfcs.FormatError / gfcs.MeshError: unreadable URDF, missing or malformed mesh file.
     """
-    checker = _mesh_checker(Path(urdf), mesh_dir, srdf)
+    checker = _mesh_checker(Path(urdf), mesh_dir, srdf, active_joints=list(robot.joint_names))
     if list(checker.joint_names) != list(robot.joint_names):
         raise ValueError(f"{urdf}: joints {list(checker.joint_names)} differ from robot '{robot.name}''s "
                          f"{list(robot.joint_names)}")
