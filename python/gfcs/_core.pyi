@@ -500,10 +500,16 @@ class MeshChecker:
         inf: nothing within max_distance). Trajectories in parallel, GIL released."""
     def self_clearance(self, q: ArrayLike, threads: Optional[int] = None) -> Union[float, FloatArray]:
         """q (dof,) -> float, q (T, dof) -> (T,): min distance over the self-collision shape pairs, m."""
-    def min_clearance(self, scene: Scene, q: ArrayLike, threads: Optional[int] = None) -> float:
-        """min over the states of q (T, dof) of ``clearance``, m (equal to ``clearance(scene, q).min()``,
-        faster: states farther than the closest of every eighth state are culled); inf for T = 0."""
-    def min_self_clearance(self, q: ArrayLike, threads: Optional[int] = None) -> float:
+    def min_clearance(
+        self, scene: Scene, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
+    ) -> float:
+        """min over the states of q (T, dof) of ``clearance``, m (equal to ``clearance(scene, q).min()``
+        where that is ≤ ``cutoff`` m (None: always), faster: states farther than the closest of every
+        eighth state are culled, and so are shape pairs beyond the cutoff); inf when nothing comes within
+        the cutoff, and for T = 0."""
+    def min_self_clearance(
+        self, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
+    ) -> float:
         """min over the states of q (T, dof) of ``self_clearance``, m, as ``min_clearance``."""
 
 # ------------------------------------------------------------------------------------------- particles

@@ -679,8 +679,9 @@ impl MeshChecker {
         })
     }
 
-    /// min over the states of a trajectory of `at(workspace, q, cutoff)`, exact, in three parallel
-    /// passes: every `MIN_STRIDES[0]`-th state and the last one with no cutoff, then the other
+    /// min over the states of a trajectory of `at(workspace, q, cutoff)`, exact where it is ≤ `cutoff`
+    /// (+∞ when no state comes that near), in three parallel passes: every `MIN_STRIDES[0]`-th state and
+    /// the last one with `cutoff`, then the other
     /// `MIN_STRIDES[1]`-th states, then the rest, each pass with the minimum of the passes before as its
     /// cutoff, so that states farther from contact than the closest one seen are culled by the
     /// broadphase. Each state's cutoff is fixed before its pass: deterministic whatever the thread count.
@@ -688,6 +689,7 @@ impl MeshChecker {
         &self,
         qs: &[f64],
         threads: Option<usize>,
+        cutoff: f64,
         at: impl Fn(&mut MeshWorkspace, &[f64], f64) -> Result<f64> + Sync + Send,
     ) -> Result<f64> {
         let n = self.states(qs)?;
@@ -713,16 +715,19 @@ impl MeshChecker {
                     .try_reduce(|| f64::INFINITY, |a, b| Ok(a.min(b)))
             })?
         };
-        let mut best = pass(0, f64::INFINITY)?;
+        let mut best = pass(0, cutoff)?;
         for of in 1..3 {
-            best = best.min(pass(of, best)?);
+            best = best.min(pass(of, best.min(cutoff))?);
         }
         Ok(best)
     }
 
     /// min over the states of `qs` (T × dof row-major) of [`MeshChecker::clearance`]: the same value as
-    /// the minimum of [`MeshChecker::trajectory_clearance`], at a fraction of its cost (states farther
-    /// from the scene than the closest of every eighth state are culled). +∞ for T = 0.
+    /// the minimum of [`MeshChecker::trajectory_clearance`] when that is ≤ `cutoff` (m; +∞: always), at a
+    /// fraction of its cost (states farther from the scene than the closest of every eighth state are
+    /// culled, and so is every shape pair whose bounds lie beyond `cutoff`); +∞ when no state comes
+    /// within `cutoff`, and for T = 0. A verdict "clear by more than m" needs only `cutoff` > m, and
+    /// then skips the exact mesh distances of every pair that is clearly farther.
     ///
     /// Errors: as [`MeshChecker::trajectory_clearance`].
     pub fn min_trajectory_clearance(
@@ -730,17 +735,23 @@ impl MeshChecker {
         scene: &Scene,
         qs: &[f64],
         threads: Option<usize>,
+        cutoff: f64,
     ) -> Result<f64> {
         let obstacles: Vec<&Obstacle> = scene.iter().map(|(_, o)| o).collect();
-        self.trajectory_min(qs, threads, |ws, q, cutoff| {
+        self.trajectory_min(qs, threads, cutoff, |ws, q, cutoff| {
             self.clearance_in(scene, &obstacles, q, cutoff, ws)
         })
     }
 
     /// min over the states of `qs` of [`MeshChecker::self_clearance`], as
-    /// [`MeshChecker::min_trajectory_clearance`].
-    pub fn min_trajectory_self_clearance(&self, qs: &[f64], threads: Option<usize>) -> Result<f64> {
-        self.trajectory_min(qs, threads, |ws, q, cutoff| {
+    /// [`MeshChecker::min_trajectory_clearance`] (exact where ≤ `cutoff`, +∞ when nothing is that near).
+    pub fn min_trajectory_self_clearance(
+        &self,
+        qs: &[f64],
+        threads: Option<usize>,
+        cutoff: f64,
+    ) -> Result<f64> {
+        self.trajectory_min(qs, threads, cutoff, |ws, q, cutoff| {
             self.self_clearance_in(q, cutoff, ws)
         })
     }

@@ -253,7 +253,7 @@ fn trajectory_matches_states_whatever_the_threads() {
         let expected = all.iter().copied().fold(f64::INFINITY, f64::min);
         for threads in [Some(1), Some(2)] {
             let got = checker
-                .min_trajectory_clearance(&scene, part, threads)
+                .min_trajectory_clearance(&scene, part, threads, f64::INFINITY)
                 .unwrap();
             assert_eq!(got, expected, "{n} states");
         }
@@ -333,11 +333,29 @@ fn mbm_panda_meshes_free_start_and_table_contact() {
         let part = &qs[..states * 7];
         let min = |v: Vec<f64>| v.into_iter().fold(f64::INFINITY, f64::min);
         let expected = min(checker.trajectory_clearance(&table, part, None).unwrap());
-        let got = checker.min_trajectory_clearance(&table, part, None);
+        let got = checker.min_trajectory_clearance(&table, part, None, f64::INFINITY);
         assert_eq!(got.unwrap(), expected);
         let expected = min(checker.trajectory_self_clearance(part, None).unwrap());
-        let got = checker.min_trajectory_self_clearance(part, Some(1));
+        let got = checker.min_trajectory_self_clearance(part, Some(1), f64::INFINITY);
         assert_eq!(got.unwrap(), expected);
+        // With a cutoff: exact at or below it, +inf when nothing comes that near.
+        for cutoff in [expected - 1e-3, expected, expected + 1e-3] {
+            let got = checker.min_trajectory_self_clearance(part, Some(2), cutoff).unwrap();
+            if expected <= cutoff {
+                assert_eq!(got, expected);
+            } else {
+                assert!(got > cutoff, "{got} at cutoff {cutoff}");
+            }
+        }
+        let obstacles = min(checker.trajectory_clearance(&table, part, None).unwrap());
+        for cutoff in [obstacles - 1e-3, obstacles + 1e-3] {
+            let got = checker.min_trajectory_clearance(&table, part, None, cutoff).unwrap();
+            if obstacles <= cutoff {
+                assert_eq!(got, obstacles);
+            } else {
+                assert!(got > cutoff, "{got} at cutoff {cutoff}");
+            }
+        }
     }
 }
 

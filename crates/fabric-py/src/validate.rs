@@ -16,6 +16,18 @@ use crate::robot::PyRobot;
 use crate::scene::PyScene;
 
 /// A float for q (dof,) or a (T,) array for q (T, dof).
+/// The `cutoff` argument of the trajectory minima: None is +∞; NaN is an `InvalidValueError` naming it.
+fn cutoff_arg(cutoff: Option<f64>) -> PyResult<f64> {
+    match cutoff {
+        None => Ok(f64::INFINITY),
+        Some(c) if c.is_nan() => Err(crate::errors::error(fabric_core::FabricError::Value {
+            what: "cutoff".to_string(),
+            message: "must be a number of metres, got NaN".to_string(),
+        })),
+        Some(c) => Ok(c),
+    }
+}
+
 fn scalar_or_array(py: Python<'_>, values: Vec<f64>, batch: Option<usize>) -> PyResult<Py<PyAny>> {
     match (batch, values.first()) {
         (None, Some(v)) => Ok(v.into_pyobject(py)?.into_any().unbind()),
@@ -150,35 +162,42 @@ impl PyMeshChecker {
     }
 
     /// min over the states of q (T, dof) (or one state (dof,)) of `clearance`, m: the same value as
-    /// `clearance(scene, q).min()`, faster (states farther from the scene than the closest of every
-    /// eighth state are culled); `inf` for T = 0. Parallel, GIL released.
-    #[pyo3(signature = (scene, q, threads=None))]
+    /// `clearance(scene, q).min()` where that is ≤ `cutoff` (m; None: always), faster (states farther
+    /// from the scene than the closest of every eighth state are culled, and so are shape pairs whose
+    /// bounds lie beyond the cutoff); `inf` when no state comes within the cutoff, and for T = 0.
+    /// Parallel, GIL released.
+    #[pyo3(signature = (scene, q, threads=None, cutoff=None))]
     fn min_clearance(
         &self,
         py: Python<'_>,
         scene: PyRef<'_, PyScene>,
         q: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
+        cutoff: Option<f64>,
     ) -> PyResult<f64> {
         let threads = convert::threads(threads)?;
+        let cutoff = cutoff_arg(cutoff)?;
         let checker = &self.inner;
         let (qs, _) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let scene = &scene.inner;
-        detached(py, || checker.min_trajectory_clearance(scene, &qs, threads))
+        detached(py, || checker.min_trajectory_clearance(scene, &qs, threads, cutoff))
     }
 
-    /// min over the states of q (T, dof) (or (dof,)) of `self_clearance`, m, as `min_clearance`.
-    #[pyo3(signature = (q, threads=None))]
+    /// min over the states of q (T, dof) (or (dof,)) of `self_clearance`, m, as `min_clearance` (exact
+    /// where ≤ `cutoff`, `inf` when nothing is that near).
+    #[pyo3(signature = (q, threads=None, cutoff=None))]
     fn min_self_clearance(
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
+        cutoff: Option<f64>,
     ) -> PyResult<f64> {
         let threads = convert::threads(threads)?;
+        let cutoff = cutoff_arg(cutoff)?;
         let checker = &self.inner;
         let (qs, _) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
-        detached(py, || checker.min_trajectory_self_clearance(&qs, threads))
+        detached(py, || checker.min_trajectory_self_clearance(&qs, threads, cutoff))
     }
 
     fn __repr__(&self) -> String {
