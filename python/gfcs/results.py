@@ -179,11 +179,11 @@ class SolveResult:
             the paper's "time" (GFCS Table I).
         wall_time: wall time of the whole :func:`gfcs.planning.solve` call [s]: the optimisation, the
             rollout and validation of the returned candidate (and of the ones it checked before it) and
-            every retry; 0 when unknown (results from before this field).
+            every retry; 0 when unknown (a result written without it).
         settings: rollout and optimiser settings used (dt, t_max, tol, ...).
         fabric_config: the fabric configuration as a dict (None: the defaults).
         joint_names: the robot's joint names, the order of every (dof,) vector and of the trajectory's
-            columns ([] when unknown: results from before this field).
+            columns ([] when unknown: a result written without them).
         pose_goal: the request's pose goal when the problem had one (``problem.meta["pose_goal"]``, see
             :mod:`gfcs.pose_goal`; ``goal`` is the joint goal found for it), else None.
         preset: the planner preset (``"default"`` or ``"paper"``, :mod:`gfcs.planning.presets`); "" when

@@ -145,7 +145,7 @@ def _initial_batch(sampler: InitialCandidates, n: int, dim: int, rng: np.random.
 
 
 #: Modules pycma imports at its top level for features Alg. 1 does not use (surrogate models' rank
-#: correlation, plotting); together they were 0.75 of its 0.95 s import time.
+#: correlation, plotting); together they take 0.75 s of its 0.95 s import time.
 #: Blocked while pycma is imported, when not loaded yet. "matplotlib" itself too: pycma's
 #: ``from matplotlib import pyplot`` loads the package (0.25 s) before it finds pyplot missing.
 _CMA_OPTIONAL_IMPORTS = ("scipy.stats", "matplotlib", "matplotlib.pyplot")
