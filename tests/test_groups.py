@@ -280,3 +280,10 @@ def test_cli_group_of_shared_fetch_requests():
                                        "wrist_flex_joint", "wrist_roll_joint"]
     assert robot.ee_link == "wrist_roll_link" and suite[0].meta["ee_links"] == ["wrist_roll_link"]
     assert list(suite[0].mesh_checker.joint_names) == list(robot.joint_names)
+
+
+def test_ee_links_of_a_problem():
+    problem = generators.two_arm_problems(1, seed=0)[0]
+    assert srdf_groups.ee_links(problem) == ["left_panda_hand", "right_panda_hand"]
+    problem.meta = {}
+    assert srdf_groups.ee_links(problem) == ["left_panda_hand"]

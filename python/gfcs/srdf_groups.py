@@ -355,5 +355,5 @@ def robot_for_group(urdf: PathOrXml, srdf: PathOrXml, group: str, **kwargs: Any)
 def ee_links(problem: Any) -> List[str]:
     """The end-effector links whose hand paths the metrics of ``problem`` report: ``problem.meta["ee_links"]``
     (the tips of the group it was loaded for), else its robot's end effector."""
-    links = getattr(problem, "meta", {}).get("ee_links")
+    links = (getattr(problem, "meta", None) or {}).get("ee_links")
     return list(links) if links else [problem.robot.ee_link]
