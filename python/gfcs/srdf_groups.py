@@ -28,7 +28,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence, Set, Tuple, Union
+from typing import Any, Dict, List, Optional, Set, Tuple, Union
 
 from gfcs.errors import FormatError, GfcsWarning, InvalidValueError, IoError, LinkError
 
