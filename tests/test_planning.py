@@ -140,6 +140,9 @@ def test_a_tiny_budget_lists_what_was_tried_and_what_was_not(retried_problem):
     assert not r.success and r.time_limit == 1e-3
     assert [a["outcome"] for a in r.attempts] == ["failure", "not run"]
     assert r.attempts[1]["label"] == "spheres, 2 commands" and r.attempts[1]["policy"] == "more commands"
+    text = cli.summary_text(r, retried_problem)
+    assert "attempts  spheres, 1 command: failure" in text and "spheres, 2 commands: not run" in text
+    assert "time limit 0.001 s" in text
 
 
 def test_solve_keeps_its_time_budget(retried_problem):

@@ -410,6 +410,14 @@ def _pose_goal_line(result: Any, problem: Any) -> str:
     return text
 
 
+def _attempts_line(result: Any) -> str:
+    """What the solve tried, in order: each attempt's label, outcome and time (``result.attempts``)."""
+    budget = f" (time limit {result.time_limit:g} s)" if result.time_limit else ""
+    tried = "; ".join(f"{a['label']}: {a['outcome']}" + (f" {a['time']:.2f} s" if a["outcome"] != "not run" else "")
+                      for a in result.attempts)
+    return f"attempts  {tried or 'none (gf)'}{budget}"
+
+
 def summary_text(result: Any, problem: Any) -> str:
     """A short human summary of a :class:`gfcs.results.SolveResult`."""
     m = result.metrics
@@ -451,6 +459,8 @@ def summary_text(result: Any, problem: Any) -> str:
                      f"{floor * 1000:.2f} mm, the collision meshes judging the contact")
     if not result.success:
         lines.extend(_endpoint_hints(result, problem))
+    if len(result.attempts) > 1 or not result.success:
+        lines.append(_attempts_line(result))
     lines.append(f"quality   EE length {_fmt(m['ee_length'], ' m')}, C-space length "
                  f"{_fmt(m['cspace_length'], ' rad')}, EE-LDJ {_fmt(m['ee_ldj'])}, C-space-LDJ "
                  f"{_fmt(m['cspace_ldj'])}, min clearance {_fmt(m['min_clearance'], ' m')}")
