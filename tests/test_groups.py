@@ -194,8 +194,6 @@ def test_two_arm_solve_succeeds_and_reports_both_hand_paths(two_arm_solve):
     assert row["ee_lengths"] == pytest.approx(expected)
 
 
-@pytest.mark.xfail(strict=True, reason="the planner's trajectory_metrics calls (gfcs.planning.solve._solve_gf, "
-                                       "selection.select_candidate) do not pass ee_links=problem.meta['ee_links'] yet")
 def test_two_arm_solve_metrics_carry_both_hands(two_arm_solve):
     problem, result = two_arm_solve
     expected = _hand_paths(problem.robot, np.asarray(result.trajectory.q), problem.meta["ee_links"])

@@ -213,3 +213,35 @@ def test_continuous_joints_wrap_the_goal_error_and_have_no_position_limits():
     q = np.stack([np.zeros(11), np.linspace(0.5, 7.0, 11)], axis=1)  # past 2π: allowed
     met = m.trajectory_metrics(robot, FakeFloor(), t, q, [0.0, 7.0 - math.tau])
     assert met["final_error"] == pytest.approx(0.0, abs=1e-12) and met["within_limits"] and met["success"]
+
+
+def test_checked_states_visit_a_slow_path_at_the_check_resolution_and_keep_a_fast_one():
+    slow = np.stack([np.linspace(0.0, 0.1, 101), np.zeros(101)], axis=1)  # 1 mrad steps
+    fast = np.stack([np.linspace(0.0, 1.0, 51), np.zeros(51)], axis=1)  # 20 mrad steps
+    kept = m.checked_states(slow, step=0.0045)
+    assert kept.shape == (21, 2) and np.all(np.diff(kept[:, 0]) <= 0.005 + 1e-12)
+    np.testing.assert_array_equal(kept[[0, -1]], slow[[0, -1]])
+    np.testing.assert_array_equal(m.checked_states(fast, step=0.005), fast)
+
+
+class _CountingChecker:
+    """Mesh checker double: obstacle clearance 0.2 m everywhere, counting the states it is asked about."""
+
+    def __init__(self):
+        self.states = 0
+
+    def min_clearance(self, scene, q, threads=None, cutoff=None):
+        self.states += len(q)
+        return 0.2
+
+    def min_self_clearance(self, q, threads=None, cutoff=None):
+        return 0.2
+
+
+def test_a_mesh_check_past_its_deadline_stops_with_a_negative_verdict():
+    q = np.stack([np.linspace(0.0, 6.0, 601), np.zeros(601)], axis=1)  # 10 mrad steps: every state checked
+    full = _CountingChecker()
+    assert m.mesh_verdict(full, None, q)[2] and full.states == 601
+    late = _CountingChecker()
+    clear, _, ok = m.mesh_verdict(late, None, q, deadline=0.0)  # already past
+    assert not ok and late.states == m.MESH_CHECK_CHUNK and clear == 0.2

@@ -235,7 +235,7 @@ def test_urdf_mesh_checker_matches_joints(tmp_path):
     scene = gfcs.Scene()
     scene.add_sphere([0.5, 0.0, 0.0], 0.1)
     assert checker.clearance(scene, [0.0]) == pytest.approx(0.5 - 0.1 - 0.2, abs=1e-7)
-    with pytest.raises(ValueError, match="joints"):
+    with pytest.raises(gfcs.LinkError, match="no joint named 'panda_joint1' in robot 'slider'"):
         problems.urdf_mesh_checker(plain, gfcs.Robot.panda())
 
 

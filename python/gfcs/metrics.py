@@ -23,6 +23,7 @@ import the compiled extension.
 from __future__ import annotations
 
 import math
+import time
 from typing import Any, Dict, Optional, Sequence, Tuple
 
 import numpy as np
@@ -57,6 +58,11 @@ VELOCITY_RATIO_TOL = 1e-6
 #: How far above the mesh margin [m] :func:`mesh_verdict` measures mesh clearances exactly; beyond it a
 #: clearance is reported as +inf.
 MESH_REPORT_RANGE = 0.01
+#: Resolution [rad or m, max over joints] at which collision checks visit a path (:func:`checked_states`):
+#: half the 0.01 rad at which validators commonly interpolate a returned trajectory.
+MESH_CHECK_STEP = 0.005
+#: States per mesh-check call when a deadline bounds the check (:func:`mesh_verdict`).
+MESH_CHECK_CHUNK = 64
 #: Default clearance [m] the collision meshes must keep, from the obstacles and between links, for a
 #: trajectory to count as collision-free when a mesh checker is given: a millimetre held back for
 #: checkers of the same meshes that measure differently (other distance code, tessellation, padding).
@@ -274,8 +280,23 @@ def mesh_clearance(mesh_checker: Any, scene: Any, q: Any) -> np.ndarray:
     return np.asarray(mesh_checker.clearance(scene, qa), dtype=np.float64).reshape(qa.shape[0])
 
 
-def mesh_verdict(mesh_checker: Any, scene: Any, q: Any,
-                 margin: float = DEFAULT_MESH_MARGIN) -> Tuple[float, float, bool]:
+def checked_states(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
+    """The rows of ``q`` (T, dof) a collision check visits: the first, the last, and each next one that
+    lies at least ``step`` [rad or m, max over joints] from the last one visited. A slowly timed path
+    (small steps) is checked at that resolution instead of at every time sample; a path whose samples lie
+    farther apart keeps all of them."""
+    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    keep = [0]
+    for k in range(1, qa.shape[0] - 1):
+        if np.max(np.abs(qa[k] - qa[keep[-1]])) >= step:
+            keep.append(k)
+    if qa.shape[0] > 1:
+        keep.append(qa.shape[0] - 1)
+    return qa[keep]
+
+
+def mesh_verdict(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_MESH_MARGIN,
+                 deadline: Optional[float] = None) -> Tuple[float, float, bool]:
     """The mesh part of the success criterion over the samples of ``q`` (T, dof).
 
     The exact mesh distances are computed only up to ``margin`` + :data:`MESH_REPORT_RANGE`: pairs of
@@ -283,15 +304,28 @@ def mesh_verdict(mesh_checker: Any, scene: Any, q: Any,
     most of a mesh check's cost), so a clearance beyond that range is reported as +inf. The verdict is
     the same as with exact distances.
 
+    The states are those of :func:`checked_states` (the path at :data:`MESH_CHECK_STEP` resolution). With
+    a ``deadline`` (a ``time.perf_counter()`` value) they are checked :data:`MESH_CHECK_CHUNK` at a time,
+    and a check that reaches the deadline stops there with a negative verdict: exact distances between
+    detailed meshes take up to a tenth of a second per state, and a solve's budget bounds its checks too.
+
     Returns:
         (min mesh clearance to the obstacles [m], min mesh clearance between links [m], both > ``margin``),
-        each +inf when no shape comes within ``margin`` + ``MESH_REPORT_RANGE``.
+        each +inf when no shape comes within ``margin`` + ``MESH_REPORT_RANGE`` (over the states checked).
     """
-    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    qa = checked_states(q)
     cutoff = float(margin) + MESH_REPORT_RANGE
-    clear = float(mesh_checker.min_clearance(scene, qa, cutoff=cutoff))
-    self_clear = float(mesh_checker.min_self_clearance(qa, cutoff=cutoff))
-    return clear, self_clear, clear > margin and self_clear > margin
+    chunk = qa.shape[0] if deadline is None else MESH_CHECK_CHUNK
+    clear = self_clear = math.inf
+    for start in range(0, qa.shape[0], max(1, chunk)):
+        part = qa[start:start + chunk]
+        clear = min(clear, float(mesh_checker.min_clearance(scene, part, cutoff=cutoff)))
+        self_clear = min(self_clear, float(mesh_checker.min_self_clearance(part, cutoff=cutoff)))
+        if clear <= margin or self_clear <= margin:
+            return clear, self_clear, False
+        if deadline is not None and start + chunk < qa.shape[0] and time.perf_counter() > deadline:
+            return clear, self_clear, False
+    return clear, self_clear, True
 
 
 def link_path_lengths(robot: Any, q: Any, links: Sequence[str]) -> Dict[str, float]:
@@ -352,6 +386,7 @@ def trajectory_metrics(
     mesh_margin: float = DEFAULT_MESH_MARGIN,
     clearance_floor: float = 0.0,
     ee_links: Optional[Sequence[str]] = None,
+    deadline: Optional[float] = None,
 ) -> Dict[str, Any]:
     """Everything GFCS Table I reports about one trajectory, plus the success criterion.
 
@@ -373,6 +408,8 @@ def trajectory_metrics(
             goal-contact attempt).
         ee_links: the end-effector links whose hand paths ``ee_lengths`` reports (default: just
             ``robot.ee_link``, when the robot has one), e.g. both hands of a two-arm group (``problem.meta["ee_links"]``).
+        deadline: with a checker, a ``time.perf_counter()`` value at which the mesh check stops, the
+            motion then counting as not validated (:func:`mesh_verdict`); None: no limit.
 
     Returns:
         dict with keys ``success`` (bool: ``sphere_success`` and, with a checker, mesh clearances >
@@ -423,7 +460,7 @@ def trajectory_metrics(
     mesh_ok = True
     extra: Dict[str, Any] = {}
     if mesh_checker is not None:
-        mesh_clear, mesh_self, mesh_ok = mesh_verdict(mesh_checker, scene, qa, mesh_margin)
+        mesh_clear, mesh_self, mesh_ok = mesh_verdict(mesh_checker, scene, qa, mesh_margin, deadline)
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
     # every hand's path; a robot object without an end-effector link (a stand-in) reports none

@@ -150,7 +150,9 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
         traj = candidate.trajectory
         met = _metrics.trajectory_metrics(problem.robot, problem.scene, traj.t, traj.q, goal,
                                           mesh_checker=mesh_checker, mesh_margin=options.mesh_margin,
-                                          clearance_floor=options.clearance_floor)
+                                          clearance_floor=options.clearance_floor,
+                                          ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
+                                          deadline=deadline)
         met["selection_rank"] = int(np.flatnonzero(order == k)[0])
         if mesh_checker is not None:
             met["mesh_candidates_checked"] = checked

@@ -188,7 +188,8 @@ def _solve_gf(problem: Any, fabric: Any, settings: RolloutSettings, finish: Fini
                                                     np.zeros((0, dof)), settings, finish)
     elapsed = time.perf_counter() - start
     met = _metrics.trajectory_metrics(robot, problem.scene, traj.t, traj.q, common["goal"],
-                                      mesh_checker=getattr(problem, "mesh_checker", None), mesh_margin=mesh_margin)
+                                      mesh_checker=getattr(problem, "mesh_checker", None), mesh_margin=mesh_margin,
+                                      ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"))
     return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached, t_stars=t_stars,
                        trajectory=traj, success=bool(met["success"]), metrics=met, n_evaluations=1,
                        solve_time=elapsed, settings={**dataclasses.asdict(settings), **recorded}, **common)
