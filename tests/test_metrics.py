@@ -245,3 +245,5 @@ def test_a_mesh_check_past_its_deadline_stops_with_a_negative_verdict():
     late = _CountingChecker()
     clear, _, ok = m.mesh_verdict(late, None, q, deadline=0.0)  # already past
     assert not ok and late.states == m.MESH_CHECK_CHUNK and clear == 0.2
+    assert m.mesh_check(_CountingChecker(), None, q, deadline=0.0)[3] is False
+    assert m.mesh_check(_CountingChecker(), None, q)[3] is True

@@ -447,7 +447,10 @@ def summary_text(result: Any, problem: Any) -> str:
                                   (not m["within_limits"], "joint limits violated"),
                                   (m.get("mesh_clearance", math.inf) <= mesh_margin,
                                    "mesh collision with obstacles"),
-                                  (m.get("mesh_self_clearance", math.inf) <= mesh_margin, "mesh self-collision"))
+                                  (m.get("mesh_self_clearance", math.inf) <= mesh_margin, "mesh self-collision"),
+                                  (m.get("velocity_ratio", 0.0) > 1.0 + 1e-6, "velocity limits exceeded"),
+                                  (not m.get("mesh_check_complete", True),
+                                   "mesh check not finished within the time limit"))
            if bad]
     verdict = "SUCCESS" if result.success else f"FAILURE ({', '.join(why) or 'goal tolerance'})"
     lines.append(f"result    {verdict}: cost {_fmt(result.cost, ' s')} "

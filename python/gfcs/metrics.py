@@ -61,8 +61,10 @@ MESH_REPORT_RANGE = 0.01
 #: Resolution [rad or m, max over joints] at which collision checks visit a path (:func:`checked_states`):
 #: half the 0.01 rad at which validators commonly interpolate a returned trajectory.
 MESH_CHECK_STEP = 0.005
-#: States per mesh-check call when a deadline bounds the check (:func:`mesh_verdict`).
-MESH_CHECK_CHUNK = 64
+#: States per mesh-check call when a deadline bounds the check (:func:`mesh_check`): exact distances of
+#: detailed meshes take up to a tenth of a second per state, so a check overruns its deadline by at most
+#: about a second.
+MESH_CHECK_CHUNK = 8
 #: Default clearance [m] the collision meshes must keep, from the obstacles and between links, for a
 #: trajectory to count as collision-free when a mesh checker is given: a millimetre held back for
 #: checkers of the same meshes that measure differently (other distance code, tessellation, padding).
@@ -297,6 +299,13 @@ def checked_states(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
 
 def mesh_verdict(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_MESH_MARGIN,
                  deadline: Optional[float] = None) -> Tuple[float, float, bool]:
+    """(min obstacle clearance, min self-clearance, verdict) of :func:`mesh_check` (see there)."""
+    clear, self_clear, ok, _complete = mesh_check(mesh_checker, scene, q, margin, deadline)
+    return clear, self_clear, ok
+
+
+def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_MESH_MARGIN,
+               deadline: Optional[float] = None) -> Tuple[float, float, bool, bool]:
     """The mesh part of the success criterion over the samples of ``q`` (T, dof).
 
     The exact mesh distances are computed only up to ``margin`` + :data:`MESH_REPORT_RANGE`: pairs of
@@ -310,8 +319,10 @@ def mesh_verdict(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_
     detailed meshes take up to a tenth of a second per state, and a solve's budget bounds its checks too.
 
     Returns:
-        (min mesh clearance to the obstacles [m], min mesh clearance between links [m], both > ``margin``),
-        each +inf when no shape comes within ``margin`` + ``MESH_REPORT_RANGE`` (over the states checked).
+        (min mesh clearance to the obstacles [m], min mesh clearance between links [m], both > ``margin``,
+        whether the verdict is final (False: the deadline came before every state was checked)), each
+        clearance +inf when no shape comes within ``margin`` + ``MESH_REPORT_RANGE`` (over the states
+        checked).
     """
     qa = checked_states(q)
     cutoff = float(margin) + MESH_REPORT_RANGE
@@ -322,10 +333,10 @@ def mesh_verdict(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_
         clear = min(clear, float(mesh_checker.min_clearance(scene, part, cutoff=cutoff)))
         self_clear = min(self_clear, float(mesh_checker.min_self_clearance(part, cutoff=cutoff)))
         if clear <= margin or self_clear <= margin:
-            return clear, self_clear, False
+            return clear, self_clear, False, True
         if deadline is not None and start + chunk < qa.shape[0] and time.perf_counter() > deadline:
-            return clear, self_clear, False
-    return clear, self_clear, True
+            return clear, self_clear, False, False
+    return clear, self_clear, True, True
 
 
 def link_path_lengths(robot: Any, q: Any, links: Sequence[str]) -> Dict[str, float]:
@@ -460,7 +471,8 @@ def trajectory_metrics(
     mesh_ok = True
     extra: Dict[str, Any] = {}
     if mesh_checker is not None:
-        mesh_clear, mesh_self, mesh_ok = mesh_verdict(mesh_checker, scene, qa, mesh_margin, deadline)
+        mesh_clear, mesh_self, mesh_ok, complete = mesh_check(mesh_checker, scene, qa, mesh_margin, deadline)
+        extra["mesh_check_complete"] = complete
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
     # every hand's path; a robot object without an end-effector link (a stand-in) reports none

@@ -102,14 +102,24 @@ class AttemptRecord:
         """It failed only because a collision mesh came too near: judged with meshes, and a success under
         the sphere model (goal reached, spheres clear, joint limits kept)."""
         m = self.result.metrics if self.result is not None else {}
-        return "mesh_clearance" in m and not self.success and bool(m.get("sphere_success"))
+        return ("mesh_clearance" in m and not self.success and bool(m.get("sphere_success"))
+                and m.get("mesh_check_complete", True))
 
     @property
     def outcome(self) -> str:
-        """``"success"``, ``"mesh contact"`` (a success but for the meshes), ``"failure"`` or ``"not run"``."""
+        """``"success"``, ``"mesh contact"`` (a success but for the meshes), ``"not validated in time"`` (a
+        success under the sphere model whose mesh check the budget cut short), ``"failure"`` or
+        ``"not run"``."""
         if self.result is None:
             return "not run"
-        return "success" if self.success else "mesh contact" if self.mesh_collision_only else "failure"
+        if self.success:
+            return "success"
+        if self.mesh_collision_only:
+            return "mesh contact"
+        m = self.result.metrics
+        if m.get("sphere_success") and not m.get("mesh_check_complete", True):
+            return "not validated in time"
+        return "failure"
 
     def to_dict(self) -> Dict[str, Any]:
         """JSON-ready summary: label, policy, settings, outcome, cost, time, evaluations, batches."""
