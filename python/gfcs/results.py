@@ -16,8 +16,9 @@ rollout time: the paper's time), ``wall_time`` [s] (the whole solve behind the r
 and validation of the returned motion, retries), ``cost`` (GFCS eq. 4), ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``,
 ``cspace_ldj``, ``min_clearance`` [m] (collision spheres), ``final_error`` [rad]; when the trajectory was
 validated against collision meshes also ``mesh_clearance`` and ``mesh_self_clearance`` [m] (the smallest
-mesh distance to the obstacles and between non-adjacent links; ``inf``: none within the checker's
-``max_distance``); for a robot with several end effectors (a group spanning two arms) also ``ee_lengths``
+mesh distance to the obstacles and between non-adjacent links; ``inf``: none within the mesh margin +
+``gfcs.metrics.MESH_REPORT_RANGE``); ``velocity_ratio`` (the largest finite-difference joint speed over its
+URDF velocity limit, ≤ 1 within the limits); for a robot with several end effectors (a group spanning two arms) also ``ee_lengths``
 ({link: hand path [m]}, every hand; ``ee_length`` is the first's).
 
 A problem of the suite that was not run (its start or goal outside the robot's joint limits, see
@@ -357,7 +358,8 @@ def bench_row(
     wall_time: float,
 ) -> Dict[str, Any]:
     """One benchmark row (see the module docstring for the keys) from trajectory metrics."""
-    mesh = {key: float(metrics[key]) for key in ("mesh_clearance", "mesh_self_clearance") if key in metrics}
+    mesh = {key: float(metrics[key]) for key in ("mesh_clearance", "mesh_self_clearance", "velocity_ratio")
+            if key in metrics}
     # a robot with several end effectors (a group spanning two arms) reports every hand's path
     hands = metrics.get("ee_lengths") or {}
     if len(hands) > 1:
