@@ -305,6 +305,6 @@ goal_constraints:
         tolerance_below: 0.001
         weight: 1.0
 """)
-    with pytest.warns(UserWarning, match="planned on the bound: start j = .* -> 3.14159; goal j"):
+    with pytest.warns(gfcs.GfcsWarning, match="planned on the bound: start j = .* -> 3.14159; goal j"):
         p = problems.load_mbm(tmp_path / "scene0001.yaml", tmp_path / "request0001.yaml", robot=rev)
     assert p.q0.tolist() == [3.14159] and p.goal.tolist() == [-3.14159]

@@ -296,7 +296,7 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
         moved += [f"{part} {m}" for m in shifts]
     if moved:
         warnings.warn(f"{request_path}: values just outside their joint bounds (by at most {BOUNDS_TOLERANCE} "
-                      f"rad or m) are planned on the bound: {'; '.join(moved)}", UserWarning, stacklevel=3)
+                      f"rad or m) are planned on the bound: {'; '.join(moved)}", gfcs.errors.GfcsWarning, stacklevel=3)
     if "goal" in values:  # continuous joints turn the short way to the goal's orientation
         values["goal"] = unwrap_goal(values["start"], values["goal"], continuous_mask(robot))
     meta = {"scene_file": str(scene_path), "request_file": str(request_path),
