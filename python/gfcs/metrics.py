@@ -62,9 +62,9 @@ MESH_REPORT_RANGE = 0.01
 #: half the 0.01 rad at which validators commonly interpolate a returned trajectory.
 MESH_CHECK_STEP = 0.005
 #: States per mesh-check call when a deadline bounds the check (:func:`mesh_check`): exact distances of
-#: detailed meshes take up to a tenth of a second per state, so a check overruns its deadline by at most
-#: about a second.
-MESH_CHECK_CHUNK = 8
+#: detailed meshes take up to 0.16 s per state, so a check overruns its deadline by a few tenths of a second
+#: at most.
+MESH_CHECK_CHUNK = 2
 #: Default clearance [m] the collision meshes must keep, from the obstacles and between links, for a
 #: trajectory to count as collision-free when a mesh checker is given: a millimetre held back for
 #: checkers of the same meshes that measure differently (other distance code, tessellation, padding).

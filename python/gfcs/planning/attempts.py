@@ -34,11 +34,12 @@ class Attempt:
     Attributes:
         model: the planning model (robot spheres and their margin offset).
         n_commands: free commands n (the decision variable has n·dof entries).
-        kind: ``"plan"`` or ``"goal_contact"`` (per-sphere margins and a clearance floor, see
-            :class:`gfcs.planning.policies.GoalContact`).
+        kind: ``"plan"``, ``"goal_contact"`` (per-sphere margins and a clearance floor, see
+            :class:`gfcs.planning.policies.GoalContact`) or ``"cover"`` (per-sphere margins that cover the
+            meshes, :class:`gfcs.planning.policies.MeshCover`).
         margin_round: k of the wider-margin policy: the obstacle margin is the model's plus k × ``margin_step``.
         margin_step: [m] the step of that policy (0 for k = 0).
-        obstacle_margins: (S,) per-sphere obstacle margins [m] of a goal-contact attempt, else None.
+        obstacle_margins: (S,) per-sphere obstacle margins [m] of a goal-contact or cover attempt, else None.
         clearance_floor: [m, ≤ 0] how far spheres may overlap obstacles for success (goal contact), else 0.
     """
 
@@ -58,6 +59,8 @@ class Attempt:
             text += f", margin +{self.margin_round * self.margin_step * 1000:.3g} mm"
         if self.kind == "goal_contact":
             text += ", goal contact"
+        if self.kind == "cover":
+            text += ", mesh cover"
         return text
 
     def obstacle_margin(self, base: float) -> float:
@@ -253,8 +256,9 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
                                  options.threads, select_deadline)
     if budget is not None:
         budget.observe_selection(time.perf_counter() - chosen_at)
+    # per-sphere margins are recorded under the attempt's kind ("goal_contact" or "cover")
     contact = {} if fabric.obstacle_margins is None else {
-        "goal_contact": {"clearance_floor": floor, "obstacle_margins": np.asarray(fabric.obstacle_margins).tolist()}}
+        attempt.kind: {"clearance_floor": floor, "obstacle_margins": np.asarray(fabric.obstacle_margins).tolist()}}
     extra = {"n_commands": n, "sampler": type(sampler).__name__, **contact}
     if attempt.model.name == "thin":
         extra["sphere_model"] = "thin"

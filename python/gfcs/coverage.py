@@ -1,0 +1,111 @@
+"""How far a robot's collision meshes stick out of its collision spheres, sphere by sphere.
+
+A sphere model made by hand or by a spherization tool (MotionBenchMaker's ``*_spherized.urdf``) leaves parts
+of the collision meshes outside every sphere: 10-57 mm on the MotionBenchMaker Fetch's links, 3-29 mm on the
+UR5's. A fabric that keeps its spheres a few millimetres from obstacles can then bring those parts into
+contact, and a mesh validator rejects the motion. :func:`sphere_deficits` measures, for each sphere, how far
+the mesh points nearest to it lie outside it; the ``MeshCover`` retry policy
+(:mod:`gfcs.planning.policies`) keeps each sphere that much farther from obstacles.
+
+Mesh points: every vertex of each link's collision elements (meshes with their ``scale``, boxes,
+cylinders, spheres) placed by the element's ``<origin>``, and a seeded area-uniform sample of their
+surfaces, in the link frame. Each point belongs to the sphere of its link whose surface is nearest, and a
+sphere's deficit is the largest distance of its points outside it (0 when they all lie inside).
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, Dict, List, Tuple
+
+import numpy as np
+
+__all__ = ["sphere_deficits", "SURFACE_SAMPLES"]
+
+#: Surface points sampled per collision element (seeded), besides its vertices.
+SURFACE_SAMPLES = 2000
+
+
+def _element_points(element: Dict[str, Any]) -> np.ndarray:
+    """(N, 3) points of one collision element of ``Robot.collision_geometry()`` in its link's frame."""
+    import trimesh
+
+    kind = element["type"]
+    if kind == "mesh":
+        if not element.get("exists", True) or element.get("path") is None:
+            return np.zeros((0, 3))
+        mesh = trimesh.load(element["path"], force="mesh")
+        if element.get("scale") is not None:
+            mesh.apply_scale(np.asarray(element["scale"], dtype=np.float64))
+    elif kind == "box":
+        mesh = trimesh.creation.box(extents=np.asarray(element["size"], dtype=np.float64))
+    elif kind in ("cylinder", "capsule"):
+        length, radius = (float(x) for x in element["size"])
+        make = trimesh.creation.cylinder if kind == "cylinder" else trimesh.creation.capsule
+        mesh = make(radius=radius, height=length)
+    elif kind == "sphere":
+        mesh = trimesh.creation.icosphere(subdivisions=3, radius=float(element["size"][0]))
+    else:
+        return np.zeros((0, 3))
+    mesh.apply_transform(np.asarray(element["origin"], dtype=np.float64))
+    points = [np.asarray(mesh.vertices, dtype=np.float64)]
+    if len(mesh.faces):
+        points.append(np.asarray(trimesh.sample.sample_surface(mesh, SURFACE_SAMPLES, seed=0)[0]))
+    return np.vstack(points)
+
+
+@functools.lru_cache(maxsize=16)
+def _link_points(geometry_key: Tuple[Tuple[str, str, str, str, str], ...]) -> Dict[str, np.ndarray]:
+    """{link: (N, 3) mesh points} for a robot's collision geometry, cached by its description."""
+    out: Dict[str, List[np.ndarray]] = {}
+    for link, kind, path, size, scale, origin in (_decode(entry) for entry in geometry_key):
+        element = {"type": kind, "path": path or None, "size": size, "scale": scale, "origin": origin}
+        out.setdefault(link, []).append(_element_points(element))
+    return {link: np.vstack(parts) for link, parts in out.items()}
+
+
+def _key(element: Dict[str, Any]) -> Tuple[str, ...]:
+    """A hashable description of one collision element (its file, sizes, scale and origin)."""
+    def text(x: Any) -> str:
+        return "" if x is None else ",".join(repr(float(v)) for v in np.asarray(x, dtype=np.float64).ravel())
+
+    return (str(element["link"]), str(element["type"]),
+            str(element.get("path") or "") if element.get("exists", True) else "", text(element.get("size")),
+            text(element.get("scale")), text(element["origin"]))
+
+
+def _decode(entry: Tuple[str, ...]) -> Tuple[str, str, str, Any, Any, np.ndarray]:
+    link, kind, path, size, scale, origin = entry
+
+    def values(t: str) -> Any:
+        return None if t == "" else np.array([float(v) for v in t.split(",")])
+
+    return link, kind, path, values(size), values(scale), values(origin).reshape(4, 4)
+
+
+def sphere_deficits(robot: Any, mesh_robot: Any) -> np.ndarray:
+    """(S,) how far [m, ≥ 0] the collision meshes of ``mesh_robot`` stick out of each collision sphere of
+    ``robot`` (see the module docstring); spheres on links without mesh geometry get 0.
+
+    Args:
+        robot: the :class:`gfcs.Robot` whose spheres plan (``sphere_links``, ``sphere_centers_local``,
+            ``sphere_radii``).
+        mesh_robot: a robot with the same links whose ``collision_geometry()`` holds the meshes (e.g. a
+            :class:`gfcs.MeshChecker`'s ``robot``).
+    """
+    points = _link_points(tuple(_key(e) for e in mesh_robot.collision_geometry()))
+    links = np.asarray(robot.sphere_links)
+    centres = np.asarray(robot.sphere_centers_local, dtype=np.float64).reshape(-1, 3)
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    deficit = np.zeros(radii.shape[0])
+    for link, pts in points.items():
+        on = np.flatnonzero(links == link)
+        if on.size == 0 or pts.shape[0] == 0:
+            continue
+        outside = np.linalg.norm(pts[:, None, :] - centres[on][None], axis=2) - radii[on][None]
+        nearest = np.argmin(outside, axis=1)
+        for k, i in enumerate(on):
+            mine = outside[nearest == k, k]
+            if mine.size:
+                deficit[i] = max(0.0, float(mine.max()))
+    return deficit
