@@ -4,7 +4,7 @@ largest speed/limit ratio, and the time budget, for every robot in one table.
 
 Runs `gfcs bench` (as a new user would: the robot's spherized URDF and its SRDF as shipped) for each robot
 whose problems and files are in the shared data folder, writes one JSONL file per robot into --out, and
-prints a markdown section (also written to --out/robots.md) for BENCHMARKS.md.
+prints a markdown section (also written to --out/robots.PRESET.md) for BENCHMARKS.md.
 
 Example (problems 1-10 of each class, the default preset and 5 s budget)::
 
@@ -69,7 +69,7 @@ def section(name: str, rows_file: Path) -> List[str]:
 def main(argv: List[str] = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shared", type=Path, default=Path("../shared"), help="shared data folder")
-    ap.add_argument("--out", type=Path, required=True, help="folder for the JSONL rows and robots.md")
+    ap.add_argument("--out", type=Path, required=True, help="folder for the JSONL rows and robots.PRESET.md")
     ap.add_argument("--limit", type=int, default=10, help="problems per class (default 10)")
     ap.add_argument("--preset", default="default", choices=["default", "paper"])
     ap.add_argument("--time-limit", type=float, default=5.0, help="solve budget, s (default 5)")
@@ -80,7 +80,7 @@ def main(argv: List[str] = None) -> int:
     for name in args.robots:
         lines += section(name, run(args.shared, name, args.out, args.limit, args.preset, args.time_limit))
     text = "\n".join(lines)
-    (args.out / "robots.md").write_text(text)
+    (args.out / f"robots.{args.preset}.md").write_text(text)
     print(text)
     return 0
 
