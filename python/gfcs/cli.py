@@ -468,8 +468,16 @@ def summary_text(result: Any, problem: Any) -> str:
                  f"{_fmt(m['cspace_length'], ' rad')}, EE-LDJ {_fmt(m['ee_ldj'])}, C-space-LDJ "
                  f"{_fmt(m['cspace_ldj'])}, min clearance {_fmt(m['min_clearance'], ' m')}")
     if "mesh_clearance" in m:
-        lines.append(f"checked   collision meshes: min clearance {_fmt(m['mesh_clearance'], ' m')} to obstacles, "
-                     f"{_fmt(m['mesh_self_clearance'], ' m')} between links")
+        from gfcs.metrics import MESH_REPORT_RANGE
+
+        # clearances beyond the exactly measured range are reported as inf (gfcs.metrics.mesh_check)
+        beyond = f"over {(mesh_margin + MESH_REPORT_RANGE) * 1000:.3g} mm"
+
+        def clearance(v: float) -> str:
+            return beyond if v == math.inf else _fmt(v, " m")
+
+        lines.append(f"checked   collision meshes: min clearance {clearance(m['mesh_clearance'])} to obstacles, "
+                     f"{clearance(m['mesh_self_clearance'])} between links")
     else:
         lines.append("checked   collision spheres only (no collision-mesh model of this robot; --mesh-urdf adds one)")
     timing = f"time      {result.solve_time:.2f} s"
