@@ -55,9 +55,11 @@ DEFAULT_SUCCESS_TOL = 0.01
 DEFAULT_LIMIT_TOL = 1e-6
 #: Relative slack on the velocity limits in the success criterion (rounding of the re-timed samples).
 VELOCITY_RATIO_TOL = 1e-6
-#: How far above the mesh margin [m] :func:`mesh_verdict` measures mesh clearances exactly; beyond it a
-#: clearance is reported as +inf.
-MESH_REPORT_RANGE = 0.01
+#: How far above the mesh margin [m] :func:`mesh_check` measures mesh clearances exactly; beyond it a
+#: clearance is reported as +inf. Small, because every exact distance between detailed meshes whose convex
+#: hulls lie within this range is computed: on the UR5's gripper meshes a motion's self-collision check
+#: took 13 s with 0.5 mm, 17 s with 2 mm and 55 s with 11 mm.
+MESH_REPORT_RANGE = 0.002
 #: Resolution [rad or m, max over joints] at which collision checks visit a path (:func:`checked_states`):
 #: half the 0.01 rad at which validators commonly interpolate a returned trajectory.
 MESH_CHECK_STEP = 0.005
