@@ -83,8 +83,8 @@ def append_goal_blend(t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd_last: np
     Args:
         t: (T,) times [s]; q, qd: (T, dof); qdd_last: (dof,) acceleration at the last row; goal: (dof,).
         lower, upper: (dof,) joint limits [rad] the blend must keep, or None. A quintic that arrives with
-            speed toward a goal at a limit passes it before it comes back (on MotionBenchMaker's box 2 with the
-            shipped Panda, joint 2 by 0.0032 rad); the blend is then shortened (×0.8 at a time,
+            speed toward a goal at a limit passes it before it comes back (by a few mrad); the blend is
+            then shortened (×0.8 at a time,
             down to 2 steps) until it stays within the limits, which steepens its stop (the acceleration
             re-timing of :func:`limit_dynamics` then slows the path before it instead).
 

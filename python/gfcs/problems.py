@@ -809,11 +809,8 @@ def mbm_panda(path: Optional[PathLike] = None, fill_gaps: bool = True) -> Any:
     only. With ``fill_gaps`` (default) the model gets the 22 spheres of :data:`MBM_GAP_SPHERES`, inscribed
     in the meshes of links 1-6 and the fingers (``tools/fill_sphere_gaps.py``): they lie inside the
     meshes (by 1 mm), so a configuration whose meshes are clear stays clear for them, and the largest gaps
-    fall to 12-20 mm. On the 350 MotionBenchMaker problems (5 batches with the retry, seed 0) the 18
-    spheres of links 1-5 and the fingers took table-under hand paths from 1.43 to 1.29 m and first-batch
-    successes from 331 to 340; link6's four (its mesh is not convex) then solved cage 48, whose reaching
-    candidates all clipped the cage with that mesh, for seed 0: 349 of 350 (BENCHMARKS.md). The four
-    cost no measurable time per fabric step.
+    fall to 12-20 mm. Link6's mesh is not convex, so it gets four; they cost no measurable time per
+    fabric step. Their effect on success and hand paths is in BENCHMARKS.md.
 
     The model is built once per folder and shared (robots are immutable). When the folder also holds the
     mesh model ``panda.urdf``, a :class:`gfcs.MeshChecker` of its collision meshes is attached: see
