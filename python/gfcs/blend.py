@@ -286,6 +286,11 @@ def limit_dynamics(t: np.ndarray, q: np.ndarray, qd: np.ndarray, dt: float, velo
         return rv, ra
 
     def dilate(t: np.ndarray, q: np.ndarray, qd: np.ndarray, lam: np.ndarray):
+        """Re-time by dτ = λ dt and resample at dt; a moving start keeps λ = 1 at its first sample,
+        reached smoothly over ``window``."""
+        if moving_start:
+            ramp = np.clip((t - t[0]) / window, 0.0, 1.0)
+            lam = 1.0 + (lam - 1.0) * ramp * ramp * (3.0 - 2.0 * ramp)
         tau = np.concatenate([[t[0]], t[0] + np.cumsum(np.diff(t) * 0.5 * (lam[1:] + lam[:-1]))])
         # a uniform grid from the first to the last knot, its step within dt / (2n) of dt
         n = max(1, int(round((tau[-1] - tau[0]) / dt)))
@@ -303,20 +308,12 @@ def limit_dynamics(t: np.ndarray, q: np.ndarray, qd: np.ndarray, dt: float, velo
             return t, q, qd
         # aim a little below the limits so that one or two passes suffice
         lam = np.maximum(1.0, np.maximum(rv / _LIMIT_TARGET, np.sqrt(ra / _LIMIT_TARGET)))
-        lam = _widen_and_smooth(lam, half)
-        if moving_start:  # keep the start state: λ = 1 at the first sample, reached smoothly
-            ramp = np.clip((t - t[0]) / window, 0.0, 1.0)
-            lam = 1.0 + (lam - 1.0) * ramp * ramp * (3.0 - 2.0 * ramp)
-        t, q, qd = dilate(t, q, qd, lam)
+        t, q, qd = dilate(t, q, qd, _widen_and_smooth(lam, half))
     for _ in range(8):  # velocity limits must hold: dilate uniformly by what is left
         rv, _ = ratios(t, q)
         if moving_start:
             rv = rv[min(len(rv) - 1, half + 1):]
         if rv.size == 0 or rv.max() <= 1.0:
             break
-        lam = np.full(len(t), rv.max() / _LIMIT_TARGET)
-        if moving_start:
-            ramp = np.clip((t - t[0]) / window, 0.0, 1.0)
-            lam = 1.0 + (lam - 1.0) * ramp * ramp * (3.0 - 2.0 * ramp)
-        t, q, qd = dilate(t, q, qd, lam)
+        t, q, qd = dilate(t, q, qd, np.full(len(t), rv.max() / _LIMIT_TARGET))
     return t, q, qd

@@ -16,7 +16,7 @@ sphere's deficit is the largest distance of its points outside it (0 when they a
 from __future__ import annotations
 
 import functools
-from typing import Any, Dict, List, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -55,32 +55,26 @@ def _element_points(element: Dict[str, Any]) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=16)
-def _link_points(geometry_key: Tuple[Tuple[str, str, str, str, str], ...]) -> Dict[str, np.ndarray]:
-    """{link: (N, 3) mesh points} for a robot's collision geometry, cached by its description."""
+def _link_points(geometry: Tuple[Tuple[Any, ...], ...]) -> Dict[str, np.ndarray]:
+    """{link: (N, 3) mesh points} for a robot's collision geometry given as :func:`_key` tuples, cached by
+    it (the same meshes are read once per process)."""
     out: Dict[str, List[np.ndarray]] = {}
-    for link, kind, path, size, scale, origin in (_decode(entry) for entry in geometry_key):
-        element = {"type": kind, "path": path or None, "size": size, "scale": scale, "origin": origin}
+    for link, kind, path, size, scale, origin in geometry:
+        element = {"type": kind, "path": path, "size": size, "scale": scale,
+                   "origin": np.asarray(origin).reshape(4, 4)}
         out.setdefault(link, []).append(_element_points(element))
     return {link: np.vstack(parts) for link, parts in out.items()}
 
 
-def _key(element: Dict[str, Any]) -> Tuple[str, ...]:
-    """A hashable description of one collision element (its file, sizes, scale and origin)."""
-    def text(x: Any) -> str:
-        return "" if x is None else ",".join(repr(float(v)) for v in np.asarray(x, dtype=np.float64).ravel())
+def _key(element: Dict[str, Any]) -> Tuple[Any, ...]:
+    """One collision element of ``Robot.collision_geometry()`` as a hashable tuple (link, type, mesh path or
+    None, sizes, scale, origin), numbers as tuples of floats."""
+    def values(x: Any) -> Optional[Tuple[float, ...]]:
+        return None if x is None else tuple(float(v) for v in np.asarray(x, dtype=np.float64).ravel())
 
-    return (str(element["link"]), str(element["type"]),
-            str(element.get("path") or "") if element.get("exists", True) else "", text(element.get("size")),
-            text(element.get("scale")), text(element["origin"]))
-
-
-def _decode(entry: Tuple[str, ...]) -> Tuple[str, str, str, Any, Any, np.ndarray]:
-    link, kind, path, size, scale, origin = entry
-
-    def values(t: str) -> Any:
-        return None if t == "" else np.array([float(v) for v in t.split(",")])
-
-    return link, kind, path, values(size), values(scale), values(origin).reshape(4, 4)
+    path = element.get("path") if element.get("exists", True) else None
+    return (str(element["link"]), str(element["type"]), path, values(element.get("size")),
+            values(element.get("scale")), values(element["origin"]))
 
 
 def sphere_deficits(robot: Any, mesh_robot: Any) -> np.ndarray:

@@ -202,13 +202,14 @@ def velocity_ratio(t: Any, q: Any, limits: Any) -> float:
         t: (T,) increasing times [s]; q: (T, dof) positions [rad or m].
         limits: (dof,) velocity limits [rad/s or m/s] (inf: none).
     """
+    from gfcs.blend import first_difference_speed
+
     ta = np.asarray(t, dtype=np.float64).reshape(-1)
     qa = _as_path(q, "q")
     v = np.asarray(limits, dtype=np.float64).reshape(-1)
     if qa.shape[0] < 2:
         return 0.0
-    speed = np.abs(np.diff(qa, axis=0)) / np.diff(ta)[:, None]
-    return float(np.max(speed / v))
+    return float(np.max(first_difference_speed(ta, qa) / v))
 
 
 def sphere_clearances(robot: Any, scene: Any, q: Any) -> np.ndarray:
@@ -477,10 +478,14 @@ def trajectory_metrics(
         extra["mesh_check_complete"] = complete
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
-    # every hand's path; a robot object without an end-effector link (a stand-in) reports none
+    # every hand's path; a robot object without an end-effector link (a stand-in) reports none. The end
+    # effector's own path is ee_a's, already computed (unless the caller gave other positions as ee)
     hands = list(ee_links) if ee_links else ([robot.ee_link] if hasattr(robot, "ee_link") else [])
     if hands:
-        extra["ee_lengths"] = link_path_lengths(robot, qa, hands)
+        known = {robot.ee_link: path_length(ee_a)} if ee is None and robot.ee_link in hands else {}
+        rest = [h for h in hands if h not in known]
+        known.update(link_path_lengths(robot, qa, rest) if rest else {})
+        extra["ee_lengths"] = {str(h): known[h] for h in hands}
     sphere_ok = bool(final_error <= tol and clear >= floor and self_clear >= 0.0 and limits_ok
                      and speed_ratio <= 1.0 + VELOCITY_RATIO_TOL)
     return {

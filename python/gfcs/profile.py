@@ -19,10 +19,12 @@ axis.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Dict, Iterable, Optional, Tuple, Union
+from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
 
@@ -141,9 +143,18 @@ def read_joint_limits_yaml(path: PathLike) -> RobotProfile:
         source=str(p))
 
 
-def _shipped_profiles() -> Iterable[RobotProfile]:
-    for path in sorted(PROFILE_DIR.glob("*.json")):
-        yield load_profile(path)
+@functools.lru_cache(maxsize=1)
+def _shipped_profiles() -> Tuple[RobotProfile, ...]:
+    """The package's profile data files, read once (they ship with the package and do not change)."""
+    return tuple(load_profile(path) for path in sorted(PROFILE_DIR.glob("*.json")))
+
+
+def _data_profile(robot: Any) -> RobotProfile:
+    """The first shipped data file whose joints ``robot`` all has (active or locked), else an empty
+    profile; no derived approach axis."""
+    joints = set(robot.joint_names) | set(getattr(robot, "locked_positions", {}) or {})
+    return next((p for p in _shipped_profiles() if p.joints and set(p.joints) <= joints),
+                RobotProfile(name="derived", source="derived from the robot"))
 
 
 def _rigid_with_ee(robot: Any, rng: np.random.Generator, samples: int = 3) -> np.ndarray:
@@ -199,15 +210,11 @@ def profile_for(robot: Any, extra: Optional[RobotProfile] = None) -> RobotProfil
     """The profile of ``robot``: the first shipped data file whose joints it all has (else an empty one),
     with ``extra`` (e.g. :func:`read_joint_limits_yaml`) on top, and the approach axis derived by
     :func:`derive_approach_axis` when neither gives one."""
-    joints = set(robot.joint_names) | set(getattr(robot, "locked_positions", {}) or {})
-    base = next((p for p in _shipped_profiles() if p.joints and set(p.joints) <= joints),
-                RobotProfile(name="derived", source="derived from the robot"))
+    base = _data_profile(robot)
     if extra is not None:
         base = base.merged(extra)
     if base.approach_axis is None:
-        base = RobotProfile(name=base.name, joints=base.joints, acceleration_limits=base.acceleration_limits,
-                            velocity_limits=base.velocity_limits, approach_axis=derive_approach_axis(robot),
-                            source=base.source)
+        base = dataclasses.replace(base, approach_axis=derive_approach_axis(robot))
     return base
 
 
@@ -223,8 +230,9 @@ def velocity_limits(robot: Any, profile: Optional[RobotProfile] = None) -> np.nd
 
 
 def acceleration_limits(robot: Any, profile: Optional[RobotProfile] = None) -> Optional[np.ndarray]:
-    """(dof,) acceleration limits [rad/s² or m/s²] of the active joints from the profile (default
-    :func:`profile_for`), inf where it has none; None when it has none at all."""
-    table = (profile_for(robot) if profile is None else profile).acceleration_limits
+    """(dof,) acceleration limits [rad/s² or m/s²] of the active joints from the profile (default: the
+    robot's data file, as :func:`profile_for` finds it, without deriving its approach axis), inf where it
+    has none; None when it has none at all."""
+    table = (_data_profile(robot) if profile is None else profile).acceleration_limits
     a = np.array([table.get(name, np.inf) for name in robot.joint_names], dtype=np.float64)
     return None if np.all(np.isinf(a)) else a
