@@ -53,7 +53,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parse_args(argv)
     import gfcs
-    from gfcs import cli, problems
+    from gfcs import bench, problems
     from gfcs.results import format_table, summarize
 
     source = args.problems
@@ -65,11 +65,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     robot = problems.mbm_panda() if robot_kind == "mbm" else gfcs.Robot.panda()
     suite_args = SimpleNamespace(problems=source, classes=args.classes, limit=args.limit, skip=0,
                                  problem_seed=args.problem_seed)
-    suite = cli.load_problems(suite_args, robot)
+    suite = bench.load_problems(suite_args, robot)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    rows = cli.run_bench(suite, args.methods, batches=args.batches, population=args.population,
+    rows = bench.run_bench(suite, args.methods, batches=args.batches, population=args.population,
                          seed=args.seed, fabric_config=args.config, threads=args.threads,
                          jsonl=str(out / "results.jsonl"), progress=not args.no_progress)
     wall = time.perf_counter() - start

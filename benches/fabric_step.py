@@ -29,7 +29,7 @@ from gfcs import optimize, problems
 def load(args: argparse.Namespace) -> list:
     """The problems, as ``benches/bench_suite.py`` loads them (MBM Panda for MBM, shipped Panda else)."""
     import gfcs
-    from gfcs import cli
+    from gfcs import bench
 
     shared = None if args.generated else problems.shared_dir()
     source = str(shared / "mbm") if shared is not None and (shared / "mbm").is_dir() else None
@@ -37,7 +37,7 @@ def load(args: argparse.Namespace) -> list:
         raise SystemExit("no MotionBenchMaker problems: set GFCS_SHARED or use --generated")
     robot = problems.mbm_panda() if source else gfcs.Robot.panda()
     suite = SimpleNamespace(problems=source, classes=None, limit=args.limit, skip=0, problem_seed=0)
-    return cli.load_problems(suite, robot)
+    return bench.load_problems(suite, robot)
 
 
 def best_time(fabric, p, candidates, kwargs, threads: int, repeat: int) -> float:

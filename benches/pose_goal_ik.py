@@ -24,7 +24,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from gfcs import cli, generators, problems
+from gfcs import bench, generators, problems
 
 
 def main() -> None:
@@ -41,7 +41,7 @@ def main() -> None:
     if source is None and not args.generated:
         raise SystemExit("no MotionBenchMaker problems: set GFCS_SHARED or use --generated")
     robot = problems.mbm_panda() if source else gfcs.Robot.panda()
-    suite = cli.load_problems(SimpleNamespace(problems=source, classes=None, limit=args.limit, skip=0,
+    suite = bench.load_problems(SimpleNamespace(problems=source, classes=None, limit=args.limit, skip=0,
                                               problem_seed=0), robot)
     times, ratios = [], []
     with tempfile.TemporaryDirectory() as tmp:

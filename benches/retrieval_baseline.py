@@ -118,7 +118,7 @@ def main(argv: Any = None) -> int:
     args = ap.parse_args(argv)
 
     import gfcs
-    from gfcs import cli, optimize, problems
+    from gfcs import bench, optimize, problems
     from gfcs.learning.encoding import SceneEncoder
     from gfcs.learning.sampler import EBMSampler
     from gfcs.learning.train import load_checkpoint
@@ -131,7 +131,7 @@ def main(argv: Any = None) -> int:
     robot = problems.mbm_panda() if args.robot == "mbm" else gfcs.Robot.panda()
     suite = SimpleNamespace(problems=args.problems, classes=args.classes, limit=args.limit, skip=args.skip,
                             problem_seed=args.problem_seed)
-    tests = cli.load_problems(suite, robot)
+    tests = bench.load_problems(suite, robot)
     retrieval = RetrievalSampler(contexts, targets, encoder.problem_context, args.sigma)
     n_free = targets.shape[1] // len(robot.lower)
     samplers = {"uniform": optimize.UniformSampler(n_free), "retrieval": retrieval}

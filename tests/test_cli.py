@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from gfcs import cli
+from gfcs import bench, cli
 from gfcs.results import SolveResult, read_rows
 
 SMALL = ["--batches", "1", "--population", "6", "--threads", "1"]
@@ -185,7 +185,7 @@ def test_a_suite_leaves_out_problems_outside_the_joint_limits(tmp_path, capsys):
     with pytest.raises(gfcs.InvalidValueError, match="problem 'box/0002': goal: joint panda_joint4 = 0.05 rad"):
         problems.load_mbm_dir(tmp_path, robot=robot)
     capsys.readouterr()
-    suite = cli.load_mbm_suite(str(tmp_path), None, None, robot)
+    suite = bench.load_mbm_suite(str(tmp_path), None, None, robot)
     assert [p.name for p in suite] == ["box/0001"]
     err = capsys.readouterr().err
     assert "left out 1 problem(s)" in err and "'box/0002': goal: joint panda_joint4" in err
@@ -202,7 +202,7 @@ def test_a_suite_leaves_out_problems_outside_the_joint_limits(tmp_path, capsys):
     # a suite whose every problem is left out says so
     (tmp_path / "box" / "scene0001.yaml").unlink()
     with pytest.raises(ValueError, match="every MotionBenchMaker problem .* outside the joint limits of robot"):
-        cli.load_mbm_suite(str(tmp_path), None, None, robot)
+        bench.load_mbm_suite(str(tmp_path), None, None, robot)
 
 
 def test_failure_hints_name_a_goal_inside_the_margin_and_a_start_in_collision():
@@ -241,7 +241,7 @@ def test_one_batch_row_is_a_one_batch_solve_sharing_the_first_batch():
     from gfcs import generators, optimize
 
     p = generators.generate("box", 1, seed=0, robot=gfcs.Robot.panda())[0]
-    rows, results = cli.bench_problem(p, ["gfcs"], batches=2, population=6, seed=0, retry=False)
+    rows, results = bench.bench_problem(p, ["gfcs"], batches=2, population=6, seed=0, retry=False)
     one = optimize.solve(p, batches=1, population=6, seed=0, max_commands=1)
     row = [r for r in rows if r["label"] == "Ours (1 b)"][0]
     assert row["cost"] == one.cost and row["success"] == one.success

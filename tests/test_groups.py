@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 import gfcs
-from gfcs import cli, generators, metrics, optimize, srdf_groups
+from gfcs import bench, cli, generators, metrics, optimize, srdf_groups
 from gfcs.errors import FormatError, GfcsWarning, IoError, LinkError
 
 from conftest import require_shared
@@ -227,7 +227,7 @@ def test_cli_bench_takes_the_group_of_the_first_request(tmp_path):
     args = cli.build_parser().parse_args(["bench", "--problems", str(folder.parent), *_flags(robot_flags)])
     robot = cli._robot(args)
     assert robot.dof == 14 and robot.ee_link == "left_panda_hand"
-    suite = cli._with_mesh_checker(args, cli.load_problems(args, robot))
+    suite = cli._with_mesh_checker(args, bench.load_problems(args, robot))
     assert suite[0].meta["ee_links"] == ["left_panda_hand", "right_panda_hand"]
     np.testing.assert_allclose(suite[0].goal, problem.goal)
 
@@ -271,7 +271,7 @@ def test_cli_group_of_shared_fetch_requests():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", GfcsWarning)  # the SRDF names links this URDF lacks
         robot = cli._robot(args)
-        suite = cli._with_mesh_checker(args, cli.load_problems(args, robot))
+        suite = cli._with_mesh_checker(args, bench.load_problems(args, robot))
     # arm_with_torso: the prismatic torso and the seven arm joints, tree order; its deepest link the tip
     assert list(robot.joint_names) == ["torso_lift_joint", "shoulder_pan_joint", "shoulder_lift_joint",
                                        "upperarm_roll_joint", "elbow_flex_joint", "forearm_roll_joint",

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import gfcs
-from gfcs import cli, problems
+from gfcs import bench, cli, problems
 from gfcs.errors import GfcsWarning
 from gfcs.results import read_rows
 
@@ -243,7 +243,7 @@ def test_bench_records_a_problem_whose_solve_fails_and_goes_on(tmp_path, monkeyp
         return real(problem, *args, **kwargs)
 
     monkeypatch.setattr(planning, "solve", solve)
-    rows = cli.run_bench(suite, ["gf"], batches=1, population=4, progress=False,
+    rows = bench.run_bench(suite, ["gf"], batches=1, population=4, progress=False,
                          jsonl=str(tmp_path / "rows.jsonl"))
     assert [r["problem"] for r in rows] == [suite[0].name, suite[1].name]
     assert rows[0]["success"] is False and "deliberately unreachable" in rows[0]["error"]

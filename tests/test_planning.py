@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import gfcs
-from gfcs import cli, generators, planning
+from gfcs import bench, cli, generators, planning
 from gfcs.planning import attempts as _attempts
 from gfcs.planning.models import PlanningModel, RobotModels
 
@@ -195,12 +195,12 @@ def test_bench_reads_its_rows_from_one_solve(retried_problem, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(planning, "solve", counting)
-    rows, results = cli.bench_problem(retried_problem, ["gfcs"], batches=2, population=4, seed=0, threads=1)
+    rows, results = bench.bench_problem(retried_problem, ["gfcs"], batches=2, population=4, seed=0, threads=1)
     assert calls == ["gfcs"]
     assert [r["label"] for r in rows] == ["Ours (1 b)", "Ours (2 b)", "Ours (2 b, retry)"]
     first = results[0].attempt_records[0]
     assert rows[1]["cost"] == first.result.cost and rows[2]["cost"] == results[0].cost
     assert rows[0]["time"] == pytest.approx(first.result.batch_times[0])
-    paper, _ = cli.bench_problem(retried_problem, ["gfcs"], batches=2, population=4, seed=0, threads=1,
+    paper, _ = bench.bench_problem(retried_problem, ["gfcs"], batches=2, population=4, seed=0, threads=1,
                                  solve_options={"preset": "paper"})
     assert [r["label"] for r in paper] == ["Ours (1 b)", "Ours (2 b)"]  # no policies: no retry row

@@ -22,7 +22,7 @@ URDF velocity limit, ≤ 1 within the limits); for a robot with several end effe
 ({link: hand path [m]}, every hand; ``ee_length`` is the first's).
 
 A problem of the suite that was not run (its start or goal outside the robot's joint limits, see
-:func:`gfcs.cli.load_mbm_suite`) has one row of its own, :func:`left_out_row`: ``problem``, ``class`` and
+:func:`gfcs.bench.load_mbm_suite`) has one row of its own, :func:`left_out_row`: ``problem``, ``class`` and
 ``left_out`` (str, the reason) and no other key. :func:`summarize` leaves such rows out of the tables and
 :func:`format_totals` counts them on a line of their own.
 """

@@ -155,13 +155,13 @@ def plot(rows: Sequence[Dict[str, Any]], out: Any) -> Path:
 
 
 def _cmd_reactivity(args: argparse.Namespace) -> int:
-    from gfcs import cli
+    from gfcs import bench, cli
     from gfcs.experiments import report
 
     args.classes = args.classes or list(CLASSES)
     args.skip = 0
     robot = cli._robot(args)
-    suite = cli._with_mesh_checker(args, cli.load_problems(args, robot))
+    suite = cli._with_mesh_checker(args, bench.load_problems(args, robot))
     rows = run(suite, seed=args.seed, batches=args.batches, progress=args.progress)
     report(summary_text(rows), {"seed": args.seed, "totals": totals(rows), "rows": rows}, args.json,
            plot(rows, args.out) if args.out else None)

@@ -117,7 +117,8 @@ def _load_problems(args: argparse.Namespace, seed: int) -> List[Any]:
 
     if (args.problems is None) == (args.generate is None):
         raise ConfigError("gfcs train: give exactly one of --problems DIR or --generate CLASS ...")
-    from gfcs.cli import _robot, _with_mesh_checker, load_mbm_suite
+    from gfcs.bench import load_mbm_suite
+    from gfcs.cli import _robot, _with_mesh_checker
 
     robot = _robot(args)
     if args.generate is not None:
