@@ -10,6 +10,7 @@ import pytest
 import gfcs
 from gfcs import metrics
 from gfcs import optimize as opt
+from gfcs.planning import get_preset
 
 
 def sphere_cost(center):
@@ -318,7 +319,7 @@ def free_problem():
 
 def test_length_slack_prefers_the_shorter_hand_path_among_near_optimal_candidates(free_problem, fake_optimum):
     p = free_problem
-    fabric, settings = opt.make_fabric(p), opt.RolloutSettings()
+    fabric, settings = opt.make_fabric(p), get_preset("default").settings
     detour = p.goal + np.array([0, -0.8, 0, 0.6, 0, 0, 0])  # shoulder back, elbow out: a longer hand path
     direct = p.goal.copy()
     hand = {}
@@ -496,7 +497,7 @@ def test_a_goal_at_a_joint_limit_is_reached_within_the_limits(limit_problem):
     lower, upper = np.asarray(p.robot.lower), np.asarray(p.robot.upper)
     # commanded as it is, the limit barrier holds joint 5 about 0.018 rad off the goal: a tolerance below
     # that is never met
-    tight = opt.RolloutSettings(tol=0.005)
+    tight = dataclasses.replace(get_preset("default").settings, tol=0.005)  # limit_hold_off 0.015 rad
     traj, _, reached, _ = opt.rollout_commands(fabric, p.q0, p.qd0, p.goal, np.zeros((0, 7)),
                                                dataclasses.replace(tight, limit_hold_off=0.0))
     assert not reached and np.linalg.norm(traj.q[-1] - p.goal) > 0.01

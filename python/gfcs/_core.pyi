@@ -15,7 +15,9 @@ shape; NaN/inf raise ``NonFiniteError``; unknown links/joints ``LinkError``; mal
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, TypedDict, Union
+
+from typing_extensions import Unpack
 
 import numpy as np
 import numpy.typing as npt
@@ -432,42 +434,69 @@ class Fabric:
         min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
         alpha_boost, alpha_reg, leaves."""
     def rollout(
-        self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, dt: Optional[float] = None,
-        t_max: Optional[float] = None, tol: Optional[float] = None,
-        stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
-        integrator: str = "euler", record: bool = True,
+        self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, record: bool = True,
+        **options: Unpack[RolloutOptions],
     ) -> Rollout:
-        """rollout_t (GFCS eq. 1-3); defaults dt 0.01 s, t_max 7 s, tol 0.01; integrator "euler" | "rk4".
-        Stall detection: stops as "stalled" (t* = t_max) when ‖q − command‖ has not shrunk by
-        ``stall_progress`` (default 0.005 rad) over a window of ``stall_window`` s (default 0.5 s; 0 = off)."""
+        """rollout_t (GFCS eq. 1-3) from (q0, qd0) (``qd0`` None: rest) toward ``command`` (dof,) until
+        ‖q − command‖ < tol or t_max. ``options``: :class:`RolloutOptions` (defaults:
+        :func:`rollout_option_defaults`)."""
     def rollout_sequence(
-        self, q0: ArrayLike, qd0: Optional[ArrayLike], commands: ArrayLike, goal: ArrayLike,
-        dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
-        waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
-        collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
-        distance_penalty: Optional[float] = None, blend_time: Optional[float] = None,
-        stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
-        integrator: str = "euler", record: bool = True,
+        self, q0: ArrayLike, qd0: Optional[ArrayLike], commands: ArrayLike, goal: ArrayLike, record: bool = True,
+        **options: Unpack[SequenceOptions],
     ) -> SequenceRollout:
-        """Commands (n, dof) then the goal (dof,) (GFCS eq. 4-8). Defaults: waypoint_tol 0.3,
-        penalty 100 s and distance_penalty 0 s/rad (× the closest approach to the goal), both added when
-        the goal is not reached; collision_penalty 0 s (added when min_clearance < -collision_tol,
-        default 0 m). At each handover the fabric's command moves from the previous command to the next
-        along a smoothstep over ``blend_time`` s (default 0.5; 0 = the paper's jump)."""
+        """Commands (n, dof) then the goal (dof,) (GFCS eq. 4-8). Cost: Σ tᵢ* + penalty + distance_penalty ×
+        the closest approach to the goal, both when the goal is not reached, + collision_penalty when
+        min_clearance < −collision_tol. At each handover the fabric's command moves to the next along a
+        smoothstep over ``blend_time`` s (0 = the paper's jump). ``options``: :class:`SequenceOptions`."""
     def evaluate(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], goal: ArrayLike, candidates: ArrayLike,
-        dt: Optional[float] = None, t_max: Optional[float] = None, tol: Optional[float] = None,
-        waypoint_tol: Optional[float] = None, penalty: Optional[float] = None,
-        collision_penalty: Optional[float] = None, collision_tol: Optional[float] = None,
-        distance_penalty: Optional[float] = None, blend_time: Optional[float] = None,
-        stall_window: Optional[float] = None, stall_progress: Optional[float] = None,
-        integrator: str = "euler", threads: Optional[int] = None, return_trajectories: bool = False,
+        threads: Optional[int] = None, return_trajectories: bool = False, **options: Unpack[SequenceOptions],
     ) -> Union[
         Tuple[FloatArray, BoolArray, FloatArray],
         Tuple[FloatArray, BoolArray, FloatArray, List[SequenceRollout]],
     ]:
         """Candidates (N, n·dof) -> (costs (N,), reached (N,) bool, min_clearance (N,)) [+ N
-        SequenceRollout when ``return_trajectories``]; parallel, deterministic, GIL released."""
+        SequenceRollout when ``return_trajectories``]; parallel, deterministic, GIL released.
+        ``options``: :class:`SequenceOptions`."""
+
+class RolloutOptions(TypedDict, total=False):
+    """Keyword options of ``Fabric.rollout`` (GFCS eq. 1-3); None or absent: the core default
+    (:func:`rollout_option_defaults`). ``gfcs.planning.RolloutSettings`` holds the same names."""
+
+    dt: Optional[float]
+    """integration step [s] (> 0)"""
+    t_max: Optional[float]
+    """time budget of the rollout [s]"""
+    tol: Optional[float]
+    """ε of eq. 3: reached when ‖q − command‖ < tol [rad]"""
+    stall_window: Optional[float]
+    """stop as "stalled" (t* = t_max) when ‖q − command‖ has not shrunk by ``stall_progress`` over this
+    window [s] (0: off)"""
+    stall_progress: Optional[float]
+    """progress a window must make [rad]"""
+    integrator: Optional[str]
+    """``"euler"`` (semi-implicit, the papers') or ``"rk4"``"""
+
+class SequenceOptions(RolloutOptions, total=False):
+    """Keyword options of ``Fabric.rollout_sequence`` and ``Fabric.evaluate`` (GFCS eq. 4-8): those of
+    :class:`RolloutOptions` and these."""
+
+    waypoint_tol: Optional[float]
+    """hand-over tolerance of the intermediate commands [rad]"""
+    penalty: Optional[float]
+    """p of eq. 4/8, added when the goal is not reached [s]"""
+    collision_penalty: Optional[float]
+    """added when min_clearance < −collision_tol [s]"""
+    collision_tol: Optional[float]
+    """sphere overlap that does not count as a collision [m]"""
+    distance_penalty: Optional[float]
+    """added per rad of the closest approach to the goal when it is not reached [s/rad]"""
+    blend_time: Optional[float]
+    """smoothstep time of the command at each handover [s] (0: the paper's switch of eq. 7)"""
+
+def rollout_option_defaults() -> Dict[str, Union[float, str]]:
+    """The core's default of every option of :class:`SequenceOptions` (hence of :class:`RolloutOptions`),
+    by name: the one set of defaults ``gfcs.planning.RolloutSettings`` starts from."""
 
 class MeshChecker:
     """Clearance of a robot's URDF collision meshes and primitives (not its spheres), m.

@@ -8,7 +8,7 @@
 use std::sync::{Arc, Mutex, PoisonError, RwLock};
 
 use fabric_core::fabric::{Diagnostics, EeTargets, Fabric, FabricWorkspace};
-use fabric_core::rollout::{self as core_rollout, SequenceOptions};
+use fabric_core::rollout::{self as core_rollout};
 use fabric_core::scene::{ObstacleId, Scene};
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
@@ -18,7 +18,7 @@ use crate::config::PyFabricConfig;
 use crate::convert::{self, output, typed_output};
 use crate::errors::{detached, error, guarded};
 use crate::robot::PyRobot;
-use crate::rollout::{rollout_options, PyRollout, PySequenceRollout, RolloutKwargs};
+use crate::rollout::{options_from_kwargs, PyRollout, PySequenceRollout};
 use crate::scene::PyScene;
 
 /// Geometric fabric for one robot in one scene.
@@ -69,39 +69,6 @@ impl PyFabric {
     /// The fabric and a snapshot of its current scene, to move into a GIL-free computation.
     fn shared(&self) -> (Arc<Fabric>, Arc<Scene>) {
         (self.fabric.clone(), self.scene_snapshot())
-    }
-}
-
-/// Keyword options of `rollout_sequence` and `evaluate`; `None` keeps the core default of
-/// `SequenceOptions` (waypoint_tol 0.3 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m,
-/// distance_penalty 0 s/rad, blend_time 0.5 s) and
-/// of `RolloutOptions` (dt 0.01 s, t_max 7 s, tol 0.01).
-struct SequenceKwargs<'a> {
-    rollout: RolloutKwargs<'a>,
-    waypoint_tol: Option<f64>,
-    penalty: Option<f64>,
-    collision_penalty: Option<f64>,
-    collision_tol: Option<f64>,
-    distance_penalty: Option<f64>,
-    blend_time: Option<f64>,
-}
-
-impl SequenceKwargs<'_> {
-    /// Validated options for `n_commands` free commands.
-    fn options(&self, n_commands: usize, record: bool) -> PyResult<SequenceOptions> {
-        let d = SequenceOptions::default();
-        let opts = SequenceOptions {
-            rollout: rollout_options(&self.rollout, record)?,
-            n_commands,
-            waypoint_tol: self.waypoint_tol.unwrap_or(d.waypoint_tol),
-            penalty: self.penalty.unwrap_or(d.penalty),
-            collision_penalty: self.collision_penalty.unwrap_or(d.collision_penalty),
-            collision_tol: self.collision_tol.unwrap_or(d.collision_tol),
-            distance_penalty: self.distance_penalty.unwrap_or(d.distance_penalty),
-            blend_time: self.blend_time.unwrap_or(d.blend_time),
-        };
-        opts.validate().map_err(error)?;
-        Ok(opts)
     }
 }
 
@@ -336,38 +303,23 @@ impl PyFabric {
     }
 
     /// rollout_t (GFCS eq. 1–3): integrate from (q0, qd0) toward `command` until ‖q − command‖ < tol or
-    /// t_max. `qd0` None = rest. `integrator`: "euler" (semi-implicit, the papers') or "rk4". Defaults:
-    /// dt 0.01 s, t_max 7 s, tol 0.01. GIL released.
-    #[pyo3(signature = (q0, qd0, command, dt=None, t_max=None, tol=None, stall_window=None, stall_progress=None, integrator="euler", record=true))]
-    #[allow(clippy::too_many_arguments)]
+    /// t_max. `qd0` None = rest. `**options`: dt [s], t_max [s], tol [rad], stall_window [s],
+    /// stall_progress [rad], integrator ("euler", the papers' semi-implicit scheme, or "rk4"); defaults:
+    /// `rollout_option_defaults()`. GIL released.
+    #[pyo3(signature = (q0, qd0, command, record=true, **options))]
     fn rollout(
         &self,
         py: Python<'_>,
         q0: &Bound<'_, PyAny>,
         qd0: Option<&Bound<'_, PyAny>>,
         command: &Bound<'_, PyAny>,
-        dt: Option<f64>,
-        t_max: Option<f64>,
-        tol: Option<f64>,
-        stall_window: Option<f64>,
-        stall_progress: Option<f64>,
-        integrator: &str,
         record: bool,
+        options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyRollout> {
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
         let command = convert::vector(command, "command", n)?;
-        let opts = rollout_options(
-            &RolloutKwargs {
-                dt,
-                t_max,
-                tol,
-                stall_window,
-                stall_progress,
-                integrator,
-            },
-            record,
-        )?;
+        let opts = options_from_kwargs("Fabric.rollout", options, false, 0, record)?.rollout;
         let (fabric, scene) = self.shared();
         let result = detached(py, move || {
             let mut ws = FabricWorkspace::for_rollouts(&fabric);
@@ -377,12 +329,14 @@ impl PyFabric {
     }
 
     /// One command sequence (GFCS eq. 4–8): `commands` (n, dof) free commands (n may be 0), then `goal`
-    /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol (default 0.3); the goal at
-    /// tol. Cost = Σ tᵢ* + penalty (default 100 s) + distance_penalty (default 0 s/rad) × the closest
-    /// approach to the goal, both if the goal is not reached, + collision_penalty (default 0 s) if the
-    /// minimum clearance drops below −collision_tol (default 0 m). At each handover the fabric's command
-    /// moves to the next one over blend_time (default 0.5 s; 0 = a jump, the paper's). GIL released.
-    #[pyo3(signature = (q0, qd0, commands, goal, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, distance_penalty=None, blend_time=None, stall_window=None, stall_progress=None, integrator="euler", record=true))]
+    /// (dof,). Intermediate commands hand over at ‖q − q_gⁱ‖ < waypoint_tol; the goal at tol. Cost =
+    /// Σ tᵢ* + penalty + distance_penalty × the closest approach to the goal, both if the goal is not
+    /// reached, + collision_penalty if the minimum clearance drops below −collision_tol. At each handover
+    /// the fabric's command moves to the next one over blend_time (0 = a jump, the paper's).
+    /// `**options`: those of `rollout` and waypoint_tol [rad], penalty [s], collision_penalty [s],
+    /// collision_tol [m], distance_penalty [s/rad], blend_time [s]; defaults:
+    /// `rollout_option_defaults()`. GIL released.
+    #[pyo3(signature = (q0, qd0, commands, goal, record=true, **options))]
     #[allow(clippy::too_many_arguments)]
     fn rollout_sequence(
         &self,
@@ -391,41 +345,15 @@ impl PyFabric {
         qd0: Option<&Bound<'_, PyAny>>,
         commands: &Bound<'_, PyAny>,
         goal: &Bound<'_, PyAny>,
-        dt: Option<f64>,
-        t_max: Option<f64>,
-        tol: Option<f64>,
-        waypoint_tol: Option<f64>,
-        penalty: Option<f64>,
-        collision_penalty: Option<f64>,
-        collision_tol: Option<f64>,
-        distance_penalty: Option<f64>,
-        blend_time: Option<f64>,
-        stall_window: Option<f64>,
-        stall_progress: Option<f64>,
-        integrator: &str,
         record: bool,
+        options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PySequenceRollout> {
-        let kwargs = SequenceKwargs {
-            rollout: RolloutKwargs {
-                dt,
-                t_max,
-                tol,
-                stall_window,
-                stall_progress,
-                integrator,
-            },
-            waypoint_tol,
-            penalty,
-            collision_penalty,
-            collision_tol,
-            distance_penalty,
-            blend_time,
-        };
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
         let (commands, n_commands) = convert::rows(commands, "commands", n)?;
         let goal = convert::vector(goal, "goal", n)?;
-        let opts = kwargs.options(n_commands, record)?;
+        let opts =
+            options_from_kwargs("Fabric.rollout_sequence", options, true, n_commands, record)?;
         let (fabric, scene) = self.shared();
         let result = detached(py, move || {
             let mut ws = FabricWorkspace::for_rollouts(&fabric);
@@ -437,11 +365,11 @@ impl PyFabric {
     }
 
     /// Evaluate N candidate command sequences in parallel (GFCS eq. 4, Alg. 1): `candidates`
-    /// (N, n·dof), each row n free commands, then `goal`; options as in `rollout_sequence`. Returns
+    /// (N, n·dof), each row n free commands, then `goal`; `**options` as in `rollout_sequence`. Returns
     /// `(costs (N,), reached (N,) bool, min_clearance (N,))`, plus a list of N `SequenceRollout` (with
     /// trajectories) when `return_trajectories`. Results are in candidate order and do not depend on
     /// `threads` (None: all cores). GIL released.
-    #[pyo3(signature = (q0, qd0, goal, candidates, dt=None, t_max=None, tol=None, waypoint_tol=None, penalty=None, collision_penalty=None, collision_tol=None, distance_penalty=None, blend_time=None, stall_window=None, stall_progress=None, integrator="euler", threads=None, return_trajectories=false))]
+    #[pyo3(signature = (q0, qd0, goal, candidates, threads=None, return_trajectories=false, **options))]
     #[allow(clippy::too_many_arguments)]
     fn evaluate<'py>(
         &self,
@@ -450,37 +378,10 @@ impl PyFabric {
         qd0: Option<&Bound<'py, PyAny>>,
         goal: &Bound<'py, PyAny>,
         candidates: &Bound<'py, PyAny>,
-        dt: Option<f64>,
-        t_max: Option<f64>,
-        tol: Option<f64>,
-        waypoint_tol: Option<f64>,
-        penalty: Option<f64>,
-        collision_penalty: Option<f64>,
-        collision_tol: Option<f64>,
-        distance_penalty: Option<f64>,
-        blend_time: Option<f64>,
-        stall_window: Option<f64>,
-        stall_progress: Option<f64>,
-        integrator: &str,
         threads: Option<&Bound<'py, PyAny>>,
         return_trajectories: bool,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let kwargs = SequenceKwargs {
-            rollout: RolloutKwargs {
-                dt,
-                t_max,
-                tol,
-                stall_window,
-                stall_progress,
-                integrator,
-            },
-            waypoint_tol,
-            penalty,
-            collision_penalty,
-            collision_tol,
-            distance_penalty,
-            blend_time,
-        };
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
         let goal = convert::vector(goal, "goal", n)?;
@@ -497,7 +398,13 @@ impl PyFabric {
         };
         convert::finite("candidates", &cand.data)?;
         let threads = convert::threads(threads)?;
-        let opts = kwargs.options(n_commands, return_trajectories)?;
+        let opts = options_from_kwargs(
+            "Fabric.evaluate",
+            options,
+            true,
+            n_commands,
+            return_trajectories,
+        )?;
         let (fabric, scene) = self.shared();
         let data = cand.data;
         let results = detached(py, move || {

@@ -6,7 +6,7 @@
 use fabric_core::fabric::{
     particle_acceleration as core_particle_acceleration, ParticleParams, ParticleVariant,
 };
-use fabric_core::rollout::{rollout_system, System};
+use fabric_core::rollout::{rollout_system, RolloutOptions, System};
 use fabric_core::FabricError;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
@@ -218,11 +218,12 @@ pub fn particle_rollout<'py>(
         dt,
         t_max,
         tol,
-        stall_window: Some(0.0),
-        stall_progress: None,
         integrator,
     };
-    let opts = rollout_options(&kwargs, true)?;
+    let opts = RolloutOptions {
+        stall_window: 0.0,
+        ..rollout_options(&kwargs, true)?
+    };
     let target = system.params.target;
     let results = detached(py, move || {
         q0.par_chunks_exact(2)

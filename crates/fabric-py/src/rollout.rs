@@ -2,11 +2,13 @@
 //! GFCS eq. 4–8), and the parsing of rollout options from Python keyword arguments.
 
 use fabric_core::rollout::{
-    Integrator, RolloutOptions, RolloutResult, SequenceResult, StopReason, Trajectory,
+    Integrator, RolloutOptions, RolloutResult, SequenceOptions, SequenceResult, StopReason,
+    Trajectory,
 };
 use fabric_core::FabricError;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 use crate::convert::output;
 use crate::errors::error;
@@ -33,14 +35,12 @@ pub fn parse_integrator(name: &str) -> PyResult<Integrator> {
     }
 }
 
-/// Keyword options of one rollout; `None` keeps the core default of `RolloutOptions` (dt 0.01 s,
-/// t_max 7 s, tol 0.01, stall_window 0.5 s, stall_progress 0.005).
+/// Keyword options of one rollout (the particle rollouts of GF Sec. VI); `None` keeps the core default
+/// of `RolloutOptions`.
 pub struct RolloutKwargs<'a> {
     pub dt: Option<f64>,
     pub t_max: Option<f64>,
     pub tol: Option<f64>,
-    pub stall_window: Option<f64>,
-    pub stall_progress: Option<f64>,
     pub integrator: &'a str,
 }
 
@@ -54,11 +54,151 @@ pub fn rollout_options(k: &RolloutKwargs<'_>, record: bool) -> PyResult<RolloutO
         tol: k.tol.unwrap_or(d.tol),
         integrator: parse_integrator(k.integrator)?,
         record,
-        stall_window: k.stall_window.unwrap_or(d.stall_window),
-        stall_progress: k.stall_progress.unwrap_or(d.stall_progress),
+        ..d
     };
     opts.validate().map_err(error)?;
     Ok(opts)
+}
+
+/// The options of one rollout (`Fabric.rollout`, GFCS eq. 1–3), by their Python keyword names.
+pub const ROLLOUT_OPTIONS: [&str; 6] = [
+    "dt",
+    "t_max",
+    "tol",
+    "stall_window",
+    "stall_progress",
+    "integrator",
+];
+
+/// The further options of a command sequence (`Fabric.rollout_sequence`, `Fabric.evaluate`, GFCS
+/// eq. 4–8); a sequence takes these and [`ROLLOUT_OPTIONS`].
+pub const SEQUENCE_OPTIONS: [&str; 6] = [
+    "waypoint_tol",
+    "penalty",
+    "collision_penalty",
+    "collision_tol",
+    "distance_penalty",
+    "blend_time",
+];
+
+/// `Value` error naming the keyword option `name`.
+fn option_error(name: &str, message: String) -> PyErr {
+    error(FabricError::Value {
+        what: name.to_string(),
+        message,
+    })
+}
+
+/// Sets option `name` of `o` (one of [`ROLLOUT_OPTIONS`] or [`SEQUENCE_OPTIONS`]) from `value`.
+fn set_option(o: &mut SequenceOptions, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+    if name == "integrator" {
+        let text: String = value.extract().map_err(|_| {
+            option_error(name, format!("must be a string, got {}", type_name(value)))
+        })?;
+        o.rollout.integrator = parse_integrator(&text)?;
+        return Ok(());
+    }
+    let v: f64 = value
+        .extract()
+        .map_err(|_| option_error(name, format!("must be a number, got {}", type_name(value))))?;
+    let field = match name {
+        "dt" => &mut o.rollout.dt,
+        "t_max" => &mut o.rollout.t_max,
+        "tol" => &mut o.rollout.tol,
+        "stall_window" => &mut o.rollout.stall_window,
+        "stall_progress" => &mut o.rollout.stall_progress,
+        "waypoint_tol" => &mut o.waypoint_tol,
+        "penalty" => &mut o.penalty,
+        "collision_penalty" => &mut o.collision_penalty,
+        "collision_tol" => &mut o.collision_tol,
+        "distance_penalty" => &mut o.distance_penalty,
+        "blend_time" => &mut o.blend_time,
+        _ => unreachable!("set_option is called with known names only"),
+    };
+    *field = v;
+    Ok(())
+}
+
+fn type_name(value: &Bound<'_, PyAny>) -> String {
+    value
+        .get_type()
+        .name()
+        .map(|n| n.to_string())
+        .unwrap_or_else(|_| "?".to_string())
+}
+
+/// Validated options of `method` from its `**options` keyword arguments, over the core defaults
+/// (`SequenceOptions::default()`; a value of None keeps the default). `sequence`: the method takes
+/// [`SEQUENCE_OPTIONS`] too. An unknown keyword is an `InvalidValueError` naming it and listing the
+/// method's options.
+pub fn options_from_kwargs(
+    method: &str,
+    kwargs: Option<&Bound<'_, PyDict>>,
+    sequence: bool,
+    n_commands: usize,
+    record: bool,
+) -> PyResult<SequenceOptions> {
+    let mut o = SequenceOptions {
+        n_commands,
+        ..SequenceOptions::default()
+    };
+    o.rollout.record = record;
+    let allowed: Vec<&str> = if sequence {
+        ROLLOUT_OPTIONS
+            .iter()
+            .chain(SEQUENCE_OPTIONS.iter())
+            .copied()
+            .collect()
+    } else {
+        ROLLOUT_OPTIONS.to_vec()
+    };
+    for (key, value) in kwargs.into_iter().flat_map(|d| d.iter()) {
+        let name: String = key.extract()?;
+        if !allowed.contains(&name.as_str()) {
+            return Err(option_error(
+                &name,
+                format!(
+                    "is not an option of {method}; its options: {}",
+                    allowed.join(", ")
+                ),
+            ));
+        }
+        if !value.is_none() {
+            set_option(&mut o, &name, &value)?;
+        }
+    }
+    o.validate().map_err(error)?;
+    Ok(o)
+}
+
+/// The core's default of every rollout option (GFCS eq. 1–8), by keyword name: the one set of
+/// defaults the Python settings (`gfcs.planning.RolloutSettings`) start from.
+#[pyfunction]
+pub fn rollout_option_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = SequenceOptions::default();
+    let out = PyDict::new(py);
+    let values = [
+        ("dt", d.rollout.dt),
+        ("t_max", d.rollout.t_max),
+        ("tol", d.rollout.tol),
+        ("stall_window", d.rollout.stall_window),
+        ("stall_progress", d.rollout.stall_progress),
+        ("waypoint_tol", d.waypoint_tol),
+        ("penalty", d.penalty),
+        ("collision_penalty", d.collision_penalty),
+        ("collision_tol", d.collision_tol),
+        ("distance_penalty", d.distance_penalty),
+        ("blend_time", d.blend_time),
+    ];
+    for (name, value) in values {
+        out.set_item(name, value)?;
+    }
+    let integrator = match d.rollout.integrator {
+        Integrator::SemiImplicitEuler => "euler",
+        Integrator::Rk4 => "rk4",
+    };
+    out.set_item("integrator", integrator)?;
+    Ok(out)
 }
 
 /// A recorded trajectory as numpy arrays.

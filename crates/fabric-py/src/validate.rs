@@ -180,7 +180,9 @@ impl PyMeshChecker {
         let checker = &self.inner;
         let (qs, _) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let scene = &scene.inner;
-        detached(py, || checker.min_trajectory_clearance(scene, &qs, threads, cutoff))
+        detached(py, || {
+            checker.min_trajectory_clearance(scene, &qs, threads, cutoff)
+        })
     }
 
     /// min over the states of q (T, dof) (or (dof,)) of `self_clearance`, m, as `min_clearance` (exact
@@ -197,7 +199,9 @@ impl PyMeshChecker {
         let cutoff = cutoff_arg(cutoff)?;
         let checker = &self.inner;
         let (qs, _) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
-        detached(py, || checker.min_trajectory_self_clearance(&qs, threads, cutoff))
+        detached(py, || {
+            checker.min_trajectory_self_clearance(&qs, threads, cutoff)
+        })
     }
 
     fn __repr__(&self) -> String {

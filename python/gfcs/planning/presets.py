@@ -66,11 +66,16 @@ class Preset:
 
 
 PRESETS: Dict[str, Preset] = {
-    "default": Preset("default", RolloutSettings(), FinishOptions(), length_slack=0.1, mesh_candidates=32,
+    # tol 0.02: a reached trajectory ends with a quintic blend onto the goal (gfcs.blend), so what is returned
+    # ends exactly at the goal whatever ε, and the looser ε spares the slow last approach of goals that barrier
+    # potentials of nearby objects hold off (grasps); success is judged at metrics.DEFAULT_SUCCESS_TOL
+    # (0.01 rad) on the finished trajectory. collision_penalty 100 s: success requires a collision-free
+    # motion, so colliding candidates rank behind collision-free ones.
+    "default": Preset("default", RolloutSettings(tol=0.02, collision_penalty=100.0, limit_hold_off=0.015),
+                      FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies),
     "paper": Preset("paper",
-                    RolloutSettings(tol=0.01, collision_penalty=0.0, blend_time=0.0, stall_window=0.0,
-                                    limit_hold_off=None),
+                    RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,
                                   limit_acceleration=False),
                     length_slack=0.0, mesh_candidates=1, sampler="uniform", thin_spheres=False,

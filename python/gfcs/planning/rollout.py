@@ -16,35 +16,39 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
+from gfcs import _core
 from gfcs.planning._check import non_negative
 
-__all__ = ["RolloutSettings", "make_fabric", "fabric_goal"]
+__all__ = ["RolloutSettings", "CORE_DEFAULTS", "make_fabric", "fabric_goal"]
+
+
+#: The core's default of every rollout option (``gfcs._core.rollout_option_defaults()``): the one set of
+#: defaults; the presets (:mod:`gfcs.planning.presets`) state where they differ.
+CORE_DEFAULTS: Dict[str, Any] = _core.rollout_option_defaults()
 
 
 @dataclass
 class RolloutSettings:
-    """Rollout parameters of GFCS eq. 1-8. The defaults are the ``default`` preset's; the ``paper`` preset
-    (:mod:`gfcs.planning.presets`) sets ``tol`` 0.01, ``collision_penalty`` 0, ``blend_time`` 0,
-    ``stall_window`` 0 and ``limit_hold_off`` None.
+    """Rollout parameters of GFCS eq. 1-8: the keyword options of ``gfcs.Fabric.rollout_sequence`` /
+    ``evaluate`` (the same names, tested) and ``limit_hold_off``. Every default is the core's
+    (:data:`CORE_DEFAULTS`); the ``default`` preset (:mod:`gfcs.planning.presets`) changes ``tol``,
+    ``collision_penalty`` and ``limit_hold_off``, the ``paper`` preset ``blend_time`` and ``stall_window``.
+    Start from a preset's settings to change one option: ``dataclasses.replace(get_preset("default").settings,
+    t_max=3.0)``.
 
     Attributes:
         dt: integration step [s] (Euler at 100 Hz in the paper).
         t_max: time budget per command [s] (7 s in the paper).
-        tol: ε of eq. 3 for the final goal [rad]. 0.02: a reached trajectory ends with a quintic blend onto
-            the goal (:mod:`gfcs.blend`), so what is returned ends exactly at the goal whatever ε, and the
-            looser ε spares the slow last approach of goals that barrier potentials of nearby objects hold
-            off (grasps); success is judged at ``metrics.DEFAULT_SUCCESS_TOL`` (0.01 rad) on the finished
-            trajectory.
+        tol: ε of eq. 3 for the final goal [rad].
         waypoint_tol: ε for the intermediate commands [rad] (looser: a command only steers the motion).
         penalty: p of eq. 4/8 added when the goal is not reached [s].
         collision_penalty: added when the sphere model collides (min clearance < −``collision_tol``) [s].
-            An extension of eq. 4 (whose cost has no collision term): success requires a collision-free
-            motion, so colliding candidates rank behind collision-free ones.
+            An extension of eq. 4 (whose cost has no collision term).
         collision_tol: sphere overlap [m], ≥ 0, that does not count as a collision in the cost. An attempt
             with a clearance floor below 0 (the goal-contact attempt) raises it to the overlap the floor
             accepts.
         distance_penalty: added per rad of the closest approach to the goal when the goal is not reached
-            [s/rad] (an extension of eq. 4, default 0): it ranks failed candidates by how near they came.
+            [s/rad] (an extension of eq. 4): it ranks failed candidates by how near they came.
         blend_time: at each handover the command moves to the next one along a smoothstep over this time
             [s] instead of jumping (an extension of eq. 7; 0 is the paper's switch): the jump of the command
             is a jump of the acceleration that dominates the jerk of a trajectory.
@@ -56,24 +60,21 @@ class RolloutSettings:
             commanded that far off the limit instead (:func:`fabric_goal`), and the goal blend covers the
             rest: the limit barrier holds the fabric off a goal at its limit. None: every goal is commanded
             as it is (the paper's command; a goal within the barrier's margin of a limit is then not reached).
-
-    The defaults equal the core's (``RolloutOptions`` / ``SequenceOptions`` in ``fabric-core``) except
-    ``collision_penalty`` (0 in the core) and ``tol`` (0.01 in the core, whose rollouts have no blend).
     """
 
-    dt: float = 0.01
-    t_max: float = 7.0
-    tol: float = 0.02
-    waypoint_tol: float = 0.3
-    penalty: float = 100.0
-    collision_penalty: float = 100.0
-    collision_tol: float = 0.0
-    distance_penalty: float = 0.0
-    blend_time: float = 0.5
-    integrator: str = "euler"
-    stall_window: float = 0.5
-    stall_progress: float = 0.005
-    limit_hold_off: Optional[float] = 0.015
+    dt: float = CORE_DEFAULTS["dt"]
+    t_max: float = CORE_DEFAULTS["t_max"]
+    tol: float = CORE_DEFAULTS["tol"]
+    waypoint_tol: float = CORE_DEFAULTS["waypoint_tol"]
+    penalty: float = CORE_DEFAULTS["penalty"]
+    collision_penalty: float = CORE_DEFAULTS["collision_penalty"]
+    collision_tol: float = CORE_DEFAULTS["collision_tol"]
+    distance_penalty: float = CORE_DEFAULTS["distance_penalty"]
+    blend_time: float = CORE_DEFAULTS["blend_time"]
+    integrator: str = CORE_DEFAULTS["integrator"]
+    stall_window: float = CORE_DEFAULTS["stall_window"]
+    stall_progress: float = CORE_DEFAULTS["stall_progress"]
+    limit_hold_off: Optional[float] = None
 
     def as_kwargs(self) -> Dict[str, Any]:
         """Keyword arguments for ``gfcs.Fabric.rollout_sequence`` / ``evaluate`` (every field but
