@@ -2,6 +2,6 @@
 # Install gfcs with every optional dependency and run all tests: the Rust core, then the Python package.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-python3 -m pip install --quiet ".[test]"
+python3 -m pip install --quiet ".[test,ray]"
 cargo test --release
 python3 -m pytest -q

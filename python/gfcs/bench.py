@@ -2,19 +2,31 @@
 
 :func:`load_problems` builds a suite (a MotionBenchMaker folder or generated problems), :func:`bench_problem`
 solves one problem with each method and turns the solves into rows (:func:`gfcs.results.bench_row`), and
-:func:`run_bench` runs a whole suite, writing the rows to a JSON-lines file as they are produced.
+:func:`run_bench` runs a whole suite, one task per problem on an executor (:mod:`gfcs.executors`: in this
+process or on a Ray cluster), writing the rows to a JSON-lines file as each problem finishes. Each problem
+is solved with a seed derived from the run's seed and its name (:func:`problem_seed`), so its rows do not
+depend on where or in which order it ran; ``resume`` keeps the problems an earlier run finished.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import dataclasses
+import hashlib
 import json
 import math
+import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
-__all__ = ["load_mbm_suite", "load_problems", "bench_problem", "error_rows", "run_bench"]
+if TYPE_CHECKING:
+    from gfcs.executors import Executor
+
+__all__ = ["load_mbm_suite", "load_problems", "bench_problem", "error_rows", "run_bench", "Suite", "BenchJob",
+           "bench_task", "problem_seed", "resume_rows", "suite_problems"]
 
 
 def load_mbm_suite(folder: str, classes: Optional[Sequence[str]], limit: Optional[int], robot: Any,
@@ -118,63 +130,263 @@ def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, me
     return rows
 
 
-def run_bench(problems: Sequence[Any], methods: Sequence[str], batches: int = 5, population: int = 32,
-              seed: int = 0, n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
-              threads: Optional[int] = None, settings: Any = None, jsonl: Optional[str] = None,
-              rrd_dir: Optional[str] = None, progress: bool = True, retry: bool = True,
-              solve_options: Optional[Dict[str, Any]] = None,
-              results_dir: Optional[str] = None,
-              left_out: Sequence[Tuple[str, str]] = ()) -> List[Dict[str, Any]]:
-    """Benchmark ``methods`` on ``problems``; rows are appended to ``jsonl`` as they are produced (rows:
-    :func:`bench_problem`). With ``results_dir``, the returned result of every method on every problem
-    (with its trajectory, as ``gfcs solve --json`` writes it) goes to ``<results_dir>/<class>_<NNNN>.<method>.json``,
-    for validators of your own (e.g. ``tools/check_trajectories.py``). ``left_out``: (name, reason) of the
-    suite's problems that were not run (:func:`load_mbm_suite`); each becomes a
-    :func:`gfcs.results.left_out_row`, written first.
+@dataclass(frozen=True)
+class Suite:
+    """A problem suite as a recipe that pickles: ``build(*args)`` returns the problems. Ray workers get the
+    recipe instead of the problems (a :class:`gfcs.Robot`, a scene and a mesh checker do not pickle) and
+    build the suite once per worker process (:func:`suite_problems`). ``build`` must be a function
+    importable on the workers (a module-level function) and ``args`` must pickle."""
+
+    build: Callable[..., Sequence[Any]]
+    args: Tuple[Any, ...] = ()
+
+
+#: Suites built in this process, by the SHA-256 of the pickled recipe.
+_BUILT: Dict[bytes, Dict[str, Any]] = {}
+
+
+def _key(suite: Suite) -> bytes:
+    import pickle
+
+    return hashlib.sha256(pickle.dumps(suite)).digest()
+
+
+def suite_problems(suite: Suite, built: Optional[Sequence[Any]] = None, quiet: bool = False) -> Dict[str, Any]:
+    """The problems of ``suite`` by name, built on the first call in this process and cached (a Ray worker
+    builds a suite once). ``built``: the problems, already built from this recipe (the driver's copy, which
+    is then not built again). ``quiet``: drop what building prints on stderr (problems left out, sphere
+    notes; a worker's copy of what the driver already printed)."""
+    import io
+
+    key = _key(suite)
+    if built is not None:
+        _BUILT[key] = _by_name(built)
+    if key not in _BUILT:
+        with contextlib.redirect_stderr(io.StringIO()) if quiet else contextlib.nullcontext():
+            _BUILT[key] = _by_name(suite.build(*suite.args))
+    return _BUILT[key]
+
+
+def _by_name(problems: Sequence[Any]) -> Dict[str, Any]:
+    """``problems`` by name; names must be unique (rows and resumed runs name problems)."""
+    from gfcs.errors import InvalidValueError
+
+    out: Dict[str, Any] = {}
+    for p in problems:
+        if p.name in out:
+            raise InvalidValueError(f"problems: two problems are named {p.name!r}; a benchmark needs unique names")
+        out[p.name] = p
+    return out
+
+
+def problem_seed(seed: int, name: str) -> int:
+    """The seed of problem ``name`` in a run seeded ``seed``: a 31-bit integer from numpy's
+    ``SeedSequence`` over ``seed`` and the SHA-256 of the name, so it depends on nothing but the two (not on
+    the order of the problems, the process or the worker that solves it)."""
+    import numpy as np
+
+    digest = hashlib.sha256(name.encode("utf-8")).digest()
+    words = [int.from_bytes(digest[i:i + 4], "little") for i in range(0, 16, 4)]
+    return int(np.random.SeedSequence([int(seed), *words]).generate_state(1)[0] >> 1)
+
+
+@dataclass(frozen=True)
+class BenchJob:
+    """What every problem's task of a run shares (sent to a Ray cluster once): where the problems come
+    from (``problems``: by name, for a local run; ``suite``: a recipe, for workers) and the keyword
+    arguments of :func:`bench_problem` besides the problem and its seed. ``keep_results``: return the
+    results too (for recordings and result files), without their in-memory robot."""
+
+    methods: Tuple[str, ...]
+    kwargs: Dict[str, Any]
+    problems: Optional[Dict[str, Any]] = None
+    suite: Optional[Suite] = None
+    keep_results: bool = False
+
+    def problem(self, name: str) -> Any:
+        return (self.problems if self.problems is not None else suite_problems(self.suite, quiet=True))[name]
+
+
+def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]], List[Any]]:
+    """One problem's task: :func:`bench_problem` (or :func:`error_rows` when the solve raised a user error,
+    so that one bad problem does not end the bench)."""
+    from gfcs.cli import _message, _user_error_types
+
+    problem = job.problem(name)
+    try:
+        rows, results = bench_problem(problem, job.methods, seed=seed, **job.kwargs)
+    except _user_error_types() as e:
+        message = f"{type(e).__name__}: {_message(e)}"
+        print(f"gfcs: bench: {problem.name}: {message}", file=sys.stderr)
+        return error_rows(problem, job.methods, job.kwargs["batches"], seed, message), []
+    if not job.keep_results:
+        return rows, []
+    return rows, [dataclasses.replace(r, robot=None) for r in results] if job.problems is None else results
+
+
+def resume_rows(jsonl: str, methods: Sequence[str]) -> Tuple[List[Dict[str, Any]], set]:
+    """(rows kept, names of finished problems) of an earlier run's ``jsonl``: a problem is finished when it
+    has a row of every method in ``methods``. The file is rewritten with only the kept rows (the finished
+    problems' and the left-out ones), dropping an unfinished problem's rows and a line cut short by an
+    interrupted write, so that appending the remaining problems leaves every problem in it once."""
+    from gfcs.results import read_rows
+
+    if not Path(jsonl).exists():
+        return [], set()
+    lines = Path(jsonl).read_text().splitlines()
+    rows = []
+    for number, line in enumerate(lines):
+        try:
+            rows.extend(read_rows([line]))
+        except ValueError:
+            if number < len(lines) - 1:  # only the last line may be cut short
+                raise
+    seen: Dict[str, set] = {}
+    for r in rows:
+        if "left_out" not in r:
+            seen.setdefault(r["problem"], set()).add(r.get("method"))
+    finished = {name for name, got in seen.items() if set(methods) <= got}
+    left_out = {r["problem"]: r for r in rows if "left_out" in r}  # one row each
+    kept = list(left_out.values()) + [r for r in rows if "left_out" not in r and r["problem"] in finished]
+    tmp = Path(str(jsonl) + ".tmp")
+    tmp.write_text("".join(_line(r) for r in kept))
+    os.replace(tmp, jsonl)
+    return kept, finished
+
+
+def _line(row: Dict[str, Any]) -> str:
+    from gfcs.results import _enc
+
+    return json.dumps(_enc(row), allow_nan=False) + "\n"
+
+
+class _Progress:
+    """The progress bar of a run: problems done (of the whole suite, resumed ones included), the success so
+    far of each method (its last row of each problem: the final result), and tqdm's rate and ETA."""
+
+    def __init__(self, total: int, done_rows: List[Dict[str, Any]], methods: Sequence[str], enabled: bool,
+                 desc: str) -> None:
+        from tqdm.auto import tqdm
+
+        self.methods = list(methods)
+        self.solved = {m: 0 for m in self.methods}
+        self.tried = {m: 0 for m in self.methods}
+        by_problem: Dict[str, List[Dict[str, Any]]] = {}
+        for r in done_rows:
+            if "left_out" not in r:
+                by_problem.setdefault(r["problem"], []).append(r)
+        for problem_rows in by_problem.values():
+            self.count(problem_rows)
+        self.bar = tqdm(total=total, initial=len(by_problem), desc=desc, unit="problem", disable=not enabled)
+        self.bar.set_postfix_str(self.text())
+
+    def count(self, rows: List[Dict[str, Any]]) -> None:
+        last = {r.get("method"): r for r in rows}
+        for m in self.methods:
+            if m in last:
+                self.tried[m] += 1
+                self.solved[m] += bool(last[m].get("success"))
+
+    def text(self) -> str:
+        return ", ".join(f"{m} {self.solved[m]}/{self.tried[m]} solved" for m in self.methods)
+
+    def update(self, rows: List[Dict[str, Any]]) -> None:
+        self.count(rows)
+        self.bar.set_postfix_str(self.text(), refresh=False)
+        self.bar.update(1)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def run_bench(problems: Union[Sequence[Any], Suite], methods: Sequence[str], batches: int = 5,
+              population: int = 32, seed: int = 0, n_commands: int = 1, sampler: Any = None,
+              fabric_config: Any = None, threads: Optional[int] = None, settings: Any = None,
+              jsonl: Optional[str] = None, rrd_dir: Optional[str] = None, progress: bool = True,
+              retry: bool = True, solve_options: Optional[Dict[str, Any]] = None,
+              results_dir: Optional[str] = None, left_out: Sequence[Tuple[str, str]] = (),
+              executor: Optional[Executor] = None, resume: bool = False,
+              seeding: str = "problem") -> List[Dict[str, Any]]:
+    """Benchmark ``methods`` on ``problems`` (rows: :func:`bench_problem`), one task per problem on
+    ``executor`` (default :class:`gfcs.executors.LocalExecutor`; a Ray executor needs ``problems`` as a
+    :class:`Suite`). Rows go to ``jsonl`` as each problem finishes; with ``resume`` the problems already in
+    ``jsonl`` are kept and skipped (:func:`resume_rows`), else the file is started afresh. Each problem is
+    solved with :func:`problem_seed` (``seed``, its name) (``seeding="run"``: with ``seed`` itself), so its
+    rows do not depend on the executor, the order or the worker. With ``results_dir``, the returned result
+    of every method on every problem (with its trajectory, as ``gfcs solve --json`` writes it) goes to
+    ``<results_dir>/<class>_<NNNN>.<method>.json``. ``left_out``: (name, reason) of the suite's problems
+    that were not run (:func:`load_mbm_suite`); each becomes a :func:`gfcs.results.left_out_row`.
 
     Returns:
-        All rows, the left-out ones first (see :mod:`gfcs.results` for the row format).
+        All rows: the left-out ones, then each problem's in the order they finished (resumed ones first).
     """
-    from tqdm.auto import tqdm
+    from gfcs.cli import _viz
+    from gfcs.errors import InvalidValueError
+    from gfcs.executors import LocalExecutor, RayExecutor, describe
+    from gfcs.results import left_out_row
 
-    from gfcs.cli import _message, _record, _user_error_types, _viz
-    from gfcs.results import _enc, left_out_row
-
-    rows: List[Dict[str, Any]] = [left_out_row(name, reason) for name, reason in left_out]
+    if seeding not in ("problem", "run"):
+        raise InvalidValueError(f"seeding: expected 'problem' or 'run', got {seeding!r}")
+    executor = executor or LocalExecutor(threads)
+    suite = problems if isinstance(problems, Suite) else None
+    if isinstance(executor, RayExecutor) and suite is None:
+        raise InvalidValueError("problems: a Ray executor needs a gfcs.bench.Suite (a recipe the workers build "
+                                "the problems from), not Problem objects (they hold a Robot, which does not pickle)")
+    by_name = suite_problems(suite) if suite is not None else _by_name(problems)
     if rrd_dir:
         _viz()  # fail before the first problem when the extra is missing
     for folder in (rrd_dir, results_dir):
         if folder:
             Path(folder).mkdir(parents=True, exist_ok=True)
-    out = open(jsonl, "w") if jsonl else None
-
-    def write(new: List[Dict[str, Any]]) -> None:
-        if out is not None:
-            for r in new:
-                out.write(json.dumps(_enc(r), allow_nan=False) + "\n")
-            out.flush()
-
-    try:
-        write(rows)
-        bar = tqdm(problems, desc="bench", unit="problem", disable=not progress)
-        for problem in bar:
-            bar.set_postfix_str(problem.name)
-            try:
-                new, results = bench_problem(problem, methods, batches, population, seed, n_commands, sampler,
-                                             fabric_config, threads, settings, retry, solve_options)
-            except _user_error_types() as e:  # one bad problem does not end the bench
-                message = f"{type(e).__name__}: {_message(e)}"
-                print(f"gfcs: bench: {problem.name}: {message}", file=sys.stderr)
-                new, results = error_rows(problem, methods, batches, seed, message), []
-            rows.extend(new)
-            write(new)
-            stem = problem.name.replace("/", "_")
-            if rrd_dir:
-                _record(problem, results, str(Path(rrd_dir) / (stem + ".rrd")))
-            if results_dir:
-                for res in results:
-                    (Path(results_dir) / f"{stem}.{res.method}.json").write_text(res.to_json())
-    finally:
-        if out is not None:
-            out.close()
+    rows, finished = resume_rows(jsonl, methods) if (resume and jsonl) else ([], set())
+    known = {r["problem"] for r in rows if "left_out" in r}
+    new_left = [left_out_row(name, reason) for name, reason in left_out if name not in known]
+    kwargs = dict(batches=batches, population=population, n_commands=n_commands, sampler=sampler,
+                  fabric_config=fabric_config, threads=threads or executor.threads, settings=settings,
+                  retry=retry, solve_options=solve_options)
+    job = BenchJob(tuple(methods), kwargs, None if isinstance(executor, RayExecutor) else by_name, suite,
+                   keep_results=bool(rrd_dir or results_dir))
+    seeds = {name: problem_seed(seed, name) if seeding == "problem" else seed
+             for name in by_name if name not in finished}
+    tasks = [(name, (name, s)) for name, s in seeds.items()]
+    bar = _Progress(len(by_name), rows, methods, progress, f"bench [{describe(executor)}]")
+    rows = new_left + rows
+    with (open(jsonl, "a" if resume else "w") if jsonl else contextlib.nullcontext()) as out:
+        _write(out, new_left)
+        try:
+            for done in executor.run(bench_task, job, tasks):
+                new, results = _outcome(done, by_name[done.key], job, seeds[done.key])
+                rows.extend(new)
+                _write(out, new)
+                _keep(by_name[done.key], results, rrd_dir, results_dir)
+                bar.update(new)
+        finally:
+            bar.close()
     return rows
+
+
+def _outcome(done: Any, problem: Any, job: BenchJob, seed: int) -> Tuple[List[Dict[str, Any]], List[Any]]:
+    """The rows and results of a finished task; error rows when the executor could not complete it."""
+    if done.error is None:
+        return done.value
+    print(f"gfcs: bench: {problem.name}: {done.error}", file=sys.stderr)
+    return error_rows(problem, job.methods, job.kwargs["batches"], seed, done.error), []
+
+
+def _write(out: Any, rows: List[Dict[str, Any]]) -> None:
+    """Append ``rows`` to the open JSONL ``out`` (None: nothing) and flush, so a finished problem is on disk."""
+    if out is not None and rows:
+        out.write("".join(_line(r) for r in rows))
+        out.flush()
+
+
+def _keep(problem: Any, results: List[Any], rrd_dir: Optional[str], results_dir: Optional[str]) -> None:
+    """The recording and result files of one problem's results (when asked for)."""
+    from gfcs.cli import _record
+
+    stem = problem.name.replace("/", "_")
+    if rrd_dir:
+        _record(problem, results, str(Path(rrd_dir) / (stem + ".rrd")))
+    if results_dir:
+        for res in results:
+            (Path(results_dir) / f"{stem}.{res.method}.json").write_text(res.to_json())

@@ -137,7 +137,8 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="free commands n before the goal (default 1)")
     g.add_argument("--seed", type=_integer(0), default=0, help="optimiser seed (default 0)")
     g.add_argument("--threads", type=_integer(1), default=None,
-                   help="worker threads (default: all cores; at most 4 x the cores are used)")
+                   help="Rayon worker threads of each solve (default: all cores, at most 4 x the cores are "
+                        "used; gfcs bench/train --executor ray: 1, and each Ray task reserves that many CPUs)")
     g.add_argument("--config", metavar="FILE", help="fabric configuration (TOML, YAML or JSON)")
     g.add_argument("--preset", choices=["default", "paper"], default="default",
                    help="planner preset: default (the shipped planner: approach warm start, command blend, "
@@ -165,17 +166,15 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="run no retry policy (gfcs.planning.policies: one more command, a wider obstacle "
                         "margin after a mesh-only collision, the goal-contact attempt, the covering spheres "
                         "after the thin ones): the first attempt is returned")
-    r = p.add_argument_group("rollout (GFCS eq. 1-8)")
-    r.add_argument("--dt", type=float, default=None, help="integration step, s (default 0.01)")
-    r.add_argument("--t-max", type=float, default=None, help="time budget per command, s (default 7)")
-    r.add_argument("--tol", type=float, default=None,
-                   help="goal tolerance, rad (default: the preset's, 0.02 / 0.01)")
+    r = p.add_argument_group("rollout (GFCS eq. 1-8; defaults: the preset's, gfcs.planning.presets)")
+    r.add_argument("--dt", type=float, default=None, help="integration step, s")
+    r.add_argument("--t-max", type=float, default=None, help="time budget per command, s")
+    r.add_argument("--tol", type=float, default=None, help="goal tolerance, rad")
     r.add_argument("--waypoint-tol", type=float, default=None, help="tolerance of intermediate commands, rad")
     r.add_argument("--limit-hold-off", type=float, default=None, metavar="RAD",
                    help="a goal joint nearer its limit than the barrier margin plus this is commanded that far "
-                        "off it and blended onto the goal, rad (default: the preset's: 0.015; the paper preset "
-                        "commands every goal as it is)")
-    r.add_argument("--integrator", choices=["euler", "rk4"], default=None, help="integrator (default euler)")
+                        "off it and blended onto the goal, rad (the paper preset commands every goal as it is)")
+    r.add_argument("--integrator", choices=["euler", "rk4"], default=None, help="integrator")
     r.add_argument("--no-acceleration-limits", action="store_true",
                    help="keep the fabric's own timing where it is within the velocity limits (default: "
                         "re-timed along the same path within the robot's known joint acceleration limits: "
@@ -573,23 +572,40 @@ def _register_solve(sub: Any) -> None:
 
 
 # --------------------------------------------------------------------------------------------- bench
+def bench_suite(args: argparse.Namespace, left_out: Optional[List[Tuple[str, str]]] = None) -> List[Any]:
+    """The problems of ``gfcs bench``'s options, with their robot and mesh checker (``left_out``: see
+    :func:`gfcs.bench.load_mbm_suite`). A module-level function of the options alone, so that Ray workers
+    build the same suite from a :class:`gfcs.bench.Suite` of it."""
+    from gfcs.bench import load_problems
+
+    return _with_mesh_checker(args, load_problems(args, _robot(args), left_out))
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     """`gfcs bench`: run the suite, print the tables (and write rows / markdown)."""
-    from gfcs.bench import load_problems, run_bench
+    from gfcs.bench import Suite, run_bench, suite_problems
+    from gfcs.executors import executor_from_args
     from gfcs.results import format_table, format_totals, summarize
 
     for path, option in ((args.json, "--json"), (args.markdown, "--markdown")):
         _writable_file(path, option)
     for path, option in ((args.rrd_dir, "--rrd-dir"), (args.results_dir, "--results-dir")):
         _writable_dir(path, option)
-    robot = _robot(args)
+    if args.resume and not args.json:
+        raise ValueError("--resume needs --json (the rows of the run to resume)")
     left_out: List[Tuple[str, str]] = []
-    suite = _with_mesh_checker(args, load_problems(args, robot, left_out))
-    rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
-                     n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
-                     threads=args.threads, jsonl=args.json, rrd_dir=args.rrd_dir,
-                     progress=not args.no_progress, retry=not args.no_retry,
-                     solve_options=_solve_options(args, robot), results_dir=args.results_dir, left_out=left_out)
+    problems = bench_suite(args, left_out)
+    suite = Suite(bench_suite, (args,))
+    suite_problems(suite, built=problems)  # the driver's copy: built once, with its messages
+    robot = problems[0].robot if problems else _robot(args)
+    with executor_from_args(args) as executor:
+        rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
+                         n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
+                         threads=args.threads, jsonl=args.json, rrd_dir=args.rrd_dir,
+                         progress=not args.no_progress, retry=not args.no_retry,
+                         solve_options=_solve_options(args, robot), results_dir=args.results_dir,
+                         left_out=left_out, executor=executor, resume=args.resume,
+                         seeding="run" if args.same_seed else "problem")
     summary = summarize(rows)
     totals = format_totals(rows) if rows else ""
     print(format_table(summary, markdown=False) + "\n" + totals, end="")
@@ -622,7 +638,16 @@ def _register_bench(sub: Any) -> None:
     out.add_argument("--results-dir", metavar="DIR",
                      help="write every returned result with its trajectory (the JSON of gfcs solve --json) "
                           "as DIR/<class>_<NNNN>.<method>.json")
+    out.add_argument("--resume", action="store_true",
+                     help="keep the problems already in --json (a row of every --method) and run the others, "
+                          "appending their rows (with the same options as the first run)")
     out.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--same-seed", action="store_true",
+                   help="solve every problem with --seed itself (default: with a seed derived from --seed and "
+                        "the problem's name, gfcs.bench.problem_seed, recorded in each row)")
+    from gfcs.executors import add_executor_options
+
+    add_executor_options(p)
     p.set_defaults(func=cmd_bench)
 
 
