@@ -96,11 +96,8 @@ class TrainConfig:
         neg_refresh: redraw the negatives every this many epochs (0: once per training).
         sgld: SGLD settings of the training negatives, and of the sampler except its noise.
         sample_noise: noise scale ``τ`` of the sampler's SGLD (stored in the model file; default 1, the
-            paper's eq. 10-11). The negatives keep ``sgld.noise_scale`` (0.3). On MotionBenchMaker table
-            under 41-50 (models trained on problems 1-40 with generated ones), first batch, seeds 0-2:
-            τ = 0.3 solved 19-24 of 30 against uniform's 29, τ = 1 29-30 with shorter paths; on held-out
-            generated problems τ = 0.3 gave the shortest hand paths (1.12 m against 1.19-1.27 m at τ = 1,
-            uniform 1.37-1.55 m).
+            paper's eq. 10-11). The negatives keep ``sgld.noise_scale`` (see :class:`gfcs.learning.sgld.SGLDConfig`);
+            docs/tuning.md has the measured effect of both.
         encoder: lattice settings (paper spacing 0.15 m).
         latent_dim: autoencoder code length, or ``None`` to feed ``d̂_E`` directly.
         ae_hidden, ae_epochs: autoencoder architecture and training length.
@@ -287,12 +284,15 @@ def train_energy_model(
     return losses
 
 
-def default_solve_fn(config: TrainConfig) -> SolveFn:
-    """``solve_fn`` calling :func:`gfcs.optimize.solve` with ``config.solve`` and ``config.n_commands``."""
+def default_solve_fn(config: TrainConfig, threads: Optional[int] = None) -> SolveFn:
+    """``solve_fn`` calling :func:`gfcs.optimize.solve` with ``config.solve`` and ``config.n_commands``
+    (``threads``: Rayon threads of each solve; None: the solve's default)."""
     from gfcs.optimize import UniformSampler, solve
 
     kwargs = dict(config.solve)
     kwargs.setdefault("n_commands", config.n_commands)
+    if threads is not None:
+        kwargs["threads"] = threads
 
     def solve_fn(problem: Any, sampler: Any, seed: int) -> Any:
         if sampler is None:  # before the first training: uniform, as Alg. 2 (not solve's default)
@@ -302,13 +302,52 @@ def default_solve_fn(config: TrainConfig) -> SolveFn:
     return solve_fn
 
 
-def default_validate_fn(config: TrainConfig) -> SolveFn:
+def default_validate_fn(config: TrainConfig, threads: Optional[int] = None) -> SolveFn:
     """``validate_fn``: :func:`gfcs.optimize.solve` with one CMA-ES batch (the warm start alone, as GFCS
     Table II), the population of ``config.solve`` and ``config.n_commands``; uniform when ``sampler`` is
     ``None``."""
     kwargs = dict(config.solve)
     kwargs["batches"] = 1
-    return default_solve_fn(replace(config, solve=kwargs))
+    return default_solve_fn(replace(config, solve=kwargs), threads)
+
+
+@dataclass(frozen=True)
+class Solved:
+    """What the training loop uses of a solve that ran on a Ray worker: ``top`` (candidate, cost), best
+    first, and ``success`` (the full result holds the robot, which does not pickle)."""
+
+    top: List[Tuple[Any, float]]
+    success: bool
+
+
+def _solve_task(shared: Tuple[SolveFn, Any, Any], name: str, seed: int) -> Solved:
+    """A Ray task of :func:`_solves`: ``solve_fn(problem, sampler, seed)`` on the worker, the problem from
+    the suite recipe (built once per worker)."""
+    from gfcs.bench import suite_problems
+
+    solve_fn, suite, sampler = shared
+    result = solve_fn(suite_problems(suite, quiet=True)[name], sampler, seed)
+    return Solved([(np.asarray(c, dtype=np.float64), float(c_)) for c, c_ in result.top], bool(result.success))
+
+
+def _solves(executor: Any, suite: Any, solve_fn: SolveFn, sampler: Any, jobs: Sequence[Tuple[Any, Any, int]]
+            ) -> Dict[Any, Any]:
+    """``solve_fn(problem, sampler, seed)`` for each ``(key, problem, seed)`` of ``jobs``, by key: in this
+    process for a local executor (or none), else as tasks of ``executor`` that rebuild each problem from
+    ``suite`` (:class:`gfcs.bench.Suite`) and get ``solve_fn`` and ``sampler`` (its weights) once per
+    call; a task the executor could not complete raises :class:`ConfigError` naming its problem."""
+    from gfcs.executors import LocalExecutor
+
+    if executor is None or isinstance(executor, LocalExecutor):
+        return {key: solve_fn(problem, sampler, seed) for key, problem, seed in jobs}
+    problem_of = {key: problem for key, problem, _ in jobs}
+    out = {}
+    for done in executor.run(_solve_task, (solve_fn, suite, sampler),
+                             [(key, (problem.name, seed)) for key, problem, seed in jobs]):
+        if done.error is not None:
+            raise ConfigError(f"train: the solve of {problem_of[done.key].name} failed on the executor: {done.error}")
+        out[done.key] = done.value
+    return out
 
 
 def load_checkpoint(path: Union[str, Path]) -> Dict[str, Any]:
@@ -372,6 +411,28 @@ def _problem_name(problem: Any, index: int) -> str:
     return str(getattr(problem, "name", None) or f"problem{index}")
 
 
+def _round_end(step: int, total: int, n_train: int) -> int:
+    """The step after the last one solved with the sampler of ``step``: the model is trained after each
+    step ``s`` with ``(s + 1) % n_train == 0`` (and after the last step of the run)."""
+    return min(total, (step // n_train + 1) * n_train)
+
+
+def _check_executor(executor: Any, suite: Any, problems: Sequence[Any]) -> None:
+    """A remote executor needs a suite recipe holding every problem under its (unique) name."""
+    if executor is None or executor.name == "local":
+        return
+    from gfcs.bench import suite_problems
+
+    if suite is None:
+        raise ConfigError(f"train: executor {executor.name!r} needs suite= (a gfcs.bench.Suite the workers build "
+                          "the problems from)")
+    names = [getattr(p, "name", "") for p in problems]
+    missing = sorted(set(names) - set(suite_problems(suite)))
+    if len(set(names)) != len(names) or missing:
+        raise ConfigError(f"train: with executor {executor.name!r} every problem needs a unique name found in "
+                          f"the suite ({len(names) - len(set(names))} repeated; not in the suite: {missing[:3]})")
+
+
 def _visit_order(n: int, passes: int, seed: int, shuffle: bool) -> np.ndarray:
     orders = [np.random.default_rng(_derived_seed(seed, 0xC0DE, p)).permutation(n) if shuffle else np.arange(n)
               for p in range(passes)]
@@ -389,6 +450,8 @@ def train(
     stop_after: Optional[int] = None,
     validation: Optional[Sequence[Any]] = None,
     validate_fn: Optional[SolveFn] = None,
+    executor: Optional[Any] = None,
+    suite: Optional[Any] = None,
 ) -> TrainResult:
     """Run Algorithm 2 on ``problems`` and return the trained sampler.
 
@@ -416,6 +479,13 @@ def train(
             (``trainings = 0``: uniform). The trained model with the lowest score is returned as
             ``best_sampler`` and written to :func:`best_model_path` ``(out)``.
         validate_fn: like ``solve_fn``, for the validation problems; default :func:`default_validate_fn`.
+        executor: where the solves run (:mod:`gfcs.executors`; default: this process). With a Ray executor
+            the solves of a round (the problems between two trainings, all solved with the same sampler)
+            are tasks on the workers, the sampler (its weights) is sent to them once per round, and the
+            energy model is trained here; the results are used in step order, so the run is the one a
+            local run makes. ``solve_fn`` and ``validate_fn`` must then pickle (the defaults do).
+        suite: with a Ray executor, a :class:`gfcs.bench.Suite` whose problems include ``problems`` and
+            ``validation`` under the same (unique) names: the workers build the problems from it.
     """
     if len(problems) == 0:
         raise ConfigError("train: no problems given")
@@ -431,8 +501,10 @@ def train(
         raise ConfigError(f"resume: the validation problems differ from the ones in {resume}")
     lower, upper, dof = _problem_limits(list(problems) + validation)
     t_lower, t_upper = np.tile(lower, cfg.n_commands), np.tile(upper, cfg.n_commands)
-    solve_fn = solve_fn or default_solve_fn(cfg)
-    validate_fn = validate_fn or default_validate_fn(cfg)
+    threads = getattr(executor, "threads", None)
+    solve_fn = solve_fn or default_solve_fn(cfg, threads)
+    validate_fn = validate_fn or default_validate_fn(cfg, threads)
+    _check_executor(executor, suite, list(problems) + validation)
     if checkpoint is None and out is not None:
         checkpoint = Path(out).with_suffix(".ckpt.pt")
 
@@ -476,8 +548,9 @@ def train(
 
     def run_validation(step: int, current: Optional[EBMSampler]) -> Dict[str, Any]:
         t0 = time.perf_counter()
-        results = [validate_fn(p, current, _derived_seed(cfg.seed, 0x7A11D, i, bits=31))
-                   for i, p in enumerate(validation)]
+        jobs = [(i, p, _derived_seed(cfg.seed, 0x7A11D, i, bits=31)) for i, p in enumerate(validation)]
+        solved = _solves(executor, suite, validate_fn, current, jobs)
+        results = [solved[i] for i in range(len(validation))]
         costs = [min((float(c) for _, c in r.top), default=float("inf")) for r in results]
         event = {"event": "validate", "step": step, "trainings": trainings, "mean_cost": float(np.mean(costs)),
                  "solved": int(sum(bool(r.success) for r in results)), "n": len(results), "costs": costs,
@@ -505,13 +578,25 @@ def train(
 
     from tqdm.auto import tqdm
 
-    bar = tqdm(total=total, initial=min(start, total), disable=not progress, desc="gfcs train", unit="problem")
+    from gfcs.executors import describe
+
+    bar = tqdm(total=total, initial=min(start, total), disable=not progress, unit="problem",
+               desc=f"gfcs train [{describe(executor) if executor is not None else 'local'}]")
+    postfix: Dict[str, Any] = {}
+    n_solved = 0  # solves of this run that succeeded (the progress bar's "solved")
     try:
         if validation and not any(h["event"] == "validate" for h in history):
             run_validation(start, None)  # the uniform sampler's score, for reference
+        round_results: Dict[int, Any] = {}
         for step in range(start, total):
             idx = int(order[step])
-            result = solve_fn(problems[idx], sampler, _derived_seed(cfg.seed, step, bits=31))
+            if step not in round_results:  # the solves until the next training (one at a time locally)
+                end = step + 1 if executor is None or executor.name == "local" else _round_end(step, total, cfg.n_train)
+                round_results = _solves(executor, suite, solve_fn, sampler,
+                                        [(s, problems[int(order[s])], _derived_seed(cfg.seed, s, bits=31))
+                                         for s in range(step, end)])
+            result = round_results.pop(step)
+            n_solved += bool(getattr(result, "success", False))
             top = list(result.top)
             cands = np.array([np.asarray(c, dtype=np.float64) for c, _ in top]).reshape(len(top), -1)
             costs = np.array([float(c) for _, c in top], dtype=np.float64)
@@ -548,10 +633,12 @@ def train(
                         if out is not None:
                             _atomic_save(sampler.to_dict(), best_model_path(out))
                 trained = True
-                bar.set_postfix(buffer=len(buffer), loss=f"{losses[-1]:.3f}",
-                                **({"val": f"{history[-1]['mean_cost']:.2f}s"} if validation else {}))
+                postfix.update(buffer=len(buffer), loss=f"{losses[-1]:.3f}",
+                               **({"val": f"{history[-1]['mean_cost']:.2f}s"} if validation else {}))
             if trained or (step + 1) % cfg.checkpoint_every == 0 or step + 1 == total:
                 save_checkpoint(step + 1)
+            postfix["solved"] = f"{n_solved}/{step + 1 - start}"
+            bar.set_postfix(postfix, refresh=False)
             bar.update(1)
     finally:
         bar.close()

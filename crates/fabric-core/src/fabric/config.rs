@@ -71,9 +71,9 @@ impl Default for JointAttractionConfig {
                 gain: 1.0,
                 sharpness: 10.0,
             },
-            // far-field force 10 as before, but stiffness 1000 at the command (was 200): the sum of
-            // the weak barrier potentials of ~200 leaves near a goal 1-2 cm from obstacles then
-            // shifts the rest point by well under the goal tolerance (MotionBenchMaker, BENCHMARKS.md)
+            // far-field force 10, stiffness 1000 at the command: the sum of the weak barrier
+            // potentials of ~200 leaves near a goal 1-2 cm from obstacles shifts the rest point by well
+            // under the goal tolerance (docs/tuning.md)
             potential: LogCoshConfig {
                 gain: 0.1,
                 sharpness: 100.0,
@@ -107,12 +107,10 @@ impl EeAttractionConfig {
     /// On: the hand is drawn toward the hand position of the joint command. Its geometry (gain 12) bends
     /// paths toward it without creating equilibria; its potential (gain 3, far-field force 30 against the
     /// joint attractor's 10) lets the hand lead the arm, so that the forearm no longer catches on rims
-    /// the hand passes: MotionBenchMaker, fabric alone (GF), 147 → 216 of 350 solved (box 16 → 42 of
-    /// 50); GFCS problems 11–30 of each class, 5 batches: 140/140 either way, EE length box 1.25 →
-    /// 1.05 m, table under 1.84 → 1.63 m, time to goal 0–11 % shorter. The cost: the stronger pull can
-    /// hold the arm in another configuration with the hand at the goal; with the obstacles removed,
-    /// 6 of 350 MotionBenchMaker goals are not reached by GF from the start (1 with gain 1), which GFCS
-    /// commands route around. With `SpeedConfig::ee_weight` it shortens hand paths (BENCHMARKS.md).
+    /// the hand passes (more problems solved by the fabric alone, shorter hand paths with GFCS). The
+    /// cost: the stronger pull can hold the arm in another configuration with the hand at the goal,
+    /// which GFCS commands route around. With `SpeedConfig::ee_weight` it shortens hand paths. Figures:
+    /// docs/tuning.md.
     fn position_default() -> Self {
         Self {
             enabled: true,
@@ -130,8 +128,7 @@ impl EeAttractionConfig {
         }
     }
     /// Off: GFCS commands fix the configuration, and the joint attractor already brings the hand's
-    /// orientation; measured on problems 1–5 of each class it lengthened paths (1.21 → 1.53 m) and solved
-    /// 32/35 instead of 35/35.
+    /// orientation; switched on, it lengthens hand paths and solves fewer problems (docs/tuning.md).
     fn orientation_default() -> Self {
         Self {
             enabled: false,
@@ -196,11 +193,8 @@ impl BarrierConfig {
         Self {
             enabled: true,
             metric_gain: 0.05,
-            // 2 mm: Euler steps at v_d = 2 rad/s overshoot the barrier by a few mm (MotionBenchMaker
-            // problems 1–10 of each class, the fabric alone: 13 of 70 rollouts below −1 mm of sphere
-            // clearance without a margin, worst −7.9 mm; 6 of 70, −5.7 mm with 2 mm). 5 mm (1 of 70)
-            // closed the passages between the cage bars: GFCS solved 0 of the 8 cage problems it failed
-            // then, 6 of them with 2 mm (BENCHMARKS.md)
+            // 2 mm: Euler steps at v_d = 2 rad/s overshoot the barrier by a few mm; a wider margin
+            // closes narrow passages such as those between cage bars (docs/tuning.md)
             margin: 0.002,
             // the barrier geometry's deceleration is set by the near field (speed factor
             // exp(-k/x + k/influence)); 0.15 m keeps it and halves the leaves of cluttered scenes
@@ -224,10 +218,8 @@ impl BarrierConfig {
     }
     fn self_collision_default() -> Self {
         Self {
-            // 5 cm: with the MotionBenchMaker Panda's spheres, 0.1 m kept ~29 self-collision leaves
-            // active per step (hand against forearm and wrist); 0.05 m takes 24 % of the instructions of
-            // a fabric step away with the same outcome on MBM problems 11–20 of each class (70/70,
-            // hand paths 1.05 m, C-space LDJ −12.76 against −12.77)
+            // 5 cm: a wider influence keeps many hand-against-forearm leaves active every step at no
+            // gain in outcome (docs/tuning.md)
             influence: 0.05,
             // 2 mm, as for obstacles: Euler steps overshoot the barrier by a millimetre or two, enough to
             // bring two spheres into overlap while their meshes stay millimetres apart. Every
@@ -290,21 +282,19 @@ pub struct SpeedConfig {
     /// L_ex = ½(‖q̇‖² + w‖ẋ_ee‖²) (App. E-B: "Euclidean energy in either C-space or end-effector space
     /// (or, more commonly, some combination of both)"); ẋ_ee is the velocity (m/s, world) of the
     /// end-effector link origin. 0 = C-space only. Default 10 (a hand speed of 0.32 m/s counts as 1 rad/s
-    /// of joint speed): GFCS minimises time (eq. 4), so with this weight it prefers short hand paths.
-    /// (25 slowed long arm swings so much that some free-space goals took longer than 7 s.)
+    /// of joint speed): GFCS minimises time (eq. 4), so with this weight it prefers short hand paths; a
+    /// much larger weight slows long arm swings past the 7 s budget of a command.
     pub ee_weight: f64,
     /// α_η of eq. 46 (s²/rad²): rate of the energy-injection switch η. Default 5.0: η fades over
-    /// ~±0.2 rad/s around v_d instead of cutting the start-up acceleration within one step (at 20 that
-    /// cut was the largest jerk left once commands were blended; C-space LDJ −13.7 → −13.4 on
-    /// MotionBenchMaker problems 6–10 of each class, success unchanged). The price: the cruise speed
-    /// settles ~7 % above v_d (2.14 rad/s for v_d = 2; 2.04 at 20).
+    /// ~±0.2 rad/s around v_d instead of cutting the start-up acceleration within one step (a sharper
+    /// switch is the largest jerk left once commands are blended). The price: the cruise speed settles
+    /// ~7 % above v_d (docs/tuning.md).
     pub eta_rate: f64,
     /// α_shift of eq. 46 (dimensionless): offset of η. Default 0.0.
     pub eta_shift: f64,
     /// B of eq. 45's damper (1/s): extra damping near the command. Default 20.0: the final approach
-    /// rings about the command at a decay rate of ~B/2, and at 10 the last 0.05 rad took 0.45 s (median
-    /// of successful MotionBenchMaker rollouts); 20 on problems 11–20 of each class: time to goal
-    /// −4 %, hand paths 1.12 → 1.04 m, C-space LDJ −13.2 → −12.8, success unchanged.
+    /// rings about the command at a decay rate of ~B/2; stronger damping shortens that final approach
+    /// (docs/tuning.md).
     pub goal_damping: f64,
     /// Where the goal damper s_β B acts (see [`GoalDampingForm`]). Default `force`.
     pub goal_damping_form: GoalDampingForm,

@@ -32,12 +32,10 @@ pub struct RolloutOptions {
     /// any step, the last `stall_window` seconds have passed without that distance shrinking by at least
     /// `stall_progress` (rad), the fabric is at rest at a local minimum away from the command (Thm IV.4), or
     /// sliding along a barrier with the speed controller keeping it in motion, and would not reach it before
-    /// t_max: the rollout stops with [`StopReason::Stalled`] and t* = t_max. Default 0.5 s and 0.005 rad
-    /// (the same rate as the earlier 1 s and 0.01 rad, detected half a second sooner: 7 % fewer steps per
-    /// MotionBenchMaker solve, success unchanged on problems 11–20 of each class); `stall_window = 0`
-    /// turns it off. (A rollout that makes no progress for half a second and then reaches is counted as
-    /// failed: measured on MotionBenchMaker problems, with a 1 s window, this changed the outcome of
-    /// fewer than 1 % of rollouts and saved half of the integration steps; see BENCHMARKS.md.)
+    /// t_max: the rollout stops with [`StopReason::Stalled`] and t* = t_max. Default 0.5 s and 0.005 rad;
+    /// `stall_window = 0` turns it off. A rollout that makes no progress for half a second and then
+    /// reaches is counted as failed; that is rare, and the detection saves about half of the
+    /// integration steps (docs/tuning.md).
     pub stall_window: f64,
     /// See `stall_window` (rad), ≥ 0.
     pub stall_progress: f64,

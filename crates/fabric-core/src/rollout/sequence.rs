@@ -21,9 +21,8 @@ pub struct SequenceOptions {
     /// [`super::evaluate_batch`] are rows of n·dof values. Default 1 (GFCS: sequences of length two).
     pub n_commands: usize,
     /// Tolerance (rad / m) at which an intermediate command counts as reached and the next one takes
-    /// over, > 0. Looser than `rollout.tol` so that the robot flows through waypoints. Default 0.3
-    /// (0.1 before: MotionBenchMaker problems 11–30 of each class, GFCS 5 batches, 140/140 either way,
-    /// time to goal up to 5 % shorter in 6 of 7 classes and EE length shorter in 5 of 7 with 0.3).
+    /// over, > 0. Looser than `rollout.tol` so that the robot flows through waypoints instead of slowing
+    /// at each. Default 0.3 (docs/tuning.md).
     pub waypoint_tol: f64,
     /// Penalty p of eq. 4 (s) when the goal is not reached, ≥ 0. Default 100 s. Every failure costs more
     /// than every success when p > n·t_max (14 s at the defaults).
@@ -45,9 +44,8 @@ pub struct SequenceOptions {
     /// Extension of eq. 7 (s), ≥ 0: at each handover the fabric's command moves from the previous
     /// command to the next one along a smoothstep over this time instead of jumping (the rollout still
     /// starts from the previous final state and is judged against the next command). A jump of the
-    /// command is a jump of the acceleration, which dominated the jerk of GFCS trajectories (50–80 % of
-    /// ∫‖q⃛‖² on MotionBenchMaker problems; 0.5 s: C-space LDJ −14.6 → −13.7 on problems 6–10 of each
-    /// class, success unchanged). Default 0.5 s; 0 = the paper's switch.
+    /// command is a jump of the acceleration, which dominates the jerk of GFCS trajectories
+    /// (docs/tuning.md). Default 0.5 s; 0 = the paper's switch.
     pub blend_time: f64,
 }
 
