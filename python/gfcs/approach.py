@@ -24,6 +24,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from gfcs.errors import InvalidValueError, ShapeError
+
 __all__ = ["approach_configurations", "retract_configurations", "AXIS_WEIGHT", "RETRACT_BLEND", "RETRACT_SCALE",
            "RETRACT_HEIGHT_SIGMA"]
 
@@ -47,7 +49,7 @@ def _configuration(robot: Any, name: str, q: Any) -> np.ndarray:
     dof = len(robot.lower)
     out = np.array(q, dtype=np.float64)
     if out.shape != (dof,) or not np.all(np.isfinite(out)):
-        raise ValueError(f"{name}: expected {dof} finite values, got shape {out.shape}")
+        raise ShapeError(f"{name}: expected {dof} finite values, got shape {out.shape}")
     return out
 
 
@@ -80,10 +82,10 @@ def approach_configurations(
     q = _configuration(robot, "q_goal", q_goal)
     d = np.asarray(distances, dtype=np.float64).reshape(-1)
     if not (np.all(np.isfinite(d)) and np.all(d >= 0)):
-        raise ValueError(f"distances must be finite and >= 0, got {d.tolist()}")
+        raise InvalidValueError(f"distances must be finite and >= 0, got {d.tolist()}")
     a = np.asarray(axis, dtype=np.float64).reshape(-1)
     if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
-        raise ValueError(f"axis: expected a non-zero 3-vector, got {np.asarray(axis).tolist()}")
+        raise InvalidValueError(f"axis: expected a non-zero 3-vector, got {np.asarray(axis).tolist()}")
     a = a / np.linalg.norm(a)
     goal_pose = np.asarray(robot.link_poses(q))[robot.link_index(robot.ee_link)]
     axes = np.stack([goal_pose[:3, 0], goal_pose[:3, 2]])
@@ -127,7 +129,7 @@ def retract_configurations(
     """
     ends = [_configuration(robot, "q_start", q_start), _configuration(robot, "q_goal", q_goal)]
     if int(n) < 0:
-        raise ValueError(f"n must be >= 0, got {n}")
+        raise InvalidValueError(f"n must be >= 0, got {n}")
     (q0, q1), (p0, p1) = ends, np.asarray(robot.ee_position(np.stack(ends)))
     blends, targets = np.empty(int(n)), np.empty((int(n), 3))
     for row in range(int(n)):

@@ -29,6 +29,8 @@ from typing import Any, Optional, Tuple
 
 import numpy as np
 
+from gfcs.errors import InvalidValueError
+
 __all__ = ["blend_duration", "quintic_to_rest", "append_goal_blend", "retime_start", "START_WINDOW",
            "limit_dynamics", "first_difference_speed", "second_difference"]
 
@@ -209,8 +211,8 @@ def _limit_vector(limits: Any, dof: int, what: str, unit: str) -> Optional[np.nd
         return None
     a = np.asarray(limits, dtype=np.float64)
     if a.shape != (dof,) or np.any(np.isnan(a)) or np.any(a <= 0):
-        raise ValueError(f"{what} limits: expected {dof} positive values [{unit}] (inf: none), "
-                         f"got {np.asarray(limits).tolist()}")
+        raise InvalidValueError(f"{what} limits: expected {dof} positive values [{unit}] (inf: none), "
+                                f"got {np.asarray(limits).tolist()}")
     return None if np.all(np.isinf(a)) else a
 
 
@@ -271,11 +273,11 @@ def limit_dynamics(t: np.ndarray, q: np.ndarray, qd: np.ndarray, dt: float, velo
     v = _limit_vector(velocity, dof, "velocity", "rad/s or m/s")
     a = _limit_vector(acceleration, dof, "acceleration", "rad/s² or m/s²")
     if not (dt > 0 and window > 0):
-        raise ValueError(f"dt and window must be > 0, got {dt}, {window}")
+        raise InvalidValueError(f"dt and window must be > 0, got {dt}, {window}")
     if v is not None and np.any(np.abs(qd[0]) > v):
         j = int(np.argmax(np.abs(qd[0]) / v))
-        raise ValueError(f"start velocity {qd[0][j]:.6g} of joint {j} exceeds its velocity limit {v[j]:.6g}: "
-                         "the robot cannot be in that state")
+        raise InvalidValueError(f"start velocity {qd[0][j]:.6g} of joint {j} exceeds its velocity limit {v[j]:.6g}: "
+                                "the robot cannot be in that state")
     half = int(round(window / dt))
     moving_start = bool(np.any(qd[0] != 0.0))
 

@@ -18,6 +18,10 @@ class                       bases                                  raised for
 ``InvalidValueError``       ``GfcsError``, ``ValueError``          value out of range (radius, time step, gain)
 ``ConfigError``             alias of ``InvalidValueError``
 ``IoError``                 ``GfcsError``, ``OSError``             I/O failure on a path
+``MissingFileError``        ``IoError``, ``FileNotFoundError``     a file or folder that does not exist
+                                                                   (raised by the Python layer)
+``GenerationError``         ``GfcsError``, ``RuntimeError``        no valid problem found in the draws a
+                                                                   generator may make
 ``GfcsWarning``             ``UserWarning``                        (a warning) input accepted but not fully
                                                                    applied: MoveIt scene fields, SRDF entries
                                                                    for links the robot lacks, a thread count
@@ -42,6 +46,16 @@ from gfcs._core import (
     UrdfError,
 )
 
+
+class MissingFileError(IoError, FileNotFoundError):
+    """A file or folder that does not exist (``errno`` ENOENT when built as ``MissingFileError(2, text,
+    path)``); catchable as ``gfcs.GfcsError`` and as ``FileNotFoundError``."""
+
+
+class GenerationError(GfcsError, RuntimeError):
+    """A problem generator found no valid start and goal within the draws it may make."""
+
+
 __all__ = [
     "GfcsError",
     "UrdfError",
@@ -53,5 +67,7 @@ __all__ = [
     "InvalidValueError",
     "ConfigError",
     "IoError",
+    "MissingFileError",
+    "GenerationError",
     "GfcsWarning",
 ]

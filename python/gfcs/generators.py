@@ -44,8 +44,9 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from gfcs import metrics as _metrics
-from gfcs.problems import CLASSES, Problem, canonical_class, mesh_checker_for
+from gfcs.errors import GenerationError, InvalidValueError
 from gfcs.pose_goal import quaternion_xyzw
+from gfcs.problems import CLASSES, Problem, canonical_class, mesh_checker_for
 
 __all__ = [
     "Primitive",
@@ -346,7 +347,7 @@ def build_scene(primitives: Sequence[Primitive]) -> Any:
         elif p.kind == "sphere":
             scene.add_sphere(list(p.position), p.dims[0], name=p.name)
         else:
-            raise ValueError(f"primitive '{p.name}': unknown kind '{p.kind}' (box, cylinder, sphere)")
+            raise InvalidValueError(f"primitive '{p.name}': unknown kind '{p.kind}' (box, cylinder, sphere)")
     return scene
 
 
@@ -445,7 +446,7 @@ def write_problems(problems: Sequence[Problem], directory: Any, pose_goals: bool
     for p in problems:
         prims = p.meta.get("primitives")
         if prims is None:
-            raise ValueError(f"problem '{p.name}' has no meta['primitives'] (not generated?)")
+            raise InvalidValueError(f"problem '{p.name}' has no meta['primitives'] (not generated?)")
         cls = p.cls or "generated"
         counts[cls] = counts.get(cls, 0) + 1
         folder = root / cls
@@ -586,7 +587,7 @@ def generate(
 
     name = canonical_class(cls)
     if int(n) < 0:
-        raise ValueError(f"n must be ≥ 0, got {n}")
+        raise InvalidValueError(f"n must be ≥ 0, got {n}")
     robot = gfcs.Robot.panda() if robot is None else robot
     ready = _ready(robot)
     checker = mesh_checker_for(robot)
@@ -632,8 +633,8 @@ def generate(
             if problem is not None:
                 break
         if problem is None:
-            raise RuntimeError(f"generate('{name}', seed={seed}): no valid start/goal for problem {i} "
-                               f"after {max_scenes} scenes")
+            raise GenerationError(f"generate('{name}', seed={seed}): no valid start/goal for problem {i} "
+                                  f"after {max_scenes} scenes")
         problems.append(problem)
     return problems
 
@@ -738,7 +739,7 @@ def two_arm_problems(n: int, seed: int = 0, spread: float = 0.6, margin: float =
         ValueError: n < 0. RuntimeError: no valid start/goal pair within ``tries`` draws (names seed, index).
     """
     if int(n) < 0:
-        raise ValueError(f"n must be ≥ 0, got {n}")
+        raise InvalidValueError(f"n must be ≥ 0, got {n}")
     robot, tips = two_arm_robot()
     scene = build_scene([TWO_ARM_DIVIDER])
     lo = np.asarray(robot.lower, dtype=np.float64) + 0.05
@@ -763,7 +764,8 @@ def two_arm_problems(n: int, seed: int = 0, spread: float = 0.6, margin: float =
                 break
             goal = None
         if q0 is None or goal is None:
-            raise RuntimeError(f"two_arm_problems(seed={seed}): no valid start/goal for problem {i} in {tries} draws")
+            raise GenerationError(f"two_arm_problems(seed={seed}): no valid start/goal for problem {i} in "
+                                  f"{tries} draws")
         out.append(Problem(
             name=f"two_arm/gen{int(seed)}_{i:04d}", robot=robot, scene=scene, q0=q0, goal=goal, cls="two_arm",
             meta={"generator": "two_arm", "seed": int(seed), "index": i, "group": TWO_ARM_GROUP,

@@ -28,6 +28,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
+from gfcs.errors import InvalidValueError, NonFiniteError, ShapeError
 from gfcs.joints import continuous_mask, joint_difference
 
 __all__ = [
@@ -82,7 +83,7 @@ def _non_negative(name: str, value: Any, unit: str) -> float:
     except (TypeError, ValueError):
         v = math.nan
     if not (math.isfinite(v) and v >= 0):
-        raise ValueError(f"{name} must be a finite number ≥ 0{unit}, got {value}")
+        raise InvalidValueError(f"{name} must be a finite number ≥ 0{unit}, got {value}")
     return v
 
 
@@ -92,9 +93,9 @@ def _as_path(x: Any, name: str) -> np.ndarray:
     if a.ndim == 1:
         a = a[:, None]
     if a.ndim != 2:
-        raise ValueError(f"{name}: expected shape (T,) or (T, k), got {a.shape}")
+        raise ShapeError(f"{name}: expected shape (T,) or (T, k), got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or infinite values")
+        raise NonFiniteError(f"{name} contains NaN or infinite values")
     return a
 
 
@@ -139,7 +140,7 @@ def dimensionless_jerk(x: Any, dt: float) -> float:
     """
     a = _as_path(x, "x")
     if not (math.isfinite(dt) and dt > 0.0):
-        raise ValueError(f"dt must be a positive finite number of seconds, got {dt!r}")
+        raise InvalidValueError(f"dt must be a positive finite number of seconds, got {dt!r}")
     n = a.shape[0]
     if n < 4:
         return math.nan
@@ -188,7 +189,7 @@ def within_limits(q: Any, lower: Any, upper: Any, tol: float = DEFAULT_LIMIT_TOL
     lo = np.asarray(lower, dtype=np.float64)
     up = np.asarray(upper, dtype=np.float64)
     if lo.shape != (qa.shape[1],) or up.shape != (qa.shape[1],):
-        raise ValueError(
+        raise InvalidValueError(
             f"lower/upper: expected shape ({qa.shape[1]},), got {lo.shape} and {up.shape}"
         )
     return bool(np.all(qa >= lo - tol) and np.all(qa <= up + tol))
@@ -372,12 +373,12 @@ def uniform_resample(t: Any, x: Any) -> "tuple[np.ndarray, float]":
     ta = np.asarray(t, dtype=np.float64).reshape(-1)
     xa = _as_path(x, "x")
     if ta.shape[0] != xa.shape[0]:
-        raise ValueError(f"t: expected shape ({xa.shape[0]},), got {ta.shape}")
+        raise ShapeError(f"t: expected shape ({xa.shape[0]},), got {ta.shape}")
     if ta.shape[0] < 2:
         return xa, math.nan
     steps = np.diff(ta)
     if np.any(steps <= 0.0):
-        raise ValueError("t must be strictly increasing")
+        raise InvalidValueError("t must be strictly increasing")
     dt = float(ta[-1] - ta[0]) / (ta.shape[0] - 1)
     if np.max(np.abs(steps - dt)) <= 1e-9 * max(dt, 1e-300) + 1e-15:
         return xa, dt
@@ -442,19 +443,19 @@ def trajectory_metrics(
     qa = _as_path(q, "q")
     ta = np.asarray(t, dtype=np.float64).reshape(-1)
     if ta.shape[0] != qa.shape[0]:
-        raise ValueError(f"t: expected shape ({qa.shape[0]},), got {ta.shape}")
+        raise ShapeError(f"t: expected shape ({qa.shape[0]},), got {ta.shape}")
     g = np.asarray(goal, dtype=np.float64).reshape(-1)
     if g.shape != (qa.shape[1],):
-        raise ValueError(f"goal: expected shape ({qa.shape[1]},), got {g.shape}")
+        raise ShapeError(f"goal: expected shape ({qa.shape[1]},), got {g.shape}")
     if qa.shape[0] == 0:
-        raise ValueError("q: expected at least one sample, got shape (0, dof)")
+        raise ShapeError("q: expected at least one sample, got shape (0, dof)")
     mesh_margin = _non_negative("mesh_margin", mesh_margin, " [m]")
     floor = float(clearance_floor)
     if not (math.isfinite(floor) and floor <= 0):
-        raise ValueError(f"clearance_floor must be a finite number ≤ 0 [m], got {clearance_floor}")
+        raise InvalidValueError(f"clearance_floor must be a finite number ≤ 0 [m], got {clearance_floor}")
     if floor < 0 and mesh_checker is None:
-        raise ValueError(f"clearance_floor {floor} m < 0 needs a mesh_checker: the spheres alone cannot "
-                         "judge a contact")
+        raise InvalidValueError(f"clearance_floor {floor} m < 0 needs a mesh_checker: the spheres alone cannot "
+                                "judge a contact")
     ee_a = (
         np.asarray(robot.ee_position(qa), dtype=np.float64).reshape(qa.shape[0], 3)
         if ee is None

@@ -25,6 +25,7 @@ from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from gfcs.errors import InvalidValueError
 from gfcs.results import read_rows, summarize
 
 __all__ = ["new_figure", "bench_summary_figure", "save_bench_summary", "plot_bench_file", "training_figure",
@@ -86,7 +87,7 @@ def bench_summary_figure(rows: Iterable[Dict[str, Any]], title: Optional[str] = 
     """
     rows = list(rows)
     if not rows:
-        raise ValueError("bench_summary_figure: no benchmark rows")
+        raise InvalidValueError("bench_summary_figure: no benchmark rows")
     summary = summarize(rows)
     classes = list(summary)
     labels: List[str] = []
@@ -149,7 +150,7 @@ def training_figure(history: Sequence[Dict[str, Any]], title: Optional[str] = No
     """
     solves = [h for h in history if h.get("event") == "solve"]
     if not solves:
-        raise ValueError("training_figure: the history has no solve events")
+        raise InvalidValueError("training_figure: the history has no solve events")
     trains = [h for h in history if h.get("event") == "train"]
     checks = [h for h in history if h.get("event") == "validate"]
     from matplotlib.ticker import MaxNLocator

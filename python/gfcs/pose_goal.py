@@ -45,6 +45,7 @@ import numpy as np
 
 from gfcs import metrics as _metrics
 from gfcs._core import PLANNING_FRAMES
+from gfcs.errors import InvalidValueError, ShapeError
 
 #: Slack [m or rad] on the constraints when accepting an inverse-kinematics solution (numerical noise).
 ACCEPT_SLACK = 1e-6
@@ -88,7 +89,7 @@ def quaternion_xyzw(r: Any) -> np.ndarray:
     """
     m = np.asarray(r, dtype=np.float64)
     if m.shape[-2:] != (3, 3):
-        raise ValueError(f"r: expected shape (..., 3, 3), got {m.shape}")
+        raise ShapeError(f"r: expected shape (..., 3, 3), got {m.shape}")
     a = m.reshape(-1, 3, 3)
     d0, d1, d2 = a[:, 0, 0], a[:, 1, 1], a[:, 2, 2]
     # 4·x², 4·y², 4·z², 4·w² up to the factor; the largest is the best-conditioned pivot
@@ -170,10 +171,10 @@ def check_frame(robot: Any, pose_goal: Dict[str, Any], source: str = "") -> None
     where = f"{source}: " if source else ""
     root = robot.link_names[0]
     if pose_goal["frame"] not in PLANNING_FRAMES + (root,):
-        raise ValueError(f"{where}pose goal frame '{pose_goal['frame']}' is not the planning frame of robot "
-                         f"'{robot.name}' (its root link '{root}', or 'world')")
+        raise InvalidValueError(f"{where}pose goal frame '{pose_goal['frame']}' is not the planning frame of robot "
+                                f"'{robot.name}' (its root link '{root}', or 'world')")
     if pose_goal["link"] not in robot.link_names:
-        raise ValueError(f"{where}pose goal link '{pose_goal['link']}' is not a link of robot '{robot.name}'")
+        raise InvalidValueError(f"{where}pose goal link '{pose_goal['link']}' is not a link of robot '{robot.name}'")
 
 
 def goal_configuration(
@@ -209,7 +210,7 @@ def goal_configuration(
 
     check_frame(robot, pose_goal, source)
     if int(attempts) < 1:
-        raise ValueError(f"attempts must be >= 1, got {attempts}")
+        raise InvalidValueError(f"attempts must be >= 1, got {attempts}")
     q0 = np.asarray(q0, dtype=np.float64)
     lo = np.asarray(robot.lower, dtype=np.float64) + LIMIT_INSET
     up = np.asarray(robot.upper, dtype=np.float64) - LIMIT_INSET
@@ -308,5 +309,5 @@ def goal_configuration(
     return min(valid, key=lambda q: float(np.linalg.norm(q - q0))).copy()
 
 
-class PoseGoalError(ValueError):
+class PoseGoalError(InvalidValueError):
     """No joint configuration satisfies a pose goal within the limits and clear of the obstacles."""

@@ -33,6 +33,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from gfcs import pose_goal as _pose_goal
+from gfcs.errors import InvalidValueError, MissingFileError, NonFiniteError, ShapeError
 from gfcs.joints import BOUNDS_TOLERANCE, continuous_mask, snap_to_bounds, unwrap_goal
 from gfcs.results import _enc
 
@@ -86,8 +87,8 @@ def canonical_class(name: str) -> str:
     key = re.sub(r"[\s\-]+", "_", str(name).strip().lower())
     key = CLASS_ALIASES.get(key, key)
     if key not in CLASSES:
-        raise ValueError(f"unknown problem class '{name}' (known: {', '.join(CLASSES)}; "
-                         f"aliases: {', '.join(CLASS_ALIASES)})")
+        raise InvalidValueError(f"unknown problem class '{name}' (known: {', '.join(CLASSES)}; "
+                                f"aliases: {', '.join(CLASS_ALIASES)})")
     return key
 
 
@@ -95,9 +96,9 @@ def _vector(value: Any, what: str, dof: int) -> np.ndarray:
     a = np.asarray(value, dtype=np.float64).reshape(-1) if value is not None else None
     if a is None or a.shape != (dof,):
         got = None if value is None else np.shape(value)
-        raise ValueError(f"{what}: expected shape ({dof},), got {got}")
+        raise ShapeError(f"{what}: expected shape ({dof},), got {got}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{what} contains NaN or infinite values")
+        raise NonFiniteError(f"{what} contains NaN or infinite values")
     return a
 
 
@@ -166,8 +167,9 @@ class Problem:
     def __post_init__(self) -> None:
         dof = int(self.robot.dof)
         if self.mesh_checker is not None and list(self.mesh_checker.joint_names) != list(self.robot.joint_names):
-            raise ValueError(f"mesh_checker: joints {list(self.mesh_checker.joint_names)} differ from the robot's "
-                             f"{list(self.robot.joint_names)} (q must mean the same for both)")
+            raise InvalidValueError(f"mesh_checker: joints {list(self.mesh_checker.joint_names)} differ from the "
+                                    f"robot's "
+                                    f"{list(self.robot.joint_names)} (q must mean the same for both)")
         self.q0 = _vector(self.q0, "q0", dof)
         self.goal = _vector(self.goal, "goal", dof)
         self.qd0 = np.zeros(dof) if self.qd0 is None else _vector(self.qd0, "qd0", dof)
@@ -401,7 +403,7 @@ def load_mbm_dir(
 
     root = Path(directory)
     if not root.is_dir():
-        raise FileNotFoundError(f"problem folder not found: {root}")
+        raise MissingFileError(f"problem folder not found: {root}")
     wanted = None
     if classes:
         wanted = set()
@@ -426,7 +428,7 @@ def load_mbm_dir(
             request = next((class_dir / f"request{digits}{ext}" for ext in (".yaml", ".yml")
                             if (class_dir / f"request{digits}{ext}").is_file()), None)
             if request is None:
-                raise FileNotFoundError(f"{scene_path}: no matching request{digits}.yaml")
+                raise MissingFileError(f"{scene_path}: no matching request{digits}.yaml")
             try:  # a problem that cannot be loaded (malformed file, values outside the limits) is left out
                 problems.append(Problem(**_mbm_fields(scene_path, request, robot, f"{class_dir.name}/{digits}",
                                                       class_dir.name, mesh_checker)))
@@ -436,12 +438,12 @@ def load_mbm_dir(
                 invalid.append((f"{class_dir.name}/{digits}", str(e)))
                 left_out.append(str(e))
     if not problems and left_out:
-        raise ValueError(f"every MotionBenchMaker problem under {root} has its start or goal outside the joint "
-                         f"limits of robot '{robot.name}', or a pose goal it cannot take ({len(left_out)} "
-                         f"problem(s); first: {left_out[0]})")
+        raise InvalidValueError(f"every MotionBenchMaker problem under {root} has its start or goal outside the joint "
+                                f"limits of robot '{robot.name}', or a pose goal it cannot take ({len(left_out)} "
+                                f"problem(s); first: {left_out[0]})")
     if not problems:
-        raise ValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
-                         + (f" for classes {sorted(wanted)}" if wanted else ""))
+        raise InvalidValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
+                                + (f" for classes {sorted(wanted)}" if wanted else ""))
     return problems
 
 
@@ -451,8 +453,8 @@ def _mbm_folder(path: Optional[PathLike]) -> Path:
         return Path(path)
     base = shared_dir()
     if base is None:
-        raise FileNotFoundError(f"shared data folder not found at {_default_shared()} "
-                                "(set GFCS_SHARED to its location)")
+        raise MissingFileError(f"shared data folder not found at {_default_shared()} "
+                               "(set GFCS_SHARED to its location)")
     return base / "robots" / "mbm_panda"
 
 
@@ -502,7 +504,8 @@ def with_gap_spheres(robot: Any, gaps: PathLike = MBM_GAP_SPHERES) -> Any:
         made_for, spheres = data["for_spheres"], data["spheres"]
         extra = _file_spheres(spheres)
     except (OSError, ValueError, KeyError, TypeError) as e:
-        raise ValueError(f"{gaps}: not a gap-sphere file (for_spheres, spheres[link, center, radius]): {e}") from e
+        raise InvalidValueError(f"{gaps}: not a gap-sphere file (for_spheres, spheres[link, center, radius]): "
+                                f"{e}") from e
     if sphere_fingerprint(robot) != made_for:
         return robot
     return robot.with_spheres(_robot_spheres(robot) + extra)
@@ -522,7 +525,7 @@ def _mbm_models(folder: str, fill_gaps: bool = True) -> Tuple[Any, Any]:
         urdf, srdf = root / "panda_spherized.urdf", root / "panda.srdf"
         for f in (urdf, srdf):
             if not f.is_file():
-                raise FileNotFoundError(f"MBM Panda file not found: {f}")
+                raise MissingFileError(f"MBM Panda file not found: {f}")
         robot = gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", srdf=str(srdf), mesh_dir=str(root))
         checker = mbm_mesh_checker(root)
     if checker is not None:
@@ -577,8 +580,8 @@ def urdf_mesh_checker(urdf: PathLike, robot: Any, mesh_dir: Optional[PathLike] =
     """
     checker = _mesh_checker(Path(urdf), mesh_dir, srdf, active_joints=list(robot.joint_names))
     if list(checker.joint_names) != list(robot.joint_names):
-        raise ValueError(f"{urdf}: joints {list(checker.joint_names)} differ from robot '{robot.name}''s "
-                         f"{list(robot.joint_names)}")
+        raise InvalidValueError(f"{urdf}: joints {list(checker.joint_names)} differ from robot '{robot.name}''s "
+                                f"{list(robot.joint_names)}")
     return checker
 
 
@@ -592,7 +595,7 @@ def _has_solid_collisions(urdf: Path) -> bool:
     try:
         root = ET.parse(urdf).getroot()
     except (ET.ParseError, OSError) as e:
-        raise ValueError(f"{urdf}: cannot read URDF XML: {e}") from e
+        raise InvalidValueError(f"{urdf}: cannot read URDF XML: {e}") from e
     return any(shape.tag in _SOLID_GEOMETRY for collision in root.iter("collision")
                for geometry in collision.iter("geometry") for shape in geometry)
 
@@ -722,13 +725,13 @@ def shipped_panda_checker() -> Any:
 
     files = sorted(PANDA_HULLS.glob("*.obj"))
     if not files:
-        raise FileNotFoundError(f"the shipped Panda's collision polytopes are missing: no <link>.obj in "
-                                f"{PANDA_HULLS} (a broken installation: reinstall gfcs)")
+        raise MissingFileError(f"the shipped Panda's collision polytopes are missing: no <link>.obj in "
+                               f"{PANDA_HULLS} (a broken installation: reinstall gfcs)")
     text = gfcs.panda_urdf()
     for obj in files:
         element = f'<link name="{obj.stem}"/>'
         if element not in text:
-            raise ValueError(f"{obj}: the shipped Panda has no link {obj.stem!r}")
+            raise InvalidValueError(f"{obj}: the shipped Panda has no link {obj.stem!r}")
         text = text.replace(element, f'<link name="{obj.stem}"><collision><geometry><mesh filename='
                                      f'"{obj.name}"/></geometry></collision></link>')
     shipped = _shipped_panda()[0]

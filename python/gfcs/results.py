@@ -36,6 +36,8 @@ from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from gfcs.errors import InvalidValueError, ShapeError
+
 __all__ = [
     "Trajectory",
     "SolveResult",
@@ -78,7 +80,7 @@ def _dec_float(x: Any) -> float:
     if isinstance(x, str):
         if x in _NONFINITE:
             return _NONFINITE[x]
-        raise ValueError(f"expected a number, got {x!r}")
+        raise InvalidValueError(f"expected a number, got {x!r}")
     if x is None:
         return math.nan
     return float(x)
@@ -94,7 +96,7 @@ def _dec_array(x: Any, ndim: int, width: int = 0) -> np.ndarray:
     if a.size == 0:
         return np.zeros((0, width)) if ndim == 2 else np.zeros(0)
     if a.ndim != ndim:
-        raise ValueError(f"expected a {ndim}-D array, got shape {a.shape}")
+        raise ShapeError(f"expected a {ndim}-D array, got shape {a.shape}")
     return a
 
 
@@ -129,9 +131,9 @@ class Trajectory:
         self.qd = np.asarray(self.qd, dtype=np.float64)
         n = self.t.shape[0]
         if self.q.ndim != 2 or self.q.shape[0] != n:
-            raise ValueError(f"q: expected shape ({n}, dof), got {self.q.shape}")
+            raise ShapeError(f"q: expected shape ({n}, dof), got {self.q.shape}")
         if self.qd.shape != self.q.shape:
-            raise ValueError(f"qd: expected shape {self.q.shape}, got {self.qd.shape}")
+            raise ShapeError(f"qd: expected shape {self.q.shape}, got {self.qd.shape}")
 
     def __len__(self) -> int:
         """Number of samples T."""

@@ -48,8 +48,11 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from gfcs import metrics as _metrics
+from gfcs.errors import InvalidValueError, MissingFileError
+from gfcs.pose_goal import (
+    quaternion_xyzw as rotation_to_quaternion,  # (..., 3, 3) -> (..., 4) [x, y, z, w]
+)
 from gfcs.results import planned_robot
-from gfcs.pose_goal import quaternion_xyzw as rotation_to_quaternion  # (..., 3, 3) -> (..., 4) [x, y, z, w]
 
 __all__ = [
     "record",
@@ -120,19 +123,19 @@ def _normalise_results(results: Any) -> List[Tuple[str, Any]]:
     if isinstance(results, Mapping):
         items = [(re.sub(r"[^A-Za-z0-9_]+", "_", str(k)) or "result", v) for k, v in results.items()]
         if len({k for k, _ in items}) != len(items):
-            raise ValueError(f"results: labels must stay distinct after sanitising, got {list(results)}")
+            raise InvalidValueError(f"results: labels must stay distinct after sanitising, got {list(results)}")
     else:
         seq = list(results) if isinstance(results, (list, tuple)) else [results]
         items = list(zip(method_labels(seq), seq))
     if not items:
-        raise ValueError("results: expected at least one SolveResult")
+        raise InvalidValueError("results: expected at least one SolveResult")
     for label, r in items:
         traj = getattr(r, "trajectory", None)
         if traj is None or not hasattr(traj, "q"):
-            raise ValueError(f"results[{label!r}]: expected a gfcs.results.SolveResult, got {type(r).__name__}")
+            raise InvalidValueError(f"results[{label!r}]: expected a gfcs.results.SolveResult, got {type(r).__name__}")
         if len(traj.t) == 0:
-            raise ValueError(f"results[{label!r}]: the trajectory is empty (a result loaded from JSON "
-                             "written with --no-trajectory?)")
+            raise InvalidValueError(f"results[{label!r}]: the trajectory is empty (a result loaded from JSON "
+                                    "written with --no-trajectory?)")
     return items
 
 
@@ -161,7 +164,7 @@ def _primitive_mesh(kind: str, size: Sequence[float]) -> Any:
         return trimesh.creation.cylinder(radius=float(size[1]), height=float(size[0]))
     if kind == "sphere":
         return trimesh.creation.icosphere(subdivisions=2, radius=float(size[0]))
-    raise ValueError(f"unknown geometry type {kind!r}")
+    raise InvalidValueError(f"unknown geometry type {kind!r}")
 
 
 def _to_link_mesh(link: str, mesh: Any, origin: Optional[np.ndarray], scale: Optional[Any]) -> _LinkMesh:
@@ -263,8 +266,8 @@ def _robot_meshes(robot: Any, geometry: str, urdf: Optional[Any], mesh_dir: Opti
     if not meshes:
         meshes = _collision_meshes(robot)
     if geometry in ("meshes", "both") and not meshes:
-        raise ValueError("robot_geometry='meshes': no link mesh could be loaded (pass urdf= with visual "
-                         "meshes, or use 'auto' / 'spheres')")
+        raise InvalidValueError("robot_geometry='meshes': no link mesh could be loaded (pass urdf= with visual "
+                                "meshes, or use 'auto' / 'spheres')")
     return meshes
 
 
@@ -418,7 +421,7 @@ def _prepare_method(problem: Any, label: str, result: Any, color: Tuple[int, int
     q = np.asarray(traj.q, dtype=np.float64).reshape(n, -1)
     qd = np.asarray(traj.qd, dtype=np.float64).reshape(n, -1)
     if q.shape[1] != robot.dof:
-        raise ValueError(f"results[{label!r}]: trajectory has {q.shape[1]} joints, the robot {robot.dof}")
+        raise InvalidValueError(f"results[{label!r}]: trajectory has {q.shape[1]} joints, the robot {robot.dof}")
     cmds = np.asarray(result.commands, dtype=np.float64).reshape(-1, q.shape[1])
     series: Dict[str, np.ndarray] = {
         "joint_speed": np.linalg.norm(qd, axis=1),
@@ -549,9 +552,9 @@ def record(
             ``spawn``, an unknown ``robot_geometry``, or ``"meshes"`` with no loadable mesh.
     """
     if path is None and not spawn:
-        raise ValueError("record: give a path to write, or spawn=True")
+        raise InvalidValueError("record: give a path to write, or spawn=True")
     if robot_geometry not in ("auto", "meshes", "spheres", "both"):
-        raise ValueError(f"robot_geometry must be 'auto', 'meshes', 'spheres' or 'both', got {robot_geometry!r}")
+        raise InvalidValueError(f"robot_geometry must be 'auto', 'meshes', 'spheres' or 'both', got {robot_geometry!r}")
     items = _normalise_results(results)
     robot = problem.robot
     meshes = _robot_meshes(robot, robot_geometry, urdf, None if mesh_dir is None else str(mesh_dir))
@@ -619,7 +622,7 @@ def view(path: Union[str, "os.PathLike[str]"], *, wait: bool = True) -> int:
     """
     p = Path(path)
     if not p.is_file():
-        raise FileNotFoundError(2, "no such recording", str(p))
+        raise MissingFileError(2, "no such recording", str(p))
     cmd = viewer_command() + [str(p)]
     if not has_display():
         print(f"gfcs view: no display here. Open {p} on a machine with one (`pip install rerun-sdk`, then "

@@ -340,7 +340,9 @@ fn mbm_panda_meshes_free_start_and_table_contact() {
         assert_eq!(got.unwrap(), expected);
         // With a cutoff: exact at or below it, +inf when nothing comes that near.
         for cutoff in [expected - 1e-3, expected, expected + 1e-3] {
-            let got = checker.min_trajectory_self_clearance(part, Some(2), cutoff).unwrap();
+            let got = checker
+                .min_trajectory_self_clearance(part, Some(2), cutoff)
+                .unwrap();
             if expected <= cutoff {
                 assert_eq!(got, expected);
             } else {
@@ -349,7 +351,9 @@ fn mbm_panda_meshes_free_start_and_table_contact() {
         }
         let obstacles = min(checker.trajectory_clearance(&table, part, None).unwrap());
         for cutoff in [obstacles - 1e-3, obstacles + 1e-3] {
-            let got = checker.min_trajectory_clearance(&table, part, None, cutoff).unwrap();
+            let got = checker
+                .min_trajectory_clearance(&table, part, None, cutoff)
+                .unwrap();
             if obstacles <= cutoff {
                 assert_eq!(got, obstacles);
             } else {

@@ -34,6 +34,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from gfcs.errors import InvalidValueError, ShapeError
+
 __all__ = [
     "VARIANTS",
     "SPEEDS",
@@ -87,15 +89,15 @@ class ParticleSetup:
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
         if int(self.n_particles) != self.n_particles or self.n_particles < 3 or self.n_particles % 2 == 0:
-            raise ValueError(f"n_particles must be an odd integer ≥ 3, got {self.n_particles}")
+            raise InvalidValueError(f"n_particles must be an odd integer ≥ 3, got {self.n_particles}")
         if not (math.isfinite(self.half_angle) and 0.0 < self.half_angle < 90.0):
-            raise ValueError(f"half_angle must lie in (0, 90) degrees, got {self.half_angle}")
+            raise InvalidValueError(f"half_angle must lie in (0, 90) degrees, got {self.half_angle}")
         for name in ("start_radius", "dt", "t_max", "tol"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0.0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
+                raise InvalidValueError(f"{name} must be a positive number, got {v!r}")
         if int(self.resample) < 2:
-            raise ValueError(f"resample must be ≥ 2, got {self.resample}")
+            raise InvalidValueError(f"resample must be ≥ 2, got {self.resample}")
 
 
 @dataclass
@@ -155,7 +157,7 @@ def fan_starts(n: int, radius: float, half_angle_deg: float, target: Sequence[fl
     axis = np.asarray(obstacle_center, dtype=np.float64).reshape(2) - target
     norm = float(np.linalg.norm(axis))
     if norm == 0.0:
-        raise ValueError("the target and the obstacle centre coincide: no direction for the fan")
+        raise InvalidValueError("the target and the obstacle centre coincide: no direction for the fan")
     base = math.atan2(axis[1], axis[0])
     angles = base + np.deg2rad(np.linspace(-half_angle_deg, half_angle_deg, int(n)))
     return target + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
@@ -168,7 +170,7 @@ def resample_by_arc_length(path: np.ndarray, k: int) -> np.ndarray:
     """
     p = np.asarray(path, dtype=np.float64)
     if p.ndim != 2 or p.shape[0] == 0:
-        raise ValueError(f"path: expected shape (T, d) with T ≥ 1, got {p.shape}")
+        raise ShapeError(f"path: expected shape (T, d) with T ≥ 1, got {p.shape}")
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
     if s[-1] <= 0.0:
         return np.repeat(p[:1], int(k), axis=0)
@@ -225,10 +227,10 @@ def run(setup: Optional[ParticleSetup] = None, speeds: Sequence[float] = SPEEDS,
     setup.validate()
     speeds = tuple(float(s) for s in speeds)
     if len(speeds) < 2 or not all(math.isfinite(s) and s > 0.0 for s in speeds):
-        raise ValueError(f"speeds: expected at least two positive speeds, got {speeds}")
+        raise InvalidValueError(f"speeds: expected at least two positive speeds, got {speeds}")
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown or not variants:
-        raise ValueError(f"variants: expected a non-empty subset of {VARIANTS}, got {list(variants)}")
+        raise InvalidValueError(f"variants: expected a non-empty subset of {VARIANTS}, got {list(variants)}")
     params = dict(gfcs.particle_defaults())
     params.pop("speed", None)
     params.update(setup.params)

@@ -24,6 +24,7 @@ import numpy as np
 
 from gfcs import problems as _problems
 from gfcs import profile as _profile
+from gfcs.errors import InvalidValueError
 
 __all__ = ["PlanningModel", "RobotModels", "models_for", "model_named", "planned_robot", "with_robot",
            "THIN_SPHERE_MARGIN"]
@@ -82,7 +83,7 @@ class RobotModels:
         for m in self.planning:
             if m.name == name:
                 return m
-        raise KeyError(f"no planning model {name!r}; this robot has {[m.name for m in self.planning]}")
+        raise InvalidValueError(f"no planning model {name!r}; this robot has {[m.name for m in self.planning]}")
 
 
 def models_for(problem: Any, thin_spheres: bool = True) -> RobotModels:
