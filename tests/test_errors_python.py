@@ -3,11 +3,11 @@ builtin classes callers already catch (ValueError, FileNotFoundError) still catc
 
 from __future__ import annotations
 
+import gfcs
 import numpy as np
 import pytest
-
-import gfcs
 from gfcs import blend, generators, metrics, problems
+
 
 def test_python_errors_are_gfcs_errors_and_name_their_argument(tmp_path):
     with pytest.raises(gfcs.InvalidValueError, match="dt"):
