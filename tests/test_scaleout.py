@@ -215,3 +215,29 @@ def test_ray_worker_killed_without_retries_gives_error_rows(tmp_path, ray_execut
     assert sorted(r["problem"] for r in rows) == sorted(p.name for p in generated_suite(classes, n))
     failed = [r for r in rows if "error" in r]
     assert len(failed) == 1 and not failed[0]["success"]
+
+
+def test_ray_training_equals_local_training(tmp_path, ray_executor):
+    """Alg. 2 with the solves of each round on Ray workers: the same solves, buffer and weights as a local
+    run (the sampler's weights go to the workers each round; the model is trained here)."""
+    torch = pytest.importorskip("torch", reason="the 'learn' extra is not installed")
+    from gfcs.learning.train import TrainConfig, train
+
+    classes, n = ["bookshelf_small", "box"], 3
+    config = TrainConfig(passes=1, n_train=2, buffer_size=20, top_m=2, n_neg=4, hidden=(16, 16), epochs=2,
+                         batch_size=8, seed=4, device="cpu", solve={"batches": 1, "population": 6})
+    problems = generated_suite(classes, n)
+    train_set, held = problems[:5], problems[5:]
+    local = train(train_set, config=config, progress=False, validation=held)
+    remote = train(train_set, config=config, progress=False, validation=held, executor=ray_executor,
+                   suite=bench.Suite(generated_suite, (classes, n)))
+
+    def events(result):
+        return [{k: v for k, v in e.items() if k != "seconds"} for e in result.history]
+
+    assert [e["event"] for e in events(local)].count("train") == 3  # rounds of 2, 2 and 1 solves
+    assert events(local) == events(remote)
+    a, b = local.sampler.model.state_dict(), remote.sampler.model.state_dict()
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    with pytest.raises(GfcsError, match="suite"):
+        train(train_set, config=config, progress=False, executor=ray_executor)

@@ -53,7 +53,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     src.add_argument("--holdout", type=int, default=0, metavar="N",
                      help="hold the last N problems of each class out of training and score every trained "
                           "model on them (mean first-batch cost); the best is written to <out stem>.best.pt")
-    from gfcs.cli import _add_robot_options
+    from gfcs.cli import _add_robot_options, _integer
 
     _add_robot_options(p)
     p.add_argument("--out", required=True, metavar="MODEL.pt", help="model file to write")
@@ -87,6 +87,12 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     opt.add_argument("--preset", choices=["default", "paper"],
                      help="planner preset of the solves (gfcs.planning.presets; default: default), recorded in "
                           "the checkpoint's configuration")
+    opt.add_argument("--threads", type=_integer(1), default=None,
+                     help="Rayon worker threads of each solve (default: all cores; --executor ray: 1, and each "
+                          "Ray task reserves that many CPUs)")
+    from gfcs.executors import add_executor_options
+
+    add_executor_options(p)
     p.add_argument("--history", metavar="JSON", help="write the training history (solves, losses) as JSON")
     p.add_argument("--plot", metavar="FIG.png", help="draw the solve costs, losses and validation scores "
                    "(as `gfcs plot HISTORY.json`)")
@@ -163,10 +169,17 @@ def run_train(args: argparse.Namespace) -> int:
         return 2
     from .train import train
 
+    from gfcs.bench import Suite, suite_problems
+    from gfcs.executors import executor_from_args
+
     config = _config(args)
-    problems, validation = _split_holdout(_load_problems(args, config.seed), args.holdout)
-    result = train(problems, out=args.out, config=config, resume=args.resume, checkpoint=args.checkpoint,
-                   progress=not args.no_progress, validation=validation)
+    everything = _load_problems(args, config.seed)
+    suite = Suite(_load_problems, (args, config.seed))  # what Ray workers build the problems from
+    suite_problems(suite, built=everything)
+    problems, validation = _split_holdout(everything, args.holdout)
+    with executor_from_args(args) as executor:
+        result = train(problems, out=args.out, config=config, resume=args.resume, checkpoint=args.checkpoint,
+                       progress=not args.no_progress, validation=validation, executor=executor, suite=suite)
     if args.history:
         with open(args.history, "w", encoding="utf-8") as f:
             json.dump(result.history, f, indent=1)

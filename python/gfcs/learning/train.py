@@ -327,7 +327,7 @@ def _solve_task(shared: Tuple[SolveFn, Any, Any], name: str, seed: int) -> Solve
 
     solve_fn, suite, sampler = shared
     result = solve_fn(suite_problems(suite, quiet=True)[name], sampler, seed)
-    return Solved([(np.asarray(c, dtype=np.float64), float(c_)) for c, c_ in result.top], bool(result.success))
+    return Solved([(np.asarray(c, dtype=np.float64), float(cost)) for c, cost in result.top], bool(result.success))
 
 
 def _solves(executor: Any, suite: Any, solve_fn: SolveFn, sampler: Any, jobs: Sequence[Tuple[Any, Any, int]]
