@@ -39,7 +39,7 @@ self-motion toward the start in the same way, and of all valid ones the nearest 
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, List
+from typing import Any, Callable, Dict, List
 
 import numpy as np
 
@@ -177,6 +177,87 @@ def check_frame(robot: Any, pose_goal: Dict[str, Any], source: str = "") -> None
         raise InvalidValueError(f"{where}pose goal link '{pose_goal['link']}' is not a link of robot '{robot.name}'")
 
 
+def _ik_solver(robot: Any, pose_goal: Dict[str, Any], lo: np.ndarray,
+               up: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """``ik(qs (N, dof)) -> (N, dof)``: damped least-squares descents from each row toward the pose goal: the
+    link origin's full pose when the goal has an orientation, else the goal's point on the link."""
+    link = robot.link_index(pose_goal["link"])
+    centre = target_point(pose_goal)
+    offset = np.asarray(pose_goal["offset"], dtype=np.float64)
+    o = pose_goal.get("orientation")
+    if o is not None:  # the link origin's target follows from the point's and the rotation
+        rot = _rotation_matrix(o["quaternion"])
+        origin, axes = centre - rot @ offset, np.stack([rot[:, 0], rot[:, 2]])
+
+        def ik(qs: np.ndarray) -> np.ndarray:
+            n = qs.shape[0]
+            return np.asarray(robot.inverse_kinematics(
+                qs, np.tile(origin, (n, 1)), link=link, axes=np.tile(axes, (n, 1, 1)), iterations=300,
+                damping=1e-4, tolerance=1e-9), dtype=np.float64)
+        return ik
+
+    def point_ik(qs: np.ndarray) -> np.ndarray:
+        return np.array([robot.point_ik(s, centre, link=link, point=offset, lower=lo, upper=up,
+                                        iterations=300, damping=1e-4, tolerance=1e-7, max_step=0.3)[0]
+                         for s in qs])
+    return point_ik
+
+
+class _Sorter:
+    """Sorts inverse-kinematics solutions into the valid tiers of :func:`goal_configuration`, counting why the
+    others fail (``reasons``) and keeping those that meet the pose but not the limits or the clearances
+    (``met``)."""
+
+    def __init__(self, robot: Any, scene: Any, pose_goal: Dict[str, Any], mesh_checker: Any, fabric_config: Any,
+                 lo: np.ndarray, up: np.ndarray) -> None:
+        import gfcs
+
+        margins = (gfcs.FabricConfig() if fabric_config is None else fabric_config).to_dict()
+        self.clear = margins["obstacles"]["margin"] + CLEARANCE_SLACK
+        self.self_clear = margins["self_collision"]["margin"] + CLEARANCE_SLACK
+        self.robot, self.scene, self.pose_goal, self.mesh_checker = robot, scene, pose_goal, mesh_checker
+        self.lo, self.up = lo, up
+        self.reasons = {"constraints": 0, "limits": 0, "collision": 0}
+        self.met: List[np.ndarray] = []
+
+    def __call__(self, sols: np.ndarray) -> List[List[np.ndarray]]:
+        """The valid solutions: [0: the spheres clear the obstacles by ``clear`` (and the meshes by the mesh
+        margin, with a checker); 1: only the meshes clear the obstacles (the goal-contact attempt of
+        :func:`gfcs.planning.solve` can reach it)]; both with the spheres ``self_clear`` apart."""
+        robot, mesh_checker = self.robot, self.mesh_checker
+        out: List[List[np.ndarray]] = [[], []]
+        spheres_clear = _metrics.obstacle_clearance(robot, self.scene, sols) >= self.clear
+        self_ok = _metrics.self_clearance(robot, sols) >= self.self_clear
+        for q, err, free, apart in zip(sols, pose_errors(robot, self.pose_goal, sols), spheres_clear, self_ok):
+            if not np.all(err <= ACCEPT_SLACK):
+                self.reasons["constraints"] += 1
+                continue
+            if np.any(q < self.lo - 1e-12) or np.any(q > self.up + 1e-12):
+                self.reasons["limits"] += 1
+            elif apart and (mesh_checker is None or _metrics.mesh_verdict(mesh_checker, self.scene, q)[2]):
+                if free or mesh_checker is not None:
+                    out[0 if free else 1].append(q)
+                    continue
+                self.reasons["collision"] += 1
+            else:
+                self.reasons["collision"] += 1
+            self.met.append(q)
+        return out
+
+
+def _no_solution(sorter: _Sorter, sols: np.ndarray, source: str) -> "PoseGoalError":
+    """The error naming the link, the target and what the ``sols`` missed."""
+    pose_goal = sorter.pose_goal
+    errors = pose_errors(sorter.robot, pose_goal, sols)
+    missed = ", ".join(f"{v} {k}" for k, v in sorter.reasons.items() if v)
+    where = f"{source}: " if source else ""
+    return PoseGoalError(
+        f"{where}no joint configuration found for the pose goal of link '{pose_goal['link']}' (point "
+        f"{np.round(target_point(pose_goal), 4).tolist()} m in frame '{pose_goal['frame'] or 'world'}'): of "
+        f"{len(sols)} inverse-kinematics solutions, {missed} (best position error "
+        f"{float(errors[:, 0].min()):.3g} m, orientation excess {float(errors[:, 1].min()):.3g} rad)")
+
+
 def goal_configuration(
     robot: Any,
     scene: Any,
@@ -202,12 +283,10 @@ def goal_configuration(
         source: the request file, named in errors.
 
     Raises:
-        ValueError: a frame other than the robot's root or an unknown link.
-        PoseGoalError: no valid solution (a ValueError; the message names the link, the target and what
-            the attempts missed).
+        InvalidValueError: a frame other than the robot's root or an unknown link.
+        PoseGoalError: no valid solution (an InvalidValueError; the message names the link, the target and
+            what the attempts missed).
     """
-    import gfcs
-
     check_frame(robot, pose_goal, source)
     if int(attempts) < 1:
         raise InvalidValueError(f"attempts must be >= 1, got {attempts}")
@@ -215,57 +294,8 @@ def goal_configuration(
     lo = np.asarray(robot.lower, dtype=np.float64) + LIMIT_INSET
     up = np.asarray(robot.upper, dtype=np.float64) - LIMIT_INSET
     rng = np.random.default_rng(seed)
-    link = robot.link_index(pose_goal["link"])
-    centre = target_point(pose_goal)
-    offset = np.asarray(pose_goal["offset"], dtype=np.float64)
-    o = pose_goal.get("orientation")
-    if o is not None:  # the link origin's target follows from the point's and the rotation
-        rot = _rotation_matrix(o["quaternion"])
-        origin, axes = centre - rot @ offset, np.stack([rot[:, 0], rot[:, 2]])
-
-        def ik(qs: np.ndarray) -> np.ndarray:
-            n = qs.shape[0]
-            return np.asarray(robot.inverse_kinematics(
-                qs, np.tile(origin, (n, 1)), link=link, axes=np.tile(axes, (n, 1, 1)), iterations=300,
-                damping=1e-4, tolerance=1e-9), dtype=np.float64)
-    else:
-        def ik(qs: np.ndarray) -> np.ndarray:
-            return np.array([robot.point_ik(s, centre, link=link, point=offset, lower=lo, upper=up,
-                                            iterations=300, damping=1e-4, tolerance=1e-7, max_step=0.3)[0]
-                             for s in qs])
-
-    margins = (gfcs.FabricConfig() if fabric_config is None else fabric_config).to_dict()
-    clear = margins["obstacles"]["margin"] + CLEARANCE_SLACK
-    self_clear = margins["self_collision"]["margin"] + CLEARANCE_SLACK
-    reasons = {"constraints": 0, "limits": 0, "collision": 0}
-    met: List[np.ndarray] = []  # solutions that meet the pose but not the limits or the clearances
-
-    def tiers(sols: np.ndarray) -> List[List[np.ndarray]]:
-        """The valid solutions: [0: the spheres clear the obstacles by ``clear`` (and the meshes by the
-        mesh margin, with a checker); 1: only the meshes clear the obstacles (the goal-contact attempt of
-        :func:`gfcs.optimize.solve` can reach it)]; both with the spheres ``self_clear`` apart. The others
-        that meet the pose go to ``met``."""
-        out: List[List[np.ndarray]] = [[], []]
-        spheres_clear = _metrics.obstacle_clearance(robot, scene, sols) >= clear
-        self_ok = _metrics.self_clearance(robot, sols) >= self_clear
-        for q, err, free, apart in zip(sols, pose_errors(robot, pose_goal, sols), spheres_clear, self_ok):
-            if not np.all(err <= ACCEPT_SLACK):
-                reasons["constraints"] += 1
-            elif np.any(q < lo - 1e-12) or np.any(q > up + 1e-12):
-                reasons["limits"] += 1
-                met.append(q)
-            elif not apart or not (mesh_checker is None or _metrics.mesh_verdict(mesh_checker, scene, q)[2]):
-                reasons["collision"] += 1
-                met.append(q)
-            elif free:
-                out[0].append(q)
-            elif mesh_checker is not None:
-                out[1].append(q)
-            else:
-                reasons["collision"] += 1
-                met.append(q)
-        return out
-
+    ik = _ik_solver(robot, pose_goal, lo, up)
+    tiers = _Sorter(robot, scene, pose_goal, mesh_checker, fabric_config, lo, up)
     dof = q0.shape[0]
     n = int(attempts) - 1
     near = q0 + rng.normal(0.0, NEAR_START_SPREAD, (n // 2, dof))
@@ -278,8 +308,9 @@ def goal_configuration(
     # a third: solutions that meet the pose but not the limits or the clearances, walked along their
     # self-motion toward random configurations, every state on the way a candidate, until one clears the
     # obstacles with its spheres
-    if not (found[0] or found[1]) and min(len(met), EXPLORE_SOLUTIONS) > 0:
-        seeds = np.asarray(met)[rng.choice(len(met), size=min(len(met), EXPLORE_SOLUTIONS), replace=False)]
+    if not (found[0] or found[1]) and min(len(tiers.met), EXPLORE_SOLUTIONS) > 0:
+        met = np.asarray(tiers.met)
+        seeds = met[rng.choice(len(met), size=min(len(met), EXPLORE_SOLUTIONS), replace=False)]
         aims = rng.uniform(lo, up, (len(seeds) * EXPLORE_AIMS, dof))
         walked = np.repeat(seeds, EXPLORE_AIMS, axis=0)
         for _ in range(REFINE_STEPS):
@@ -291,14 +322,7 @@ def goal_configuration(
     tier = 0 if found[0] else 1
     valid = found[tier]
     if not valid:
-        errors = pose_errors(robot, pose_goal, sols)
-        missed = ", ".join(f"{v} {k}" for k, v in reasons.items() if v)
-        where = f"{source}: " if source else ""
-        raise PoseGoalError(
-            f"{where}no joint configuration found for the pose goal of link '{pose_goal['link']}' (point "
-            f"{np.round(centre, 4).tolist()} m in frame '{pose_goal['frame'] or 'world'}'): of {len(sols)} "
-            f"inverse-kinematics solutions, {missed} (best position error "
-            f"{float(errors[:, 0].min()):.3g} m, orientation excess {float(errors[:, 1].min()):.3g} rad)")
+        raise _no_solution(tiers, sols, source)
     # walk the nearest solutions along their self-motion toward q0: a step toward it, then back onto the
     # constraints, REFINE_STEPS times; the walked ones that stay valid (in the same tier or better) compete
     valid.sort(key=lambda q: float(np.linalg.norm(q - q0)))
