@@ -139,3 +139,37 @@ def test_labels():
     assert planner_label("rrtconnect", 1.2) == "RRTConnect"
     assert planner_label("biest", 1.2, with_time=True) == "Bi-EST (1.2 s)"
     assert planner_label("bitstar", 6.0) == "BIT* (6 s)"
+
+
+def test_bench_rows_of_the_baselines(problem):
+    from gfcs.bench import bench_problem, error_rows
+
+    rows, results = bench_problem(problem, ["rrtconnect", "bitstar"], batches=1, population=4, seed=0,
+                                  planner_times=(0.3, 0.6))
+    assert [r["label"] for r in rows] == ["RRTConnect (0.3 s)", "RRTConnect (0.6 s)", "BIT* (0.3 s)",
+                                          "BIT* (0.6 s)"]
+    assert [r.settings["planner_time"] for r in results] == [0.3, 0.6, 0.3, 0.6]
+    assert all(r["method"] in ("rrtconnect", "bitstar") and r["batches"] == 0 for r in rows)
+    failed = error_rows(problem, ["gf", "biest"], 5, 0, "boom", planner_times=(1.2,))
+    assert [r["label"] for r in failed] == ["GF", "Bi-EST"] and all(r["error"] == "boom" for r in failed)
+
+
+def test_cli_solve_and_bench_with_a_baseline(tmp_path):
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "gfcs.cli", "solve", "--method", "rrtconnect", "--planner-time", "1",
+                        "--class", "table_pick", "--json", "-"], capture_output=True, text=True, timeout=300)
+    assert r.returncode in (0, 1), r.stderr
+    result = SolveResult.from_json(r.stdout)
+    assert result.method == "rrtconnect" and "RRTConnect (OMPL)" in r.stderr
+    rows_file = tmp_path / "rows.jsonl"
+    r = subprocess.run([sys.executable, "-m", "gfcs.cli", "bench", "--method", "gf", "biest", "--planner-time", "0.5",
+                        "--classes", "table_pick", "--limit", "1", "--no-progress", "--json", str(rows_file)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    from gfcs.results import read_rows
+
+    rows = read_rows(rows_file.read_text().splitlines())
+    assert [row["label"] for row in rows] == ["GF", "Bi-EST"]
+    assert "Bi-EST" in r.stdout

@@ -71,6 +71,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
                   n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
                   threads: Optional[int] = None, settings: Any = None,
                   retry: bool = True, solve_options: Optional[Dict[str, Any]] = None,
+                  planner_times: Sequence[float] = (5.0,),
                   ) -> Tuple[List[Dict[str, Any]], List[Any]]:
     """Rows (:func:`gfcs.results.bench_row`) and results of the methods on one problem, one solve each.
 
@@ -80,9 +81,12 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     with ``retry`` and a preset that has retry policies a third row, "Ours (B b, retry)", is what the solve
     returned (time: every attempt). GF yields "GF". ``solve_options``: further keyword arguments of
     :func:`gfcs.planning.solve` for every method (e.g. ``preset``, ``time_limit``, ``mesh_margin``; GF
-    ignores the GFCS-only ones such as ``length_slack``).
+    ignores the GFCS-only ones such as ``length_slack``). A sampling-based method (``rrtconnect``, ``biest``,
+    ``bitstar``: :func:`gfcs.baselines.plan_ompl`) plans once per time in ``planner_times`` [s], one row each
+    (:func:`_baseline_rows`).
     """
     from gfcs import planning
+    from gfcs.baselines import is_ompl_method
     from gfcs.cli import _no_retry
     from gfcs.results import bench_row
 
@@ -91,6 +95,11 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     rows: List[Dict[str, Any]] = []
     results: List[Any] = []
     for method in methods:
+        if is_ompl_method(method):
+            new, done = _baseline_rows(problem, method, seed, planner_times, fabric_config, options)
+            rows.extend(new)
+            results.extend(done)
+            continue
         gfcs_only = {"record_first_batch": batches > 1, **({} if retry else _no_retry())} if method == "gfcs" else {}
         res = planning.solve(problem, method=method, batches=batches, population=population, n_commands=n_commands,
                              seed=seed, sampler=sampler, fabric_config=fabric_config, threads=threads,
@@ -113,9 +122,34 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     return rows, results
 
 
-def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, message: str) -> List[Dict[str, Any]]:
+def _baseline_rows(problem: Any, method: str, seed: int, planner_times: Sequence[float], fabric_config: Any,
+                   options: Dict[str, Any]) -> Tuple[List[Dict[str, Any]], List[Any]]:
+    """Rows and results of the sampling-based ``method`` on ``problem``, one per planner time, planned on the
+    preset's first sphere model with its fabric margin, timed within the same limits (``options["finish"]``)
+    and judged with the same mesh margin as GFCS. Labels: :func:`gfcs.baselines.planner_label`."""
+    from gfcs import metrics, planning
+    from gfcs.baselines import plan_ompl, planner_label
+    from gfcs.results import bench_row
+
+    thin = planning.get_preset(options.get("preset", "default")).thin_spheres
+    rows, results = [], []
+    for t in planner_times:
+        res = plan_ompl(problem, method, t, seed, thin_spheres=thin, fabric_config=fabric_config,
+                        finish=options.get("finish"),
+                        mesh_margin=options.get("mesh_margin", metrics.DEFAULT_MESH_MARGIN))
+        label = planner_label(method, t, with_time=len(planner_times) > 1)
+        rows.append(bench_row(problem.name, problem.cls, label, method, 0, seed, res.solve_time, res.cost,
+                              res.metrics, res.wall_time))
+        results.append(res)
+    return rows, results
+
+
+def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, message: str,
+               planner_times: Sequence[float] = (5.0,)) -> List[Dict[str, Any]]:
     """The rows of a problem whose solve raised ``message``: one failed row per method (the labels of
-    :func:`bench_problem`'s final rows), every measure NaN, with the error under ``"error"``."""
+    :func:`bench_problem`'s final rows; a sampling-based method one per planner time), every measure NaN,
+    with the error under ``"error"``."""
+    from gfcs.baselines import is_ompl_method, planner_label
     from gfcs.results import bench_row
 
     metrics: Dict[str, Any] = {k: math.nan for k in ("ee_length", "cspace_length", "ee_ldj", "cspace_ldj",
@@ -123,10 +157,15 @@ def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, me
     metrics["success"] = False
     rows = []
     for method in methods:
-        label, n = ("GF", 0) if method == "gf" else (f"Ours ({batches} b)", batches)
-        row = bench_row(problem.name, problem.cls, label, method, n, seed, math.nan, math.inf, metrics, math.nan)
-        row["error"] = message
-        rows.append(row)
+        if is_ompl_method(method):
+            labels = [(planner_label(method, t, len(planner_times) > 1), 0) for t in planner_times]
+        else:
+            labels = [("GF", 0) if method == "gf" else (f"Ours ({batches} b)", batches)]
+        for label, n in labels:
+            row = bench_row(problem.name, problem.cls, label, method, n, seed, math.nan, math.inf, metrics,
+                            math.nan)
+            row["error"] = message
+            rows.append(row)
     return rows
 
 
@@ -218,7 +257,7 @@ def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]
     except _user_error_types() as e:
         message = f"{type(e).__name__}: {_message(e)}"
         print(f"gfcs: bench: {problem.name}: {message}", file=sys.stderr)
-        return error_rows(problem, job.methods, job.kwargs["batches"], seed, message), []
+        return error_rows(problem, job.methods, job.kwargs["batches"], seed, message, job.kwargs.get("planner_times", (5.0,))), []
     if not job.keep_results:
         return rows, []
     return rows, [dataclasses.replace(r, robot=None) for r in results] if job.problems is None else results
@@ -306,7 +345,7 @@ def run_bench(problems: Union[Sequence[Any], Suite], methods: Sequence[str], bat
               retry: bool = True, solve_options: Optional[Dict[str, Any]] = None,
               results_dir: Optional[str] = None, left_out: Sequence[Tuple[str, str]] = (),
               executor: Optional[Executor] = None, resume: bool = False,
-              seeding: str = "problem") -> List[Dict[str, Any]]:
+              seeding: str = "problem", planner_times: Sequence[float] = (5.0,)) -> List[Dict[str, Any]]:
     """Benchmark ``methods`` on ``problems`` (rows: :func:`bench_problem`), one task per problem on
     ``executor`` (default :class:`gfcs.executors.LocalExecutor`; a Ray executor needs ``problems`` as a
     :class:`Suite`). Rows go to ``jsonl`` as each problem finishes; with ``resume`` the problems already in
@@ -316,6 +355,7 @@ def run_bench(problems: Union[Sequence[Any], Suite], methods: Sequence[str], bat
     of every method on every problem (with its trajectory, as ``gfcs solve --json`` writes it) goes to
     ``<results_dir>/<class>_<NNNN>.<method>.json``. ``left_out``: (name, reason) of the suite's problems
     that were not run (:func:`load_mbm_suite`); each becomes a :func:`gfcs.results.left_out_row`.
+    ``planner_times``: the planning times [s] of the sampling-based methods (:func:`bench_problem`).
 
     Returns:
         All rows: the left-out ones, then each problem's in the order they finished (resumed ones first).
@@ -343,7 +383,7 @@ def run_bench(problems: Union[Sequence[Any], Suite], methods: Sequence[str], bat
     new_left = [left_out_row(name, reason) for name, reason in left_out if name not in known]
     kwargs = dict(batches=batches, population=population, n_commands=n_commands, sampler=sampler,
                   fabric_config=fabric_config, threads=threads or executor.threads, settings=settings,
-                  retry=retry, solve_options=solve_options)
+                  retry=retry, solve_options=solve_options, planner_times=tuple(planner_times))
     job = BenchJob(tuple(methods), kwargs, None if isinstance(executor, RayExecutor) else by_name, suite,
                    keep_results=bool(rrd_dir or results_dir))
     seeds = {name: problem_seed(seed, name) if seeding == "problem" else seed
@@ -370,7 +410,7 @@ def _outcome(done: Any, problem: Any, job: BenchJob, seed: int) -> Tuple[List[Di
     if done.error is None:
         return done.value
     print(f"gfcs: bench: {problem.name}: {done.error}", file=sys.stderr)
-    return error_rows(problem, job.methods, job.kwargs["batches"], seed, done.error), []
+    return error_rows(problem, job.methods, job.kwargs["batches"], seed, done.error, job.kwargs.get("planner_times", (5.0,))), []
 
 
 def _write(out: Any, rows: List[Dict[str, Any]]) -> None:

@@ -125,12 +125,21 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
 
 def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str] = None) -> None:
     g = p.add_argument_group("solver (GFCS Alg. 1)")
+    methods = ["gfcs", "gf", "rrtconnect", "biest", "bitstar"]
+    baselines = ("rrtconnect, biest, bitstar: OMPL's sampling-based planners on the same collision spheres, "
+                 "simplified and timed as MoveIt does (the baselines extra; docs/baselines.md)")
     if methods_nargs:
-        g.add_argument("--method", nargs=methods_nargs, choices=["gfcs", "gf"], default=["gf", "gfcs"],
-                       help="methods to run, in table order (default: gf gfcs)")
+        g.add_argument("--method", nargs=methods_nargs, choices=methods, default=["gf", "gfcs"],
+                       help=f"methods to run, in table order (default: gf gfcs); {baselines}")
+        g.add_argument("--planner-time", type=float, nargs="+", metavar="S", default=[5.0],
+                       help="planning time of the sampling-based methods in s, one row per value (e.g. 1.2 6; "
+                            "default 5)")
     else:
-        g.add_argument("--method", choices=["gfcs", "gf"], default="gfcs",
-                       help="gfcs: optimise commands with CMA-ES; gf: local fabric only (default gfcs)")
+        g.add_argument("--method", choices=methods, default="gfcs",
+                       help=f"gfcs: optimise commands with CMA-ES; gf: local fabric only; {baselines} "
+                            "(default gfcs)")
+        g.add_argument("--planner-time", type=float, metavar="S", default=5.0,
+                       help="planning time of a sampling-based method in s (default 5)")
     g.add_argument("--batches", type=_integer(1), default=5, help="CMA-ES batches (default 5)")
     g.add_argument("--population", type=_integer(2), default=32, help="candidates per batch (default 32)")
     g.add_argument("--commands", type=_integer(0), default=1,
@@ -412,8 +421,21 @@ def _attempts_line(result: Any) -> str:
     return f"attempts  {tried or 'none (gf)'}{budget}"
 
 
+def _baseline_lines(result: Any) -> List[str]:
+    """The method line of a sampling-based plan, and why it failed when it did."""
+    st = result.settings
+    lines = [f"method    {st.get('planner', result.method)} (OMPL): planner time {st.get('planner_time', 0):g} s "
+             f"(planning {st.get('plan_time', 0):.2f} s, simplification {st.get('simplify_time', 0):.2f} s), "
+             f"segments checked every {st.get('check_step', math.nan):.4f} rad, seed {result.seed}"]
+    if st.get("failure"):
+        lines.append(f"planner   {st['failure']}")
+    return lines
+
+
 def summary_text(result: Any, problem: Any) -> str:
     """A short human summary of a :class:`gfcs.results.SolveResult`."""
+    from gfcs.baselines import is_ompl_method
+
     m = result.metrics
     lines = [
         f"problem   {problem.name} ({problem.cls or 'unclassified'}), {problem.robot.name} "
@@ -423,6 +445,8 @@ def summary_text(result: Any, problem: Any) -> str:
         st = result.settings
         lines.append(f"method    gfcs: {st.get('batches')} batches x {st.get('population')} candidates, "
                      f"{result.n_commands} free command(s), seed {result.seed}")
+    elif is_ompl_method(result.method):
+        lines.extend(_baseline_lines(result))
     else:
         lines.append("method    gf: local geometric fabric toward the goal")
     if result.settings.get("sphere_model") == "thin":
@@ -456,7 +480,7 @@ def summary_text(result: Any, problem: Any) -> str:
                      f"{floor * 1000:.2f} mm, the collision meshes judging the contact")
     if not result.success:
         lines.extend(_endpoint_hints(result, problem))
-    if len(result.attempts) > 1 or not result.success:
+    if (len(result.attempts) > 1 or not result.success) and not is_ompl_method(result.method):
         lines.append(_attempts_line(result))
     lines.append(f"quality   EE length {_fmt(m['ee_length'], ' m')}, C-space length "
                  f"{_fmt(m['cspace_length'], ' rad')}, EE-LDJ {_fmt(m['ee_ldj'])}, C-space-LDJ "
@@ -520,22 +544,42 @@ def _no_retry() -> Dict[str, Any]:
     return {"policies": []}
 
 
+def _plan_baseline(args: argparse.Namespace, problem: Any) -> Any:
+    """`gfcs solve --method rrtconnect|biest|bitstar`: :func:`gfcs.baselines.plan_ompl` with the preset's
+    sphere model, the fabric configuration's margin, and the limits and mesh margin GFCS would keep."""
+    from gfcs import planning
+    from gfcs.baselines import plan_ompl
+
+    options = _solve_options(args, problem.robot)
+    extra = {"mesh_margin": options["mesh_margin"]} if "mesh_margin" in options else {}
+    try:
+        return plan_ompl(problem, args.method, args.planner_time, args.seed,
+                         thin_spheres=planning.get_preset(args.preset).thin_spheres, fabric_config=args.config,
+                         finish=options["finish"], **extra)
+    except ImportError as e:
+        raise _MissingExtra(str(e)) from e
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     """`gfcs solve`: exit 0 when the problem is solved, 1 when not."""
     from gfcs import planning
+    from gfcs.baselines import is_ompl_method
 
     _writable_file(args.json, "--json")
     _writable_file(args.rrd, "--rrd")
     if args.rrd:
         _viz()  # fail before solving when the extra is missing
     problem = _solve_problem(args)
-    result = planning.solve(
-        problem, method=args.method, batches=args.batches, population=args.population,
-        n_commands=args.commands, seed=args.seed, sampler=_sampler(args), fabric_config=args.config,
-        threads=args.threads, progress=args.progress,
-        **(_no_retry() if args.no_retry and args.method == "gfcs" else {}),
-        **_solve_options(args, problem.robot),
-    )
+    if is_ompl_method(args.method):
+        result = _plan_baseline(args, problem)
+    else:
+        result = planning.solve(
+            problem, method=args.method, batches=args.batches, population=args.population,
+            n_commands=args.commands, seed=args.seed, sampler=_sampler(args), fabric_config=args.config,
+            threads=args.threads, progress=args.progress,
+            **(_no_retry() if args.no_retry and args.method == "gfcs" else {}),
+            **_solve_options(args, problem.robot),
+        )
     text = summary_text(result, problem)
     if args.json:
         _write_json(result.to_json(include_trajectory=not args.no_trajectory), args.json)
@@ -581,6 +625,24 @@ def bench_suite(args: argparse.Namespace, left_out: Optional[List[Tuple[str, str
     return _with_mesh_checker(args, load_problems(args, _robot(args), left_out))
 
 
+def _planner_times(args: argparse.Namespace) -> List[float]:
+    """--planner-time's values, checked (finite, > 0, no repeats), and OMPL importable when a sampling-based
+    method is asked for."""
+    from gfcs.baselines import is_ompl_method
+    from gfcs.errors import InvalidValueError
+
+    times = [float(t) for t in args.planner_time]
+    if not all(math.isfinite(t) and t > 0 for t in times) or len(set(times)) != len(times):
+        raise InvalidValueError(f"--planner-time: expected distinct numbers of seconds > 0, got {args.planner_time}")
+    if any(is_ompl_method(m) for m in args.method):
+        try:
+            import ompl  # noqa: F401
+        except ImportError as e:
+            raise _MissingExtra(f"--method {' '.join(args.method)} needs the 'baselines' extra "
+                                f"(pip install 'gfcs[baselines]'): {e}") from e
+    return times
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     """`gfcs bench`: run the suite, print the tables (and write rows / markdown)."""
     from gfcs.bench import Suite, run_bench, suite_problems
@@ -600,6 +662,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     robot = problems[0].robot if problems else _robot(args)
     with executor_from_args(args) as executor:
         rows = run_bench(suite, args.method, batches=args.batches, population=args.population, seed=args.seed,
+                         planner_times=_planner_times(args),
                          n_commands=args.commands, sampler=_sampler(args), fabric_config=args.config,
                          threads=args.threads, jsonl=args.json, rrd_dir=args.rrd_dir,
                          progress=not args.no_progress, retry=not args.no_retry,
