@@ -201,14 +201,18 @@ def _ompl_seed(seed: int) -> int:
     return int(np.random.SeedSequence(int(seed)).generate_state(1)[0]) or 1
 
 
-def _limits(models: Any, finish: Any) -> Tuple[np.ndarray, Optional[np.ndarray]]:
-    """(velocity limits, acceleration limits or None) the trajectory keeps: GFCS's finishing options'."""
-    velocity = np.asarray(models.velocity_limits, dtype=np.float64)
-    if finish.velocity_limits is not None:
+def _limits(robot: Any, finish: Any) -> Tuple[Optional[np.ndarray], Optional[np.ndarray]]:
+    """(velocity limits, acceleration limits), each None when not kept: those
+    :func:`gfcs.planning.finish.finish_rollout` gives GFCS's trajectories under the same options."""
+    from gfcs import profile as _profile
+
+    velocity = _profile.velocity_limits(robot) if finish.limit_velocity else None
+    if velocity is not None and finish.velocity_limits is not None:
         velocity = np.minimum(velocity, np.asarray(finish.velocity_limits, dtype=np.float64))
     accel = None
     if finish.limit_acceleration:
-        accel = finish.acceleration_limits if finish.acceleration_limits is not None else models.acceleration_limits
+        accel = finish.acceleration_limits
+        accel = _profile.acceleration_limits(robot) if accel is None else accel
     return velocity, (None if accel is None else np.asarray(accel, dtype=np.float64))
 
 
@@ -336,8 +340,8 @@ def _result(problem: Any, planner: str, seed: int, model: Any, models: Any, wayp
     if waypoints is None:
         traj = Trajectory(np.zeros(1), q0[None, :], np.zeros((1, q0.shape[0])))
     else:
-        velocity, accel = _limits(models, finish)
-        traj = time_path(waypoints, velocity, accel, dt)
+        velocity, accel = _limits(robot, finish)
+        traj = time_path(waypoints, np.full(q0.shape[0], np.inf) if velocity is None else velocity, accel, dt)
         record["waypoints"] = waypoints.tolist()
     meta = getattr(problem, "meta", None) or {}
     met = _metrics.trajectory_metrics(robot, problem.scene, traj.t, traj.q, problem.goal,
