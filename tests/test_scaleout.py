@@ -241,3 +241,18 @@ def test_ray_training_equals_local_training(tmp_path, ray_executor):
     assert all(torch.equal(a[k], b[k]) for k in a)
     with pytest.raises(GfcsError, match="suite"):
         train(train_set, config=config, progress=False, executor=ray_executor)
+
+
+def test_progress_bar_shows_success_so_far(capsys):
+    bench.run_bench(generated_suite(["box"], 2), ["gf", "gfcs"], batches=1, population=4, progress=True)
+    err = capsys.readouterr().err
+    assert "bench [local]" in err and "2/2" in err and "gf 2/2 solved, gfcs 2/2 solved" in err
+
+
+def test_cli_ray_rows_equal_cli_local_rows(tmp_path, ray_executor):
+    args = ["bench", "--classes", "box", "cage", "--limit", "2", "--batches", "2", "--population", "6",
+            "--no-progress", "--time-limit", "0"]
+    assert cli.main(args + ["--json", str(tmp_path / "l.jsonl")]) == 0
+    assert cli.main(args + ["--json", str(tmp_path / "r.jsonl"), "--executor", "ray", "--threads", "1"]) == 0
+    assert by_key(rows_of(tmp_path / "l.jsonl")) == by_key(rows_of(tmp_path / "r.jsonl"))
+    assert len(rows_of(tmp_path / "r.jsonl")) == 4 * 4  # 4 problems: GF, 1 b, 2 b, retry

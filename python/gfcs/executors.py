@@ -130,16 +130,22 @@ class RayExecutor(Executor):
         shared_ref = ray.put(shared)
         waiting = list(tasks)[::-1]
         running = {}
-        while waiting or running:
-            while waiting and len(running) < 2 * self.workers:  # a short queue: later tasks stay cancellable
-                key, args = waiting.pop()
-                running[remote.remote(fn, shared_ref, *args)] = key
-            ready, _ = ray.wait(list(running), num_returns=1)
-            key = running.pop(ready[0])
-            try:
-                yield Done(key, ray.get(ready[0]))
-            except ray.exceptions.RayError as e:
-                yield Done(key, error=_ray_message(e))
+        try:
+            while waiting or running:
+                while waiting and len(running) < 2 * self.workers:  # a short queue: the rest is not yet sent
+                    key, args = waiting.pop()
+                    running[remote.remote(fn, shared_ref, *args)] = key
+                ready, _ = ray.wait(list(running), num_returns=1)
+                key = running.pop(ready[0])
+                try:
+                    value = ray.get(ready[0])
+                except ray.exceptions.RayError as e:
+                    yield Done(key, error=_ray_message(e))
+                else:
+                    yield Done(key, value)
+        finally:  # the caller stopped early (an error, Ctrl-C): the tasks still running are cancelled
+            for ref in running:
+                ray.cancel(ref, force=True)
 
     def close(self) -> None:
         if self._started and self._ray.is_initialized():
