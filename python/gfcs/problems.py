@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import weakref
 import hashlib
 import json
 import os
@@ -458,9 +459,9 @@ def _mbm_folder(path: Optional[PathLike]) -> Path:
     return base / "robots" / "mbm_panda"
 
 
-#: Mesh checkers attached to robot models by :func:`mbm_panda`, keyed by ``id(robot)``; each entry keeps its
-#: robot alive, so an id is never reused while it is registered (one entry per folder, see ``_mbm_models``).
-_MESH_CHECKERS: Dict[int, Tuple[Any, Any]] = {}
+#: The mesh checker of each robot model :func:`mbm_panda` built (weakly keyed by the robot object: an entry
+#: lives as long as its robot).
+_MESH_CHECKERS: "weakref.WeakKeyDictionary[Any, Any]" = weakref.WeakKeyDictionary()
 
 
 #: Spheres inscribed in the MBM Panda's collision meshes where its spherized model leaves them uncovered
@@ -529,7 +530,7 @@ def _mbm_models(folder: str, fill_gaps: bool = True) -> Tuple[Any, Any]:
         robot = gfcs.Robot.from_urdf(str(urdf), ee_link="panda_hand", srdf=str(srdf), mesh_dir=str(root))
         checker = mbm_mesh_checker(root)
     if checker is not None:
-        _MESH_CHECKERS[id(robot)] = (robot, checker)
+        _MESH_CHECKERS[robot] = checker
     return robot, checker
 
 
@@ -675,9 +676,9 @@ def mesh_checker_for(robot: Any) -> Any:
     """The mesh checker of ``robot``: the one :func:`mbm_panda` attached to its robot, the shipped Panda's
     collision polytopes (:func:`shipped_panda_checker`, its fingers where ``robot`` holds them) for the
     shipped Panda, None for any other robot."""
-    entry = _MESH_CHECKERS.get(id(robot))
-    if entry is not None and entry[0] is robot:
-        return entry[1]
+    checker = _MESH_CHECKERS.get(robot)
+    if checker is not None:
+        return checker
     if _moves_as_shipped_panda(robot):
         return held_as_requested(shipped_panda_checker(), robot.locked_positions)
     return None

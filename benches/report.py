@@ -1,0 +1,201 @@
+#!/usr/bin/env python3
+"""Writes BENCHMARKS.md from result files: nothing in it is typed by hand.
+
+* GFCS Table I per robot, from ``benches/results/table1/<robot>.<run>.jsonl`` (``benches/table1.py``): one
+  table per class with GF, the sampling-based planners, GFCS with the ``paper`` and the ``default`` preset,
+  and, for the Panda, the paper's own rows (``benches/data/paper_table1.json``). Success of a returned
+  motion is the validator's verdict (``<robot>.<run>.validated.jsonl``) where it judged the motion; rows
+  whose motion was not returned (the first batch of a solve that went on) keep gfcs's own mesh-judged
+  success, marked ``*``.
+* Every other section is a fragment ``benches/results/<name>.md`` written by the bench script named in it,
+  in the order of :data:`FRAGMENTS`.
+
+Run ``python benches/report.py`` (``--check`` exits 1 when BENCHMARKS.md differs from what it would write).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import sys
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benches" / "results"
+PAPER = ROOT / "benches" / "data" / "paper_table1.json"
+
+#: robot stem -> title.
+ROBOT_TITLES = {"mbm_panda": "Panda (MotionBenchMaker)", "ur5": "UR5", "fetch": "Fetch"}
+#: run -> prefix of its GFCS labels ("Ours (1 b)" -> "GFCS paper (1 b)").
+RUN_PREFIX = {"paper": "GFCS paper", "default": "GFCS default"}
+#: class order of the tables (MotionBenchMaker names) and the paper's names.
+CLASSES = {"bookshelf_small": "single shelf", "bookshelf_tall": "tall shelf", "bookshelf_thin": "thin shelf",
+           "box": "box", "cage": "cage", "table_pick": "table pick (not in the paper)",
+           "table_under_pick": "table under"}
+#: Table I columns: row key, title, digits.
+COLUMNS: Tuple[Tuple[str, str], ...] = (("ee_length", "EE len (m)"), ("cspace_length", "C-space len (rad)"),
+                                        ("time", "Time (s)"), ("ee_ldj", "EE-LDJ"), ("cspace_ldj", "C-space-LDJ"))
+#: fragments after Table I, in order: file stem under benches/results.
+FRAGMENTS = ("speed", "scaling", "robots", "baselines", "scaleout", "experiments", "learning", "reliability")
+
+
+def read_jsonl(path: Path) -> List[Dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def number(x: Any) -> float:
+    """A row value as a float (rows spell non-finite values as strings)."""
+    return {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}.get(x, x) if isinstance(x, str) \
+        else float(x)
+
+
+def verdicts(path: Path) -> Dict[Tuple[str, str], bool]:
+    """(problem, method) -> the validator found the returned motion valid (a claimed failure: False)."""
+    out: Dict[Tuple[str, str], bool] = {}
+    if not path.is_file():
+        return out
+    for v in read_jsonl(path):
+        name = Path(v["file"]).name  # <class>_<NNNN>.<method>.json
+        stem, method = name[:-len(".json")].rsplit(".", 1)
+        cls, num = stem.rsplit("_", 1)
+        out[(f"{cls}/{num}", method)] = bool(v.get("claimed_success")) and bool(v.get("valid"))
+    return out
+
+
+def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
+    """Every row of a robot's runs with ``label`` as the table shows it and ``success`` as judged (see the
+    module docstring; ``judged`` False where gfcs's own verdict stands); and the runs' provenance."""
+    rows: List[Dict[str, Any]] = []
+    provenance: Dict[str, Any] = {}
+    for path in sorted((RESULTS / "table1").glob(f"{robot}.*.jsonl")):
+        run = path.name[len(robot) + 1:-len(".jsonl")]
+        if run.endswith(".validated"):
+            continue
+        provenance[run] = path.relative_to(ROOT).as_posix()
+        valid = verdicts(path.with_name(f"{robot}.{run}.validated.jsonl"))
+        run_rows = [r for r in read_jsonl(path) if "label" in r]
+        returned = {}  # the last row of a problem and method is the motion the solve returned
+        for r in run_rows:
+            returned[(r["problem"], r["method"])] = id(r)
+        for r in run_rows:
+            r = dict(r)
+            key = (r["problem"], r["method"])
+            r["judged"] = returned[key] == id(r) and key in valid
+            if r["judged"]:
+                r["success"] = bool(r["success"]) and valid[key]
+            if r["method"] == "gfcs":
+                r["label"] = r["label"].replace("Ours", RUN_PREFIX.get(run, f"GFCS {run}"))
+            rows.append(r)
+    return rows, provenance
+
+
+def stat(values: Sequence[float], digits: int = 2) -> str:
+    vals = [v for v in values if math.isfinite(v)]
+    if not vals:
+        return "NA"
+    mean, std = statistics.fmean(vals), statistics.pstdev(vals)
+    d = 3 if abs(mean) < 1 else digits
+    return f"{mean:.{d}f} ± {std:.{d}f}"
+
+
+def paper_stat(x: Any) -> str:
+    if x is None:
+        return "NA"
+    if isinstance(x, list):
+        return f"{x[0]:g} ± {x[1]:g}"
+    return f"{x:g}"
+
+
+def class_table(cls: str, rows: List[Dict[str, Any]], paper: Optional[Dict[str, Any]]) -> List[str]:
+    header = ["Method", "% Success", "n"] + [title for _, title in COLUMNS]
+    lines = [f"#### {cls} ({CLASSES.get(cls, cls)})", "", "| " + " | ".join(header) + " |",
+             "|" + "---|" * len(header)]
+    labels: Dict[str, List[Dict[str, Any]]] = {}
+    for r in rows:
+        labels.setdefault(r["label"], []).append(r)
+    for label, rs in labels.items():
+        ok = [r for r in rs if r["success"]]
+        mark = "" if all(r["judged"] for r in rs) else "*"
+        cells = [label + mark, f"{100.0 * len(ok) / len(rs):.0f}", str(len(rs))]
+        cells += [stat([number(r[key]) for r in ok]) for key, _ in COLUMNS]
+        lines.append("| " + " | ".join(cells) + " |")
+    for label, e in (paper or {}).items():
+        cells = [f"*paper: {label}*", paper_stat(e["success"]), "50"]
+        cells += [paper_stat(e[key]) for key, _ in COLUMNS]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines + [""]
+
+
+def totals(rows: List[Dict[str, Any]]) -> List[str]:
+    labels: Dict[str, List[Dict[str, Any]]] = {}
+    for r in rows:
+        labels.setdefault(r["label"], []).append(r)
+    lines = ["| Method | solved | judged by the validator | median time (s) | median whole solve (s) |",
+             "|---|---|---|---|---|"]
+    for label, rs in labels.items():
+        solved = sum(bool(r["success"]) for r in rs)
+        judged = sum(bool(r["judged"]) for r in rs)
+        lines.append(f"| {label} | {solved}/{len(rs)} ({100.0 * solved / len(rs):.1f} %) | {judged}/{len(rs)} | "
+                     f"{statistics.median(number(r['time']) for r in rs):.3f} | "
+                     f"{statistics.median(number(r['wall_time']) for r in rs):.3f} |")
+    return lines + [""]
+
+
+def table1_section() -> List[str]:
+    paper = json.loads(PAPER.read_text())["classes"] if PAPER.is_file() else {}
+    machine = RESULTS / "table1" / "machine.json"
+    lines = ["## GFCS Table I: MotionBenchMaker", "",
+             "Written by `python benches/table1.py` (then `python benches/report.py`). Mean ± std over the "
+             "successful problems; time is the optimisation (GFCS) or planning time, the whole solve's in the "
+             "totals. Success of a returned motion is the independent validator's verdict "
+             "(`tools/check_trajectories.py`: FCL on the robot's collision meshes and SRDF, limits, speeds, "
+             "goal); `*` marks rows with motions the solve did not return (the first batch of a solve that "
+             "went on), which keep gfcs's own mesh-judged success. The paper's rows are its Table I "
+             "(`benches/data/paper_table1.json`; its 50 problems per class are not these).", ""]
+    if machine.is_file():
+        m = json.loads(machine.read_text())
+        lines += [f"Machine: {m['cpu']}, {m['cores']} cores; commit {m['commit']}; {m['date']}.", ""]
+    for robot, title in ROBOT_TITLES.items():
+        rows, provenance = judged_rows(robot)
+        if not rows:
+            lines += [f"### {title}", "", "Not measured at the current code (`python benches/table1.py "
+                      f"--robots {robot}`).", ""]
+            continue
+        lines += [f"### {title}", "", "Result files: " + ", ".join(f"`{p}`" for p in provenance.values()), ""]
+        lines += totals(rows)
+        for cls in [c for c in CLASSES if any(r["class"] == c for r in rows)]:
+            lines += class_table(cls, [r for r in rows if r["class"] == cls],
+                                 paper.get(cls) if robot == "mbm_panda" else None)
+    return lines
+
+
+def render() -> str:
+    lines = ["# Benchmarks", "",
+             "Generated by `python benches/report.py` from the result files under `benches/results/`; each "
+             "section names the script that writes its results. How the defaults were chosen: "
+             "[docs/tuning.md](docs/tuning.md).", ""]
+    lines += table1_section()
+    for name in FRAGMENTS:
+        path = RESULTS / f"{name}.md"
+        if path.is_file():
+            lines += [path.read_text().rstrip(), ""]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def main(argv: Sequence[str] = ()) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", type=Path, default=ROOT / "BENCHMARKS.md")
+    p.add_argument("--check", action="store_true", help="exit 1 when --out differs from the rendering")
+    args = p.parse_args(list(argv) or None)
+    text = render()
+    if args.check:
+        return 0 if args.out.is_file() and args.out.read_text() == text else 1
+    args.out.write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
