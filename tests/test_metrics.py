@@ -247,3 +247,35 @@ def test_a_mesh_check_past_its_deadline_stops_with_a_negative_verdict():
     assert not ok and late.states == m.MESH_CHECK_CHUNK and clear == 0.2
     assert m.mesh_check(_CountingChecker(), None, q, deadline=0.0)[3] is False
     assert m.mesh_check(_CountingChecker(), None, q)[3] is True
+
+
+def test_ldj_closed_forms_of_single_movements():
+    """Minimum jerk is not the largest LDJ of one movement: DJ divides by the peak speed too. Closed forms:
+    minimum jerk DJ = 720/1.875², a sin² speed profile 2π⁴, a half-sine speed profile π⁴/2."""
+    T, n = 1.0, 20001
+    t = np.linspace(0.0, T, n)
+    dt = t[1] - t[0]
+    s = t / T
+    minimum_jerk = 10 * s**3 - 15 * s**4 + 6 * s**5
+    sin2 = s - np.sin(2 * np.pi * s) / (2 * np.pi)  # speed ∝ sin²(πs)
+    half_sine = (1 - np.cos(np.pi * s)) / 2  # speed ∝ sin(πs): nonzero acceleration at both ends
+    assert m.log_dimensionless_jerk(minimum_jerk, dt) == pytest.approx(-math.log(720 / 1.875**2), abs=2e-3)
+    assert m.log_dimensionless_jerk(sin2, dt) == pytest.approx(-math.log(2 * np.pi**4), abs=2e-3)
+    assert m.log_dimensionless_jerk(half_sine, dt) == pytest.approx(-math.log(np.pi**4 / 2), abs=2e-3)
+    assert m.log_dimensionless_jerk(half_sine, dt) > m.log_dimensionless_jerk(minimum_jerk, dt)
+
+
+def test_raw_rollout_ldj_is_reported_beside_the_returned_trajectorys():
+    """Without finishing (the paper preset) the returned motion is the fabric's own, so both LDJs agree; the
+    default preset's finishing changes the returned one only."""
+    import gfcs
+    from gfcs import generators
+    from gfcs.planning import solve
+
+    problem = generators.generate("box", 1, seed=0, robot=gfcs.Robot.panda())[0]
+    paper = solve(problem, method="gf", preset="paper")
+    assert paper.metrics["raw_cspace_ldj"] == pytest.approx(paper.metrics["cspace_ldj"], abs=1e-12)
+    assert paper.metrics["raw_ee_ldj"] == pytest.approx(paper.metrics["ee_ldj"], abs=1e-12)
+    default = solve(problem, method="gf")
+    assert math.isfinite(default.metrics["raw_cspace_ldj"])
+    assert default.metrics["raw_cspace_ldj"] != pytest.approx(default.metrics["cspace_ldj"], abs=1e-6)

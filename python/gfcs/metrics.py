@@ -158,8 +158,11 @@ def dimensionless_jerk(x: Any, dt: float) -> float:
 def log_dimensionless_jerk(x: Any, dt: float) -> float:
     """Log dimensionless jerk LDJ = −ln(DJ) (see :func:`dimensionless_jerk`); closer to 0 is smoother.
 
-    A minimum-jerk point-to-point motion has DJ = 720 / 1.875² = 204.8, LDJ = −ln 204.8 ≈ −5.322, the
-    largest value a single point-to-point movement can reach; more sub-movements make it more negative.
+    A minimum-jerk point-to-point motion has DJ = 720 / 1.875² = 204.8, LDJ ≈ −5.322. It is not the largest
+    LDJ of a single movement: minimum jerk minimises ∫‖x⃛‖² for a given duration and distance, while DJ
+    also divides by the peak speed. A sin² speed profile has DJ = 2π⁴, LDJ ≈ −5.272, and a half-sine speed
+    profile (which starts and ends with nonzero acceleration) DJ = π⁴/2, LDJ ≈ −3.886 (tested). More
+    sub-movements make it more negative.
 
     Args:
         x: (T, k) positions (or (T,)) sampled uniformly at ``dt`` seconds.
@@ -175,6 +178,15 @@ def log_dimensionless_jerk(x: Any, dt: float) -> float:
     if dj <= 0.0:
         return math.inf
     return -math.log(dj)
+
+
+def raw_ldj(robot: Any, raw_q: Any, dt: float) -> Dict[str, float]:
+    """``raw_ee_ldj`` and ``raw_cspace_ldj``: the LDJ of the hand path and of the joint path of the fabric's own
+    rollout ``raw_q`` (T, dof) sampled every ``dt`` s, before any finishing (start re-timing, goal blend,
+    limit re-timing): how smooth the fabric's motion is, apart from what finishing adds or removes."""
+    qa = _as_path(raw_q, "raw_q")
+    ee = np.asarray(robot.ee_position(qa), dtype=np.float64).reshape(qa.shape[0], 3)
+    return {"raw_ee_ldj": log_dimensionless_jerk(ee, dt), "raw_cspace_ldj": log_dimensionless_jerk(qa, dt)}
 
 
 def within_limits(q: Any, lower: Any, upper: Any, tol: float = DEFAULT_LIMIT_TOL) -> bool:

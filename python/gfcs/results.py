@@ -119,11 +119,14 @@ class Trajectory:
         t: (T,) times [s], increasing, starting at 0.
         q: (T, dof) joint positions [rad].
         qd: (T, dof) joint velocities [rad/s].
+        raw_q: (T', dof) the fabric's own rollout before finishing (re-timing, goal blend), sampled at the
+            integration step, or None; kept in memory for its metrics, not written to JSON.
     """
 
     t: np.ndarray
     q: np.ndarray
     qd: np.ndarray
+    raw_q: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64).reshape(-1)
@@ -360,7 +363,8 @@ def bench_row(
     wall_time: float,
 ) -> Dict[str, Any]:
     """One benchmark row (see the module docstring for the keys) from trajectory metrics."""
-    mesh = {key: float(metrics[key]) for key in ("mesh_clearance", "mesh_self_clearance", "velocity_ratio")
+    mesh = {key: float(metrics[key]) for key in ("mesh_clearance", "mesh_self_clearance", "velocity_ratio",
+                                                 "raw_ee_ldj", "raw_cspace_ldj")
             if key in metrics}
     # a robot with several end effectors (a group spanning two arms) reports every hand's path
     hands = metrics.get("ee_lengths") or {}

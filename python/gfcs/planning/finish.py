@@ -16,12 +16,13 @@ from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
+from gfcs import metrics as _metrics
 from gfcs import profile as _profile
 from gfcs.blend import append_goal_blend, limit_dynamics, retime_start
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.results import Trajectory
 
-__all__ = ["FinishOptions", "finish_rollout", "rollout_commands"]
+__all__ = ["FinishOptions", "finish_rollout", "rollout_commands", "with_raw_ldj"]
 
 
 @dataclass
@@ -78,7 +79,16 @@ def finish_rollout(fabric: Any, seq: Any, goal: Any, dt: float, options: FinishO
         velocity = np.minimum(velocity, np.asarray(options.velocity_limits, dtype=np.float64))
     if velocity is not None or accel is not None:
         t, q, qd = limit_dynamics(t, q, qd, dt, velocity=velocity, acceleration=accel)
-    return Trajectory(t, q, qd), float(seq.cost), bool(seq.reached), np.asarray(seq.t_stars, dtype=np.float64)
+    return (Trajectory(t, q, qd, raw_q=np.asarray(seq.q)), float(seq.cost), bool(seq.reached),
+            np.asarray(seq.t_stars, dtype=np.float64))
+
+
+def with_raw_ldj(metrics: Dict[str, Any], robot: Any, trajectory: Trajectory, dt: float) -> Dict[str, Any]:
+    """``metrics`` with the LDJ of the fabric's own rollout (:func:`gfcs.metrics.raw_ldj`) when the
+    trajectory keeps it."""
+    if trajectory.raw_q is not None and trajectory.raw_q.shape[0] > 0:
+        metrics.update(_metrics.raw_ldj(robot, trajectory.raw_q, dt))
+    return metrics
 
 
 def rollout_commands(fabric: Any, q0: Any, qd0: Any, goal: Any, commands: Any, settings: RolloutSettings,

@@ -16,7 +16,7 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from gfcs import metrics as _metrics
-from gfcs.planning.finish import FinishOptions, finish_rollout
+from gfcs.planning.finish import FinishOptions, finish_rollout, with_raw_ldj
 from gfcs.planning.gfcop import OptimResult
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.results import Trajectory
@@ -153,6 +153,7 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
                                           clearance_floor=options.clearance_floor,
                                           ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
                                           deadline=deadline)
+        with_raw_ldj(met, problem.robot, traj, settings.dt)
         met["selection_rank"] = int(np.flatnonzero(order == k)[0])
         if mesh_checker is not None:
             met["mesh_candidates_checked"] = checked

@@ -34,7 +34,7 @@ from gfcs.errors import InvalidValueError
 from gfcs.planning._check import integer_at_least, non_negative, optional_time_limit
 from gfcs.planning.attempts import Attempt, AttemptRecord, OptimOptions, combine_records, run_attempt
 from gfcs.planning.budget import Budget
-from gfcs.planning.finish import FinishOptions, rollout_commands
+from gfcs.planning.finish import FinishOptions, rollout_commands, with_raw_ldj
 from gfcs.planning.gfcop import BatchInfo
 from gfcs.planning.models import PlanningModel, RobotModels, model_named, models_for, with_robot
 from gfcs.planning.policies import MoreCommands, PlanContext, default_policies
@@ -190,6 +190,7 @@ def _solve_gf(problem: Any, fabric: Any, settings: RolloutSettings, finish: Fini
     met = _metrics.trajectory_metrics(robot, problem.scene, traj.t, traj.q, common["goal"],
                                       mesh_checker=getattr(problem, "mesh_checker", None), mesh_margin=mesh_margin,
                                       ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"))
+    with_raw_ldj(met, robot, traj, settings.dt)
     return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached, t_stars=t_stars,
                        trajectory=traj, success=bool(met["success"]), metrics=met, n_evaluations=1,
                        solve_time=elapsed, settings={**dataclasses.asdict(settings), **recorded}, **common)
@@ -357,5 +358,6 @@ def replay(
                                                     finish)
     met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, mesh_checker=mesh_checker,
                                       mesh_margin=mesh_margin)
+    with_raw_ldj(met, robot, traj, settings.dt)
     return dataclasses.replace(result, commands=cmds, trajectory=traj, cost=cost, reached=reached,
                                t_stars=t_stars, metrics=met, success=bool(met["success"]), robot=robot)
