@@ -6,7 +6,7 @@
   and, for the Panda, the paper's own rows (``benches/data/paper_table1.json``). Success of a returned
   motion is the validator's verdict (``<robot>.<run>.validated.jsonl``) where it judged the motion; rows
   whose motion was not returned (the first batch of a solve that went on) keep gfcs's own mesh-judged
-  success, marked ``*``.
+  success, marked †.
 * Every other section is a fragment ``benches/results/<name>.md`` written by the bench script named in it,
   in the order of :data:`FRAGMENTS`.
 
@@ -39,7 +39,7 @@ CLASSES = {"bookshelf_small": "single shelf", "bookshelf_tall": "tall shelf", "b
 COLUMNS: Tuple[Tuple[str, str], ...] = (("ee_length", "EE len (m)"), ("cspace_length", "C-space len (rad)"),
                                         ("time", "Time (s)"), ("ee_ldj", "EE-LDJ"), ("cspace_ldj", "C-space-LDJ"))
 #: fragments after Table I, in order: file stem under benches/results.
-FRAGMENTS = ("speed", "scaling", "robots", "baselines", "scaleout", "experiments", "learning", "reliability")
+FRAGMENTS = ("ldj", "speed", "scaling", "robots", "baselines", "scaleout", "experiments", "learning", "reliability")
 
 
 def read_jsonl(path: Path) -> List[Dict[str, Any]]:
@@ -92,6 +92,11 @@ def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
     return rows, provenance
 
 
+def escape(label: str) -> str:
+    """A label as markdown text (BIT* keeps its star)."""
+    return label.replace("*", "\\*")
+
+
 def stat(values: Sequence[float], digits: int = 2) -> str:
     vals = [v for v in values if math.isfinite(v)]
     if not vals:
@@ -118,12 +123,12 @@ def class_table(cls: str, rows: List[Dict[str, Any]], paper: Optional[Dict[str, 
         labels.setdefault(r["label"], []).append(r)
     for label, rs in labels.items():
         ok = [r for r in rs if r["success"]]
-        mark = "" if all(r["judged"] for r in rs) else "*"
-        cells = [label + mark, f"{100.0 * len(ok) / len(rs):.0f}", str(len(rs))]
+        mark = "" if all(r["judged"] for r in rs) else " †"
+        cells = [escape(label) + mark, f"{100.0 * len(ok) / len(rs):.0f}", str(len(rs))]
         cells += [stat([number(r[key]) for r in ok]) for key, _ in COLUMNS]
         lines.append("| " + " | ".join(cells) + " |")
     for label, e in (paper or {}).items():
-        cells = [f"*paper: {label}*", paper_stat(e["success"]), "50"]
+        cells = [f"paper: {escape(label)}", paper_stat(e["success"]), "50"]
         cells += [paper_stat(e[key]) for key, _ in COLUMNS]
         lines.append("| " + " | ".join(cells) + " |")
     return lines + [""]
@@ -138,9 +143,28 @@ def totals(rows: List[Dict[str, Any]]) -> List[str]:
     for label, rs in labels.items():
         solved = sum(bool(r["success"]) for r in rs)
         judged = sum(bool(r["judged"]) for r in rs)
-        lines.append(f"| {label} | {solved}/{len(rs)} ({100.0 * solved / len(rs):.1f} %) | {judged}/{len(rs)} | "
+        lines.append(f"| {escape(label)} | {solved}/{len(rs)} ({100.0 * solved / len(rs):.1f} %) | {judged}/{len(rs)} | "
                      f"{statistics.median(number(r['time']) for r in rs):.3f} | "
                      f"{statistics.median(number(r['wall_time']) for r in rs):.3f} |")
+    return lines + [""]
+
+
+def ldj_table(rows: List[Dict[str, Any]]) -> List[str]:
+    """LDJ of the returned motions against the fabric's own rollouts (``raw_*``), over the successful rows of
+    every class; methods without a fabric rollout (the sampling-based planners) are left out."""
+    labels: Dict[str, List[Dict[str, Any]]] = {}
+    for r in rows:
+        if r["success"] and "raw_cspace_ldj" in r:
+            labels.setdefault(r["label"], []).append(r)
+    if not labels:
+        return []
+    lines = ["LDJ of the returned motion and of the fabric's own rollout before finishing (start re-timing, "
+             "goal blend, limit re-timing), successful problems of every class:", "",
+             "| Method | EE-LDJ returned | EE-LDJ rollout | C-space-LDJ returned | C-space-LDJ rollout |",
+             "|---|---|---|---|---|"]
+    for label, rs in labels.items():
+        cells = [stat([number(r[k]) for r in rs]) for k in ("ee_ldj", "raw_ee_ldj", "cspace_ldj", "raw_cspace_ldj")]
+        lines.append(f"| {escape(label)} | " + " | ".join(cells) + " |")
     return lines + [""]
 
 
@@ -152,7 +176,7 @@ def table1_section() -> List[str]:
              "successful problems; time is the optimisation (GFCS) or planning time, the whole solve's in the "
              "totals. Success of a returned motion is the independent validator's verdict "
              "(`tools/check_trajectories.py`: FCL on the robot's collision meshes and SRDF, limits, speeds, "
-             "goal); `*` marks rows with motions the solve did not return (the first batch of a solve that "
+             "goal); † marks rows with motions the solve did not return (the first batch of a solve that "
              "went on), which keep gfcs's own mesh-judged success. The paper's rows are its Table I "
              "(`benches/data/paper_table1.json`; its 50 problems per class are not these).", ""]
     if machine.is_file():
@@ -165,7 +189,7 @@ def table1_section() -> List[str]:
                       f"--robots {robot}`).", ""]
             continue
         lines += [f"### {title}", "", "Result files: " + ", ".join(f"`{p}`" for p in provenance.values()), ""]
-        lines += totals(rows)
+        lines += totals(rows) + ldj_table(rows)
         for cls in [c for c in CLASSES if any(r["class"] == c for r in rows)]:
             lines += class_table(cls, [r for r in rows if r["class"] == cls],
                                  paper.get(cls) if robot == "mbm_panda" else None)
