@@ -128,3 +128,15 @@ def test_biest_finds_the_gap_and_is_reproducible():
     crossing = p[np.abs(p[:, 0] - 0.5) <= 0.05]
     assert np.all((crossing[:, 1] >= 0.8) & (crossing[:, 1] <= 0.9))  # through the gap only
     assert np.max(np.linalg.norm(np.diff(p, axis=0), axis=1)) <= 0.2 * math.sqrt(2.0) * math.sqrt(2.0) + 1e-12
+
+
+def test_missing_ompl_names_the_extra(monkeypatch):
+    import sys
+
+    from gfcs import generators
+    from gfcs.baselines import plan_ompl
+
+    problem = generators.generate("box", 1, seed=0)[0]
+    monkeypatch.setitem(sys.modules, "ompl", None)  # import ompl then raises ImportError
+    with pytest.raises(ImportError, match=r"gfcs\[baselines\]"):
+        plan_ompl(problem, "rrtconnect", planner_time=0.1)

@@ -28,11 +28,11 @@ trajectory on the planning model and the problem's mesh checker, the same succes
 as a GFCS solve. A problem the planner does not solve (no path within the time, start or goal invalid for
 the planning model) gives a failed result whose ``settings["failure"]`` says why, not an exception.
 
-Seeds: OMPL's random generators are seeded through ``ompl.util.RNG.setSeed`` before each plan (OMPL then
-logs that sampling had already started after the first plan of a process; the seed still fixes every
-generator created afterwards, which are all those of the plan), and Bi-EST draws from a numpy generator.
-RRTConnect and Bi-EST give the same path for the same seed; BIT*'s path depends on how many batches fit in
-its time.
+Seeds: ``ompl.util.RNG.setSeed`` reseeds OMPL's seed generator before each plan, so every random generator
+the plan creates (planner, samplers, simplifier) follows the seed, also after earlier plans in the process
+(OMPL's complaint that sampling had already started is silenced with the rest of its log during a plan);
+Bi-EST draws from a numpy generator. RRTConnect and Bi-EST give the same path for the same seed (tested);
+BIT*'s path depends on how many batches fit in its time.
 """
 
 from __future__ import annotations
