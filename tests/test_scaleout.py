@@ -256,3 +256,24 @@ def test_cli_ray_rows_equal_cli_local_rows(tmp_path, ray_executor):
     assert cli.main(args + ["--json", str(tmp_path / "r.jsonl"), "--executor", "ray", "--threads", "1"]) == 0
     assert by_key(rows_of(tmp_path / "l.jsonl")) == by_key(rows_of(tmp_path / "r.jsonl"))
     assert len(rows_of(tmp_path / "r.jsonl")) == 4 * 4  # 4 problems: GF, 1 b, 2 b, retry
+
+
+def test_ray_result_files_equal_local_ones(tmp_path, ray_executor):
+    """--results-dir with Ray: the workers send the results as their JSON holds them (a Robot does not
+    pickle); the files equal a local run's but for the measured times."""
+    classes, n = ["box"], 2
+
+    def untimed(x):
+        if isinstance(x, dict):
+            return {k: untimed(v) for k, v in x.items() if "time" not in k}
+        return [untimed(v) for v in x] if isinstance(x, list) else x
+
+    bench.run_bench(generated_suite(classes, n), ["gf", "gfcs"], results_dir=str(tmp_path / "l"), **BENCH)
+    rows = bench.run_bench(bench.Suite(generated_suite, (classes, n)), ["gf", "gfcs"],
+                           results_dir=str(tmp_path / "r"), executor=ray_executor, **BENCH)
+    assert not any("error" in r for r in rows)
+    names = sorted(p.name for p in (tmp_path / "l").iterdir())
+    assert len(names) == 4 and names == sorted(p.name for p in (tmp_path / "r").iterdir())
+    for name in names:
+        local, remote = (json.loads((tmp_path / side / name).read_text()) for side in ("l", "r"))
+        assert untimed(local) == untimed(remote)

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import dataclasses
 import hashlib
 import json
 import math
@@ -234,7 +233,7 @@ class BenchJob:
     """What every problem's task of a run shares (sent to a Ray cluster once): where the problems come
     from (``problems``: by name, for a local run; ``suite``: a recipe, for workers) and the keyword
     arguments of :func:`bench_problem` besides the problem and its seed. ``keep_results``: return the
-    results too (for recordings and result files), without their in-memory robot."""
+    results too (for recordings and result files); from a worker, as their JSON holds them."""
 
     methods: Tuple[str, ...]
     kwargs: Dict[str, Any]
@@ -260,7 +259,12 @@ def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]
         return error_rows(problem, job.methods, job.kwargs["batches"], seed, message, job.kwargs.get("planner_times", (5.0,))), []
     if not job.keep_results:
         return rows, []
-    return rows, [dataclasses.replace(r, robot=None) for r in results] if job.problems is None else results
+    if job.problems is not None:
+        return rows, results
+    from gfcs.results import SolveResult
+
+    # what a result file holds (its JSON), without the in-memory objects that do not pickle (robot, attempts)
+    return rows, [SolveResult.from_json(r.to_json()) for r in results]
 
 
 def resume_rows(jsonl: str, methods: Sequence[str]) -> Tuple[List[Dict[str, Any]], set]:
