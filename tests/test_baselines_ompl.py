@@ -173,3 +173,19 @@ def test_cli_solve_and_bench_with_a_baseline(tmp_path):
     rows = read_rows(rows_file.read_text().splitlines())
     assert [row["label"] for row in rows] == ["GF", "Bi-EST"]
     assert "Bi-EST" in r.stdout
+
+
+def test_continuous_joint_turns_the_short_way_and_prismatic_keeps_its_speed():
+    from test_robot_kinds import URDF
+
+    robot = gfcs.Robot.from_urdf(URDF, ee_link="hand")
+    q0 = np.array([0.05, -1.0, 0.5, math.pi])  # the wrist at +π
+    goal = np.array([0.35, 1.0, -0.5, -math.pi + 0.3])  # 0.3 rad further round, written near −π
+    r = plan_ompl(Problem("kinds", robot, gfcs.Scene(), q0, goal), "rrtconnect", planner_time=1.0)
+    assert r.success, r.settings.get("failure")
+    q = r.trajectory.q
+    assert q[-1, 3] == pytest.approx(math.pi + 0.3)  # the same angle as the goal, reached the short way
+    assert np.abs(np.diff(q[:, 3])).sum() == pytest.approx(0.3, abs=1e-6)  # an empty scene: a straight path
+    assert r.metrics["final_error"] == pytest.approx(0.0, abs=1e-9)
+    assert metrics.velocity_ratio(r.trajectory.t, q, robot.velocity_limits) <= 1.0 + 1e-9
+    assert r.trajectory.t[-1] >= 3.0  # the lift's 0.3 m at 0.1 m/s
