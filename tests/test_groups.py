@@ -285,3 +285,14 @@ def test_ee_links_of_a_problem():
     assert srdf_groups.ee_links(problem) == ["left_panda_hand", "right_panda_hand"]
     problem.meta = {}
     assert srdf_groups.ee_links(problem) == ["left_panda_hand"]
+
+
+def test_group_of_finds_the_srdf_group_of_a_robots_joints_and_generate_writes_it(tmp_path):
+    from gfcs.srdf_groups import group_of
+
+    robot = gfcs.Robot.panda()
+    assert group_of(gfcs.panda_urdf(), gfcs.panda_srdf(), robot.joint_names) == "panda_arm"
+    assert group_of(gfcs.panda_urdf(), gfcs.panda_srdf(), robot.joint_names[:3]) is None
+    assert cli.main(["generate", "--n", "1", "--classes", "box", "--out", str(tmp_path)]) == 0
+    request = yaml.safe_load((tmp_path / "box" / "request0001.yaml").read_text())
+    assert request["group_name"] == "panda_arm"

@@ -378,7 +378,7 @@ def _start_state(joint_names: Sequence[str], q0: Sequence[float], locked: Option
 
 
 def request_yaml(joint_names: Sequence[str], q0: Sequence[float], goal: Sequence[float],
-                 group: str = "panda_arm", locked: Optional[Dict[str, float]] = None) -> str:
+                 group: str, locked: Optional[Dict[str, float]] = None) -> str:
     """MoveIt MotionPlanRequest YAML (``requestNNNN.yaml`` layout): start joint state (with ``locked``
     {joint: position} of the joints the robot holds, e.g. ``robot.locked_positions``), joint goal."""
     import yaml
@@ -394,7 +394,7 @@ def request_yaml(joint_names: Sequence[str], q0: Sequence[float], goal: Sequence
 
 def pose_request_yaml(robot: Any, q0: Sequence[float], goal: Sequence[float], link: Any = None,
                       offset: Sequence[float] = PANDA_TCP, position_tolerance: float = 1e-3,
-                      angle_tolerance: float = 0.01, group: str = "panda_arm") -> str:
+                      angle_tolerance: float = 0.01, group: str = "") -> str:
     """MoveIt MotionPlanRequest YAML with a pose goal: the pose that ``goal`` (dof,) [rad] gives ``link``
     (default the end-effector link), as a position constraint on the point ``offset`` (3,) [m] of the link
     (a sphere of radius ``position_tolerance`` [m] around it) and an orientation constraint with
@@ -407,6 +407,7 @@ def pose_request_yaml(robot: Any, q0: Sequence[float], goal: Sequence[float], li
     pose = np.asarray(robot.link_poses(np.asarray(goal, dtype=np.float64)), dtype=np.float64)[index]
     point = pose[:3, :3] @ np.asarray(offset, dtype=np.float64) + pose[:3, 3]
     header = {"frame_id": robot.link_names[0]}
+    group = group or robot.name
     doc = {
         "start_state": _start_state(robot.joint_names, q0, robot.locked_positions),
         "goal_constraints": [{
@@ -432,10 +433,14 @@ def pose_request_yaml(robot: Any, q0: Sequence[float], goal: Sequence[float], li
     return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
 
 
-def write_problems(problems: Sequence[Problem], directory: Any, pose_goals: bool = False) -> List[Path]:
+def write_problems(problems: Sequence[Problem], directory: Any, pose_goals: bool = False,
+                   group: Optional[str] = None) -> List[Path]:
     """Write generated problems as MotionBenchMaker files: ``<directory>/<cls>/sceneNNNN.yaml`` and
     ``requestNNNN.yaml`` (NNNN = 0001, 0002, ... per class, in list order). ``pose_goals``: the requests
     hold the pose of the hand's TCP at the goal (:func:`pose_request_yaml`) instead of the joint goal.
+    ``group``: the requests' ``group_name`` (the robot's planning group in its SRDF, e.g.
+    :func:`gfcs.srdf_groups.group_of`); a problem's own ``meta["group"]`` comes first; without either, the
+    robot's name.
 
     Returns:
         The class folders written. Raises ValueError for a problem without ``meta["primitives"]``.
@@ -456,8 +461,9 @@ def write_problems(problems: Sequence[Problem], directory: Any, pose_goals: bool
         number = f"{counts[cls]:04d}"
         prim_objs = [Primitive(**d) if isinstance(d, dict) else d for d in prims]
         (folder / f"scene{number}.yaml").write_text(scene_yaml(prim_objs, p.name))
-        request = (pose_request_yaml(p.robot, p.q0, p.goal) if pose_goals
-                   else request_yaml(p.robot.joint_names, p.q0, p.goal, locked=p.robot.locked_positions))
+        name = p.meta.get("group") or group or p.robot.name
+        request = (pose_request_yaml(p.robot, p.q0, p.goal, group=name) if pose_goals
+                   else request_yaml(p.robot.joint_names, p.q0, p.goal, group=name, locked=p.robot.locked_positions))
         (folder / f"request{number}.yaml").write_text(request)
     return folders
 

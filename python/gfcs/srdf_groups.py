@@ -28,7 +28,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Set, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Set, Tuple, Union
 
 from gfcs.errors import FormatError, GfcsWarning, InvalidValueError, IoError, LinkError
 
@@ -320,6 +320,23 @@ def resolve_group(urdf: PathOrXml, srdf: PathOrXml, group: str) -> GroupResoluti
     # a tip above another tip is not an end of the group
     ends = tuple(t for t in unique if not any(t in tree.ancestors(o) for o in unique if o != t))
     return GroupResolution(group=group, joints=active, tips=ends, skipped=tuple(skipped))
+
+
+def group_of(urdf: PathOrXml, srdf: PathOrXml, joint_names: Sequence[str]) -> Optional[str]:
+    """The first group of ``srdf`` (document order) whose active joints on ``urdf`` are exactly
+    ``joint_names`` (in any order), or None: the ``group_name`` a MoveIt request for a robot with these
+    joints carries. Groups naming what the URDF lacks are resolved without them, silently."""
+    wanted = set(joint_names)
+    for name in read_srdf_groups(srdf):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", GfcsWarning)
+            try:
+                joints = resolve_group(urdf, srdf, name).joints
+            except InvalidValueError:
+                continue
+        if set(joints) == wanted:
+            return name
+    return None
 
 
 def robot_for_group(urdf: PathOrXml, srdf: PathOrXml, group: str, **kwargs: Any) -> Tuple[Any, List[str]]:
