@@ -720,14 +720,33 @@ def cmd_generate(args: argparse.Namespace) -> int:
     from gfcs import generators, problems
 
     robot = _robot(args)
+    group = _planning_group(args, robot)
     classes = args.classes or list(problems.CLASSES)
     total = 0
     for c in classes:
         suite = generators.generate(c, args.n, seed=args.seed, robot=robot)
-        generators.write_problems(suite, args.out, pose_goals=args.pose_goals)
+        generators.write_problems(suite, args.out, pose_goals=args.pose_goals, group=group)
         total += len(suite)
     print(f"wrote {total} problems ({', '.join(problems.canonical_class(c) for c in classes)}) to {args.out}")
     return 0
+
+
+def _planning_group(args: argparse.Namespace, robot: Any) -> Optional[str]:
+    """The group_name of generated requests: --group, else the SRDF group (the shipped Panda's, or --srdf's on
+    --robot) whose joints are the robot's, else None (the robot's name)."""
+    import gfcs
+    from gfcs.srdf_groups import group_of
+
+    if getattr(args, "group", None):
+        return str(args.group)
+    if args.robot is None:
+        return group_of(gfcs.panda_urdf(), gfcs.panda_srdf(), robot.joint_names)
+    if args.robot == "mbm":
+        from gfcs import problems
+
+        folder = problems._mbm_folder(None)
+        return group_of(str(folder / "panda_spherized.urdf"), str(folder / "panda.srdf"), robot.joint_names)
+    return group_of(args.robot, args.srdf, robot.joint_names) if getattr(args, "srdf", None) else None
 
 
 def _register_generate(sub: Any) -> None:
