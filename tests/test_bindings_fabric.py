@@ -4,6 +4,7 @@ the GIL being released, the particle systems, and errors."""
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
@@ -61,6 +62,35 @@ def test_acceleration_and_diagnostics(fabric):
     assert isinstance(d["leaves"], int)
     # at the command, at rest, the acceleration vanishes up to the barrier terms: much smaller than away
     assert np.linalg.norm(fabric.acceleration(GOAL, np.zeros(7), GOAL)) < 0.1 * np.linalg.norm(qdd)
+
+
+def test_diagnostics_potential_is_evaluated_on_demand(robot, scene):
+    """``acceleration`` skips the forcing potential ψ; ``diagnostics()`` evaluates it at the last call's
+    state: with only the joint attractor it is the closed form k ln cosh(α‖q − command‖) (GF VII-A1), with
+    obstacles it does not depend on what was called since, and ``potential=False`` gives NaN and the same
+    other fields. Asking for it changes no later acceleration."""
+    off = {"enabled": False}
+    cfg = gfcs.FabricConfig({"joint_limits": off, "self_collision": off, "obstacles": off,
+                             "ee_position": off})
+    k = cfg.to_dict()["joint_attraction"]["potential"]
+    f = gfcs.Fabric(robot, None, cfg)
+    qd = np.full(7, 0.1)
+    f.acceleration(Q0, qd, GOAL)
+    r = np.linalg.norm(Q0 - GOAL)
+    assert f.diagnostics()["potential"] == pytest.approx(k["gain"] * math.log(math.cosh(k["sharpness"] * r)),
+                                                         rel=1e-12)
+    f = gfcs.Fabric(robot, scene)
+    q = Q0 + 0.05
+    first = f.acceleration(q, qd, GOAL)
+    with_psi = f.diagnostics()
+    without = f.diagnostics(potential=False)
+    assert math.isfinite(with_psi["potential"]) and math.isnan(without["potential"])
+    assert {key: v for key, v in with_psi.items() if key != "potential"} == \
+        {key: v for key, v in without.items() if key != "potential"}
+    np.testing.assert_array_equal(f.acceleration(q, qd, GOAL), first)
+    f.acceleration(Q0, qd, Q0)
+    f.acceleration(q, qd, GOAL)
+    assert f.diagnostics() == with_psi
 
 
 def test_rollout_follows_semi_implicit_euler(fabric):

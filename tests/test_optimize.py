@@ -132,6 +132,45 @@ def test_callback_sees_every_batch_and_can_stop():
     assert seen[-1][3] == pytest.approx(res.batch_times.sum())
 
 
+def test_stalled_criterion():
+    from gfcs.planning.gfcop import stalled
+
+    assert not stalled([3.0, 3.0, 3.0], 0, 0.01)  # off
+    assert not stalled([3.0], 1, 0.01)  # no batch followed the first yet
+    assert stalled([3.0, 3.0], 1, 0.0)  # no improvement at all
+    assert stalled([3.0, 2.98], 1, 0.01) and not stalled([3.0, 2.9], 1, 0.01)  # 0.7 % vs 3.3 %
+    assert not stalled([3.0, 2.9, 2.9], 2, 0.01) and stalled([3.0, 2.9, 2.9], 1, 0.01)
+    assert stalled([-1.0, -1.005], 1, 0.01)  # relative to the magnitude
+    assert not stalled([math.inf, math.inf], 1, 0.01)  # nothing finite yet
+
+
+def test_early_stop_after_stalled_batches():
+    """A cost CMA-ES cannot improve (constant) stops after the first batch + K stalled ones; one that keeps
+    improving (the shifted sphere, from a far warm start) runs until the criterion holds and no longer; K = 0
+    runs every batch."""
+    def flat(y):
+        return np.ones(len(y))
+
+    for k in (1, 2):
+        res = opt.solve_gfcop(flat, 3, -1, 1, batches=6, population=6, stall_batches=k)
+        assert res.batch_best_costs.shape == (1 + k,) and res.n_evaluations == 6 * (1 + k)
+    assert opt.solve_gfcop(flat, 3, -1, 1, batches=6, population=6).batch_best_costs.shape == (6,)
+    from gfcs.planning.gfcop import stalled
+
+    far = np.full((6, 3), 0.9)
+    for k, tol in ((1, 0.01), (2, 0.0), (1, 0.2)):
+        res = opt.solve_gfcop(sphere_cost(np.full(3, -0.5)), 3, -1, 1, sampler=far, batches=8, population=6,
+                              stall_batches=k, stall_tol=tol)
+        best = list(res.batch_best_costs)
+        # it stops at the first stalled batch, and only there (or after the last batch)
+        assert not any(stalled(best[:j], k, tol) for j in range(1, len(best)))
+        assert len(best) == 8 or stalled(best, k, tol)
+        assert len(best) > 1 + k  # the far warm start improves at first
+    for bad in ({"stall_batches": -1}, {"stall_tol": -0.1}, {"stall_tol": math.nan}):
+        with pytest.raises(gfcs.InvalidValueError, match="stall"):
+            opt.solve_gfcop(flat, 3, -1, 1, batches=2, population=4, **bad)
+
+
 def test_nan_costs_rank_last():
     def f(y):
         c = np.sum(np.asarray(y) ** 2, axis=1)

@@ -429,10 +429,11 @@ class Fabric:
         pose for its attractors (default: its pose at ``command``); with ``config.speed.goal_space`` "ee"
         the goal damper switches on the hand's distance to that target [m] instead of ‖q − command‖
         (task-space reaching, GF Sec. VII: ``command`` then only postures the arm)."""
-    def diagnostics(self) -> Optional[Dict[str, float]]:
+    def diagnostics(self, potential: bool = True) -> Optional[Dict[str, float]]:
         """Of the last ``acceleration`` call: energy, exec_energy, potential, min_clearance,
         min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
-        alpha_boost, alpha_reg, leaves."""
+        alpha_boost, alpha_reg, leaves. The forcing potential ψ is evaluated here at the last call's state
+        (one more fabric evaluation); ``potential=False`` skips it (``potential`` is then NaN)."""
     def rollout(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, record: bool = True,
         **options: Unpack[RolloutOptions],

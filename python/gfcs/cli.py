@@ -142,6 +142,11 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                        help="planning time of a sampling-based method in s (default 5)")
     g.add_argument("--batches", type=_integer(1), default=5, help="CMA-ES batches (default 5)")
     g.add_argument("--population", type=_integer(2), default=32, help="candidates per batch (default 32)")
+    g.add_argument("--stall-batches", type=_integer(0), default=None, metavar="K",
+                   help="early stop: end an attempt's optimisation once K batches in a row lowered the best "
+                        "cost by at most --stall-tol of it (default: the preset's, 0 = every batch runs)")
+    g.add_argument("--stall-tol", type=float, default=0.01, metavar="R",
+                   help="relative improvement under which batches count as stalled (default 0.01)")
     g.add_argument("--commands", type=_integer(0), default=1,
                    help="free commands n before the goal (default 1)")
     g.add_argument("--seed", type=_integer(0), default=0, help="optimiser seed (default 0)")
@@ -245,9 +250,11 @@ def _solve_options(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
 
     if not (math.isfinite(args.time_limit) and args.time_limit >= 0):
         raise InvalidValueError(f"--time-limit must be a number of seconds ≥ 0 (0: no limit), got {args.time_limit}")
-    given = {"length_slack": args.length_slack, "mesh_margin": args.mesh_margin}
+    given = {"length_slack": args.length_slack, "mesh_margin": args.mesh_margin,
+             "stall_batches": args.stall_batches}
     return {"preset": args.preset, "time_limit": args.time_limit or None, "settings": _settings(args),
-            "finish": _finish(args, robot), **{k: v for k, v in given.items() if v is not None}}
+            "finish": _finish(args, robot), "stall_tol": args.stall_tol,
+            **{k: v for k, v in given.items() if v is not None}}
 
 
 def _robot(args: argparse.Namespace) -> Any:

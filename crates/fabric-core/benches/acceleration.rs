@@ -9,6 +9,10 @@
 //! scene 0001 (8 boxes: a cube inside a cage of base, cap, back, left and right walls and two front
 //! bars, the hand reaching in), at states recorded from its start toward its goal.
 //!
+//! Each case runs twice: with a `FabricWorkspace::new` (diagnostics with the forcing potential ψ) and,
+//! suffixed `_no_psi`, with `FabricWorkspace::for_rollouts` (ψ off: what a rollout step and
+//! `gfcs.Fabric.acceleration` evaluate; the same q̈ bit for bit).
+//!
 //! Run: `cargo bench -p fabric-core --bench acceleration`.
 
 use std::sync::Arc;
@@ -72,7 +76,33 @@ fn bench_states(
     states: &[(Vec<f64>, Vec<f64>)],
     goal: &[f64],
 ) {
-    let mut ws = FabricWorkspace::new(fabric);
+    for (suffix, mut ws) in [
+        ("", FabricWorkspace::new(fabric)),
+        ("_no_psi", FabricWorkspace::for_rollouts(fabric)),
+    ] {
+        bench_workspace(
+            c,
+            &format!("{name}{suffix}"),
+            fabric,
+            scene,
+            states,
+            goal,
+            &mut ws,
+        );
+    }
+}
+
+/// [`bench_states`] with one workspace: `FabricWorkspace::new` (diagnostics with ψ) or
+/// `FabricWorkspace::for_rollouts` (ψ off, as in rollouts and `gfcs.Fabric.acceleration`; same q̈).
+fn bench_workspace(
+    c: &mut Criterion,
+    name: &str,
+    fabric: &Fabric,
+    scene: &Scene,
+    states: &[(Vec<f64>, Vec<f64>)],
+    goal: &[f64],
+    ws: &mut FabricWorkspace,
+) {
     let mut qdd = vec![0.0; 7];
     let mut i = 0;
     c.bench_function(&format!("acceleration/{name}"), |b| {
@@ -85,7 +115,7 @@ fn bench_states(
                     black_box(q),
                     black_box(qd),
                     black_box(goal),
-                    &mut ws,
+                    ws,
                     &mut qdd,
                 )
                 .expect("acceleration");

@@ -30,12 +30,27 @@ pub struct PyFabric {
     fabric: Arc<Fabric>,
     robot: Py<PyRobot>,
     scene: RwLock<Arc<Scene>>,
-    last: Mutex<Option<Diagnostics>>,
-    /// Scratch of `acceleration`, kept between calls: building it (kinematics workspaces, one task point
+    last: Mutex<Option<LastCall>>,
+    /// Scratch of `acceleration` (ψ off: see `LastCall`), kept between calls: building it (kinematics workspaces, one task point
     /// per sphere) cost about as much as the evaluation itself (MBM Panda, 81 spheres, near free space:
     /// 10.6-14.8 µs per call with it, 5.5-8.5 µs without).
     ws: Mutex<FabricWorkspace>,
 }
+
+/// The last `acceleration` call: its inputs and diagnostics. The call evaluates with the forcing potential
+/// ψ off (`FabricWorkspace::set_potential`; ψ only reports energy, and its soft-plus terms cost ~10 % of a
+/// step near obstacles), so `diagnostics()` evaluates ψ when asked for it, at these inputs: q̈ and every
+/// other diagnostic are the same bit for bit with ψ on or off (fabric-core's engine tests).
+struct LastCall {
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    command: Vec<f64>,
+    targets: Option<EeTargets>,
+    diag: Diagnostics,
+}
+
+/// Robots up to this many coordinates get `acceleration`'s q̈ in a stack buffer (no allocation).
+const MAX_STACK_DOF: usize = 32;
 
 impl PyFabric {
     /// The current scene (shared, immutable snapshot).
@@ -64,6 +79,42 @@ impl PyFabric {
             _ => vec![0.0; n],
         };
         Ok((q0, qd0))
+    }
+
+    /// One evaluation of `Fabric::acceleration` (with explicit end-effector `targets` when given) in the
+    /// kept workspace, ψ on or off (`potential`); q̈ into `qdd` (dof,), the diagnostics returned.
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_once(
+        &self,
+        py: Python<'_>,
+        q: &[f64],
+        qd: &[f64],
+        command: &[f64],
+        targets: Option<&EeTargets>,
+        potential: bool,
+        qdd: &mut [f64],
+    ) -> PyResult<Diagnostics> {
+        let fabric = &self.fabric;
+        let scene = self.scene_snapshot();
+        // the GIL is held throughout, so the lock is never contended; after a panic inside (poisoned
+        // lock) the workspace is built afresh rather than trusted
+        let mut ws = self.ws.lock().unwrap_or_else(|poisoned| {
+            let mut ws = poisoned.into_inner();
+            *ws = FabricWorkspace::for_rollouts(fabric);
+            self.ws.clear_poison();
+            ws
+        });
+        let ws = &mut *ws;
+        ws.set_potential(potential);
+        let result = guarded(py, || {
+            match targets {
+                Some(t) => fabric.acceleration_with_targets(&scene, q, qd, command, t, ws, qdd)?,
+                None => fabric.acceleration(&scene, q, qd, command, ws, qdd)?,
+            }
+            Ok(fabric.diagnostics(ws))
+        });
+        ws.set_potential(false);
+        result
     }
 
     /// The fabric and a snapshot of its current scene, to move into a GIL-free computation.
@@ -128,7 +179,7 @@ impl PyFabric {
         let fabric = guarded(py, || Fabric::new(model, config))?;
         let scene = scene.map(|s| s.inner.clone()).unwrap_or_default();
         fabric.check_scene(&scene).map_err(error)?;
-        let ws = Mutex::new(FabricWorkspace::new(&fabric));
+        let ws = Mutex::new(FabricWorkspace::for_rollouts(&fabric));
         Ok(PyFabric {
             fabric: Arc::new(fabric),
             robot: robot.unbind(),
@@ -176,7 +227,7 @@ impl PyFabric {
             .transpose()?;
         let fabric = (*self.fabric).clone();
         let fabric = guarded(py, || fabric.with_obstacle_margins(margins))?;
-        let ws = Mutex::new(FabricWorkspace::new(&fabric));
+        let ws = Mutex::new(FabricWorkspace::for_rollouts(&fabric));
         Ok(PyFabric {
             fabric: Arc::new(fabric),
             robot: self.robot.clone_ref(py),
@@ -260,7 +311,7 @@ impl PyFabric {
         qd: &Bound<'py, PyAny>,
         command: &Bound<'py, PyAny>,
         ee_target: Option<&Bound<'py, PyAny>>,
-    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
         let n = self.dof();
         let q = convert::vector(q, "q", n)?;
         let qd = convert::vector(qd, "qd", n)?;
@@ -269,37 +320,55 @@ impl PyFabric {
             .filter(|t| !t.is_none())
             .map(ee_targets)
             .transpose()?;
-        let fabric = &self.fabric;
-        let scene = self.scene_snapshot();
-        // the GIL is held throughout, so the lock is never contended; after a panic inside (poisoned
-        // lock) the workspace is built afresh rather than trusted
-        let mut ws = self.ws.lock().unwrap_or_else(|poisoned| {
-            let mut ws = poisoned.into_inner();
-            *ws = FabricWorkspace::new(fabric);
-            self.ws.clear_poison();
-            ws
+        let mut qdd = [0.0; MAX_STACK_DOF];
+        let mut heap = Vec::new();
+        let qdd: &mut [f64] = if n <= MAX_STACK_DOF {
+            &mut qdd[..n]
+        } else {
+            heap.resize(n, 0.0);
+            &mut heap
+        };
+        let diag = self.evaluate_once(py, &q, &qd, &command, targets.as_ref(), false, qdd)?;
+        *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Some(LastCall {
+            q,
+            qd,
+            command,
+            targets,
+            diag,
         });
-        let ws = &mut *ws;
-        let (qdd, diag) = guarded(py, || {
-            let mut qdd = vec![0.0; n];
-            match &targets {
-                Some(t) => {
-                    fabric.acceleration_with_targets(&scene, &q, &qd, &command, t, ws, &mut qdd)?
-                }
-                None => fabric.acceleration(&scene, &q, &qd, &command, ws, &mut qdd)?,
-            }
-            Ok((qdd, fabric.diagnostics(ws)))
-        })?;
-        *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Some(diag);
-        output(py, qdd, &[n])
+        Ok(numpy::PyArray1::from_slice(py, qdd))
     }
 
     /// Diagnostics of the last `acceleration` call (dict: energy, exec_energy, potential, min_clearance,
     /// min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
-    /// alpha_boost, alpha_reg, leaves), or None before the first call.
-    fn diagnostics<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let last = *self.last.lock().unwrap_or_else(PoisonError::into_inner);
-        last.map(|d| diagnostics_dict(py, &d)).transpose()
+    /// alpha_boost, alpha_reg, leaves), or None before the first call. The forcing potential ψ is
+    /// evaluated here, at the last call's state (one more fabric evaluation); `potential=False` skips it
+    /// (`potential` is then NaN) for callers that read the other fields every step.
+    #[pyo3(signature = (potential=true))]
+    fn diagnostics<'py>(
+        &self,
+        py: Python<'py>,
+        potential: bool,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let last = self.last.lock().unwrap_or_else(PoisonError::into_inner);
+        let Some(call) = last.as_ref() else {
+            return Ok(None);
+        };
+        let mut diag = call.diag;
+        if potential {
+            let mut qdd = vec![0.0; call.q.len()];
+            let with_psi = self.evaluate_once(
+                py,
+                &call.q,
+                &call.qd,
+                &call.command,
+                call.targets.as_ref(),
+                true,
+                &mut qdd,
+            )?;
+            diag.potential = with_psi.potential;
+        }
+        diagnostics_dict(py, &diag).map(Some)
     }
 
     /// rollout_t (GFCS eq. 1–3): integrate from (q0, qd0) toward `command` until ‖q − command‖ < tol or

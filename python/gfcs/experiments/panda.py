@@ -96,7 +96,7 @@ class Reacher:
     def step(self, target: np.ndarray) -> np.ndarray:
         """One step toward ``target`` (3,); returns the hand position after it."""
         qdd = self.fabric.acceleration(self.q, self.qd, READY, ee_target=(target, (0.0, 0.0, 0.0, 1.0)))
-        self.clearance.append(float(self.fabric.diagnostics()["min_clearance"]))
+        self.clearance.append(float(self.fabric.diagnostics(potential=False)["min_clearance"]))
         self.qd = self.qd + DT * np.asarray(qdd)
         self.q = self.q + DT * self.qd
         hand = np.asarray(self.robot.ee_position(self.q), dtype=np.float64)

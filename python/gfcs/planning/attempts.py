@@ -148,6 +148,8 @@ class OptimOptions:
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None
     selection: SelectionOptions = field(default_factory=SelectionOptions)
     first_batch: bool = False
+    stall_batches: int = 0
+    stall_tol: float = 0.01
 
 
 def _warm_start(sampler: Sampler, problem: Any, n_commands: int, goal: np.ndarray) -> Callable[..., np.ndarray]:
@@ -199,7 +201,8 @@ def _optimise(problem: Any, fabric: Any, common: Dict[str, Any], n_commands: int
                            sampler=_warm_start(sampler, problem, n_commands, goal), batches=options.batches,
                            population=options.population, sigma0=options.sigma0, seed=options.seed,
                            top_m=options.top_m, callback=on_batch, deadline=deadline,
-                           reserve_batches=0.0 if deadline is None else 1.0)
+                           reserve_batches=0.0 if deadline is None else 1.0,
+                           stall_batches=options.stall_batches, stall_tol=options.stall_tol)
     finally:
         if bar is not None:
             bar.close()

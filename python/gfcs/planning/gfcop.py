@@ -17,6 +17,10 @@ is set to NaN: "do nothing"), and the sampler gets a second, independent generat
 ``seed`` through ``numpy.random.SeedSequence``. A solve is therefore reproducible from its seed and never
 touches ``numpy.random``'s global state.
 
+Early stop: ``stall_batches`` > 0 ends the optimisation once that many batches in a row have not lowered
+the best cost by more than ``stall_tol`` relative (:func:`stalled`); off by default, so the paper's
+fixed batch count holds unless asked.
+
 Time budget: with a ``deadline``, batches stop when no candidate fits before it, and the last batch is cut
 to the candidates that fit (see :func:`solve_gfcop`).
 """
@@ -34,7 +38,7 @@ import numpy as np
 
 from gfcs.errors import InvalidValueError
 
-__all__ = ["BatchInfo", "OptimResult", "InitialCandidates", "solve_gfcop"]
+__all__ = ["BatchInfo", "OptimResult", "InitialCandidates", "solve_gfcop", "stalled"]
 
 
 @dataclass
@@ -186,6 +190,8 @@ def solve_gfcop(
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
     deadline: Optional[float] = None,
     reserve_batches: float = 0.0,
+    stall_batches: int = 0,
+    stall_tol: float = 0.01,
 ) -> OptimResult:
     """Algorithm 1 (SolveGFCOP) with warm-started CMA-ES over the box [lower, upper].
 
@@ -210,12 +216,19 @@ def solve_gfcop(
             many of CMA-ES's candidates are evaluated as the last batch (no update follows it).
         reserve_batches: with a deadline, the time of this many whole batches (as measured) is left free
             before it, for what the caller does after the optimisation (rolling the best candidates out).
+        stall_batches: early stop (0: off, every batch runs): after batch j ≥ ``stall_batches``, stop when
+            the best cost has fallen by at most ``stall_tol`` · |best cost| over the last ``stall_batches``
+            batches (see :func:`stalled`).
+        stall_tol: the relative improvement below which batches count as stalled (≥ 0).
 
     Returns:
         :class:`OptimResult` with all candidates, the top-m and the per-batch best costs and times.
     """
     cma = _import_cma()
     dim = _check_arguments(dim, batches, population, top_m, sigma0, seed)
+    if int(stall_batches) < 0 or not (math.isfinite(stall_tol) and stall_tol >= 0):
+        raise InvalidValueError(f"stall_batches must be ≥ 0 and stall_tol a number ≥ 0, got {stall_batches} "
+                                f"and {stall_tol}")
     lo, up = _box(lower, upper, dim)
     span = up - lo
     sampler_rng, cma_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(2))
@@ -246,7 +259,20 @@ def solve_gfcop(
         info = history.add(j, y, costs, time.perf_counter() - start + (sampling_time if j == 0 else 0.0))
         if (callback is not None and callback(info)) or fit < int(population):
             break
+        if stalled(history.best_costs, int(stall_batches), float(stall_tol)):
+            break
     return history.result(int(top_m))
+
+
+def stalled(best_costs: List[float], batches: int, tol: float) -> bool:
+    """The early-stop criterion of :func:`solve_gfcop`: with ``best_costs`` the best cost so far after each
+    batch (non-increasing), True when ``batches`` ≥ 1 batches followed another and together lowered the
+    best cost by at most ``tol`` times its magnitude: c[-1-batches] − c[-1] ≤ tol · |c[-1-batches]|. An
+    infinite best cost (nothing finite yet) never counts as stalled."""
+    if batches < 1 or len(best_costs) <= batches:
+        return False
+    before, now = best_costs[-1 - batches], best_costs[-1]
+    return math.isfinite(before) and before - now <= tol * abs(before)
 
 
 def _check_arguments(dim: Any, batches: Any, population: Any, top_m: Any, sigma0: Any, seed: Any) -> int:

@@ -52,6 +52,8 @@ class Preset:
         thin_spheres: plan on a thinner sphere model first when the robot has one.
         policies: ``policies()`` -> the retry policies, in order.
         fabric: configuration overrides applied over the fabric configuration given to the solve.
+        stall_batches: early stop of the optimisation after this many stalled batches (0: every batch
+            runs; :func:`gfcs.planning.gfcop.stalled`).
     """
 
     name: str
@@ -63,6 +65,7 @@ class Preset:
     thin_spheres: bool
     policies: Callable[[], List[Any]]
     fabric: Dict[str, Any] = field(default_factory=dict)
+    stall_batches: int = 0
 
 
 PRESETS: Dict[str, Preset] = {
@@ -79,7 +82,7 @@ PRESETS: Dict[str, Preset] = {
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,
                                   limit_acceleration=False),
                     length_slack=0.0, mesh_candidates=1, sampler="uniform", thin_spheres=False,
-                    policies=list, fabric=PAPER_BARRIERS),
+                    policies=list, fabric=PAPER_BARRIERS, stall_batches=0),
 }
 
 

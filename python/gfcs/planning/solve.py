@@ -77,6 +77,8 @@ def solve(
     mesh_retries: Optional[int] = None,
     goal_contact_slack: Optional[float] = None,
     sphere_fallback: Optional[bool] = None,
+    stall_batches: Optional[int] = None,
+    stall_tol: float = 0.01,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1 and the preset's retry policies) or with the local fabric
     alone (``method="gf"``).
@@ -119,6 +121,10 @@ def solve(
             is None: the most free commands (default n + 1 with the preset's sampler, n with one of your
             own), the wider-margin step [m] and rounds (0.002, 2), the goal-contact slack [m] (0.002), and
             whether the model cascade runs (True).
+        stall_batches, stall_tol: early stop of each attempt's optimisation once ``stall_batches`` batches
+            in a row lowered the best cost by at most ``stall_tol`` of it
+            (:func:`gfcs.planning.gfcop.stalled`); None: the preset's (0 for both presets: every batch
+            runs).
 
     Returns:
         :class:`gfcs.results.SolveResult` (the chosen attempt's motion and metrics; ``attempts``: every
@@ -148,10 +154,14 @@ def solve(
         slack = non_negative("length_slack", chosen.length_slack if length_slack is None else length_slack)
         checks = integer_at_least("mesh_candidates",
                                   chosen.mesh_candidates if mesh_candidates is None else mesh_candidates, 1)
+        stall = integer_at_least("stall_batches",
+                                 chosen.stall_batches if stall_batches is None else stall_batches, 0)
         options = OptimOptions(batches, population, seed, threads, progress, top_m, sigma0, callback,
-                               SelectionOptions(slack, checks, mesh_margin), bool(record_first_batch))
+                               SelectionOptions(slack, checks, mesh_margin), bool(record_first_batch),
+                               stall, non_negative("stall_tol", stall_tol))
         recorded.update(batches=int(batches), population=int(population), sigma0=float(sigma0),
-                        top_m=int(top_m), length_slack=slack)
+                        top_m=int(top_m), length_slack=slack,
+                        **({"stall_batches": stall, "stall_tol": float(stall_tol)} if stall else {}))
         models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres))
         planner = _Planner(problem, models, fabric, n_commands, sampler, chosen, settings, finish, options,
                            recorded, budget)
