@@ -24,7 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable, Iterator, List, Optional, Tuple
+from typing import Any, Callable, Iterable, Iterator, Optional, Tuple
 
 __all__ = ["Done", "Executor", "LocalExecutor", "RayExecutor", "make_executor", "add_executor_options",
            "executor_from_args", "EXECUTORS"]
@@ -154,18 +154,25 @@ class RayExecutor(Executor):
 
 
 def _runtime_env(address: Optional[str]) -> Optional[dict]:
-    """Workers of a local Ray import gfcs as this process does (its ``PYTHONPATH`` and ``sys.path``
-    entries); a remote cluster's nodes must have gfcs installed themselves."""
+    """Workers of a local Ray import gfcs and the task functions' modules as this process does: the
+    ``PYTHONPATH`` and ``sys.path`` folders outside the interpreter's installation (a source checkout, a
+    test folder). A remote cluster's nodes must have gfcs installed themselves."""
     if address is not None:
         return None
     import sys
 
     import gfcs
 
+    def own(path: str) -> bool:  # a folder of this process's path outside the interpreter's installation
+        full = os.path.abspath(path)
+        return os.path.isdir(full) and not any(full.startswith(os.path.abspath(prefix) + os.sep)
+                                               for prefix in {sys.prefix, sys.base_prefix})
+
     root = os.path.dirname(os.path.dirname(os.path.abspath(gfcs.__file__)))
-    paths: List[str] = [root] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
-    paths += [p for p in sys.path if p and os.path.isdir(p) and p not in paths and "site-packages" not in p]
-    return {"env_vars": {"PYTHONPATH": os.pathsep.join(dict.fromkeys(paths))}}
+    paths = [p for p in [root, *os.environ.get("PYTHONPATH", "").split(os.pathsep), *sys.path] if p and own(p)]
+    if not paths:  # gfcs installed with the interpreter: workers find it as this process does
+        return None
+    return {"env_vars": {"PYTHONPATH": os.pathsep.join(dict.fromkeys(os.path.abspath(p) for p in paths))}}
 
 
 def _ray_message(e: BaseException) -> str:
