@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
+from gfcs.baselines.ompl_planner import DEFAULT_PLANNER_TIME
+
 if TYPE_CHECKING:
     from gfcs.executors import Executor
 
@@ -70,7 +72,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
                   n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
                   threads: Optional[int] = None, settings: Any = None,
                   retry: bool = True, solve_options: Optional[Dict[str, Any]] = None,
-                  planner_times: Sequence[float] = (5.0,),
+                  planner_times: Sequence[float] = (DEFAULT_PLANNER_TIME,),
                   ) -> Tuple[List[Dict[str, Any]], List[Any]]:
     """Rows (:func:`gfcs.results.bench_row`) and results of the methods on one problem, one solve each.
 
@@ -144,7 +146,7 @@ def _baseline_rows(problem: Any, method: str, seed: int, planner_times: Sequence
 
 
 def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, message: str,
-               planner_times: Sequence[float] = (5.0,)) -> List[Dict[str, Any]]:
+               planner_times: Sequence[float] = (DEFAULT_PLANNER_TIME,)) -> List[Dict[str, Any]]:
     """The rows of a problem whose solve raised ``message``: one failed row per method (the labels of
     :func:`bench_problem`'s final rows; a sampling-based method one per planner time), every measure NaN,
     with the error under ``"error"``."""
@@ -256,7 +258,8 @@ def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]
     except _user_error_types() as e:
         message = f"{type(e).__name__}: {_message(e)}"
         print(f"gfcs: bench: {problem.name}: {message}", file=sys.stderr)
-        return error_rows(problem, job.methods, job.kwargs["batches"], seed, message, job.kwargs.get("planner_times", (5.0,))), []
+        return error_rows(problem, job.methods, job.kwargs["batches"], seed, message,
+                          job.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,))), []
     if not job.keep_results:
         return rows, []
     if job.problems is not None:
@@ -349,7 +352,8 @@ def run_bench(problems: Union[Sequence[Any], Suite], methods: Sequence[str], bat
               retry: bool = True, solve_options: Optional[Dict[str, Any]] = None,
               results_dir: Optional[str] = None, left_out: Sequence[Tuple[str, str]] = (),
               executor: Optional[Executor] = None, resume: bool = False,
-              seeding: str = "problem", planner_times: Sequence[float] = (5.0,)) -> List[Dict[str, Any]]:
+              seeding: str = "problem", planner_times: Sequence[float] = (DEFAULT_PLANNER_TIME,),
+              ) -> List[Dict[str, Any]]:
     """Benchmark ``methods`` on ``problems`` (rows: :func:`bench_problem`), one task per problem on
     ``executor`` (default :class:`gfcs.executors.LocalExecutor`; a Ray executor needs ``problems`` as a
     :class:`Suite`). Rows go to ``jsonl`` as each problem finishes; with ``resume`` the problems already in
@@ -414,7 +418,8 @@ def _outcome(done: Any, problem: Any, job: BenchJob, seed: int) -> Tuple[List[Di
     if done.error is None:
         return done.value
     print(f"gfcs: bench: {problem.name}: {done.error}", file=sys.stderr)
-    return error_rows(problem, job.methods, job.kwargs["batches"], seed, done.error, job.kwargs.get("planner_times", (5.0,))), []
+    return error_rows(problem, job.methods, job.kwargs["batches"], seed, done.error,
+                      job.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,))), []
 
 
 def _write(out: Any, rows: List[Dict[str, Any]]) -> None:

@@ -11,6 +11,6 @@ Importing this package does not import OMPL; :func:`plan_ompl` raises an ImportE
 OMPL is missing.
 """
 
-from gfcs.baselines.ompl_planner import PLANNERS, is_ompl_method, plan_ompl, planner_label
+from gfcs.baselines.ompl_planner import DEFAULT_PLANNER_TIME, PLANNERS, is_ompl_method, plan_ompl, planner_label
 
-__all__ = ["plan_ompl", "PLANNERS", "planner_label", "is_ompl_method"]
+__all__ = ["plan_ompl", "PLANNERS", "planner_label", "is_ompl_method", "DEFAULT_PLANNER_TIME"]

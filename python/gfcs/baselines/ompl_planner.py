@@ -50,10 +50,13 @@ from gfcs.baselines.validity import MOVEIT_SEGMENT_FRACTION, SphereValidity
 from gfcs.errors import InvalidValueError
 from gfcs.joints import continuous_mask, unwrap_goal
 
-__all__ = ["plan_ompl", "PLANNERS", "planner_label", "is_ompl_method"]
+__all__ = ["plan_ompl", "PLANNERS", "planner_label", "is_ompl_method", "DEFAULT_PLANNER_TIME"]
 
 #: The planners, by method name: the label of their benchmark rows.
 PLANNERS: Dict[str, str] = {"rrtconnect": "RRTConnect", "biest": "Bi-EST", "bitstar": "BIT*"}
+#: Default planning time [s]: MoveIt's default allowed planning time, and the default time limit of a GFCS
+#: solve from the command line.
+DEFAULT_PLANNER_TIME = 5.0
 
 
 def is_ompl_method(method: str) -> bool:
@@ -241,7 +244,7 @@ def _plan_path(space: _Space, validity: SphereValidity, planner: str, start: np.
 def plan_ompl(
     problem: Any,
     planner: str = "rrtconnect",
-    planner_time: float = 1.0,
+    planner_time: float = DEFAULT_PLANNER_TIME,
     seed: int = 0,
     *,
     simplify: bool = True,
