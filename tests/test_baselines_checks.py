@@ -140,3 +140,17 @@ def test_missing_ompl_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "ompl", None)  # import ompl then raises ImportError
     with pytest.raises(ImportError, match=r"gfcs\[baselines\]"):
         plan_ompl(problem, "rrtconnect", planner_time=0.1)
+
+
+def test_two_stage_segment_check_gives_the_verdict_of_all_states():
+    scene = gfcs.Scene()
+    scene.add_box([0.3, 0.3, 0.3], ([0.45, 0.0, 0.4], [0.0, 0.0, 0.0, 1.0]))
+    v = _panda_validity(scene, margin=0.002, step=0.03)
+    rng = np.random.default_rng(3)
+    verdicts = []
+    for _ in range(60):
+        a, b = (v.lower + rng.random((2, 7)) * (v.upper - v.lower)) * 0.5
+        full = bool(np.all(v.valid(segment_states(a, b, v.step))))
+        assert v.segment_valid(a, b) == full
+        verdicts.append(full)
+    assert 0 < sum(verdicts) < len(verdicts)
