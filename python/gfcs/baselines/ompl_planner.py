@@ -12,8 +12,8 @@ The set-up follows what MoveIt does with OMPL, so that the rows compare with Mov
   them, else its own spheres), every sphere at least the fabric's obstacle margin from the obstacles (2 mm by
   default, 6 mm on the thin spheres), no self-collision of sphere pairs.
 * Motion checks at MoveIt's default resolution: ``longest_valid_segment_fraction`` 0.005 of the state
-  space's maximum extent (13.04 rad for the Panda's 7 joints: a step of 0.065 rad), all states of a segment
-  checked in one batched call (a Python ``MotionValidator``).
+  space's maximum extent (13.04 rad for the Panda's 7 joints: a step of 0.065 rad), the states of a segment
+  checked in at most two batched calls (a Python ``MotionValidator``).
 * RRTConnect and BIT* are OMPL's (default parameters, as MoveIt's default planner configurations leave them).
   Bi-EST is OMPL's algorithm run in numpy (:mod:`gfcs.baselines.biest`): the PyPI wheels bind no class for
   it. RRTConnect and Bi-EST stop at their first path; BIT* improves its path until the planner time ends.

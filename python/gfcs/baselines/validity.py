@@ -8,7 +8,7 @@ the sphere criterion of :func:`gfcs.metrics.trajectory_metrics`, with the fabric
 A straight joint-space segment a → b is valid when its interpolated states are, checked the way OMPL's
 ``DiscreteMotionValidator`` does (and MoveIt through it): ⌈‖b − a‖ / step⌉ equal steps, every state after
 ``a`` checked (``a`` itself is valid by construction), where ``step`` = longest-valid-segment fraction ×
-the state space's maximum extent. All states of a segment go to the core in one call
+the state space's maximum extent. The states of a segment go to the core in batches, at most two calls
 (``Robot.sphere_centers`` and ``Scene.signed_distance`` over (N, S) points, ``Robot.self_clearance`` over N
 configurations), instead of one call per state.
 
