@@ -31,6 +31,8 @@ import sys
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
+from gfcs.errors import InvalidValueError
+
 __all__ = [
     "main",
     "build_parser",
@@ -82,11 +84,11 @@ def _writable_file(path: Optional[str], option: str) -> None:
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
     if target.is_dir():
-        raise ValueError(f"{option} {path}: is a directory")
+        raise InvalidValueError(f"{option} {path}: is a directory")
     if not folder.is_dir():
-        raise ValueError(f"{option} {path}: directory {folder} does not exist")
+        raise InvalidValueError(f"{option} {path}: directory {folder} does not exist")
     if not os.access(folder, os.W_OK) or (target.exists() and not os.access(target, os.W_OK)):
-        raise ValueError(f"{option} {path}: not writable")
+        raise InvalidValueError(f"{option} {path}: not writable")
 
 
 def _writable_dir(path: Optional[str], option: str) -> None:
@@ -96,10 +98,10 @@ def _writable_dir(path: Optional[str], option: str) -> None:
         return
     target = Path(path)
     if target.exists() and not target.is_dir():
-        raise ValueError(f"{option} {path}: exists and is not a directory")
+        raise InvalidValueError(f"{option} {path}: exists and is not a directory")
     existing = next((p for p in (target, *target.parents) if p.exists()), Path("."))
     if not os.access(existing, os.W_OK):
-        raise ValueError(f"{option} {path}: {existing} is not writable")
+        raise InvalidValueError(f"{option} {path}: {existing} is not writable")
 
 
 def _add_robot_options(p: argparse.ArgumentParser) -> None:
@@ -205,7 +207,6 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
 def _joint_limit_settings(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
     """``velocity_limits`` / ``acceleration_limits`` of the finishing options from --joint-limits and
     --acceleration-limits (inf where a joint has none); {} when neither is given."""
-    from gfcs.errors import InvalidValueError
     from gfcs.profile import read_joint_limits_yaml
 
     out: Dict[str, Any] = {}
@@ -246,7 +247,6 @@ def _finish(args: argparse.Namespace, robot: Any) -> Any:
 def _solve_options(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
     """Keyword arguments of :func:`gfcs.planning.solve` from the command line: preset, time budget, rollout
     and finishing options, and the selection options given (others: the preset's)."""
-    from gfcs.errors import InvalidValueError
 
     if not (math.isfinite(args.time_limit) and args.time_limit >= 0):
         raise InvalidValueError(f"--time-limit must be a number of seconds ≥ 0 (0: no limit), got {args.time_limit}")
@@ -262,13 +262,17 @@ def _robot(args: argparse.Namespace) -> Any:
 
     if args.robot is None or args.robot == "mbm":
         if args.srdf or args.spheres or args.ee_link or args.mesh_dir or getattr(args, "group", None):
-            raise ValueError("--srdf/--group/--spheres/--ee-link/--mesh-dir need --robot URDF")
+            raise InvalidValueError("--srdf/--group/--spheres/--ee-link/--mesh-dir need --robot URDF")
         if args.robot == "mbm":
             from gfcs.problems import mbm_panda
 
             return mbm_panda()
         return gfcs.Robot.panda()
-    from gfcs.problems import spherized_urdf_for, with_gap_spheres, with_shipped_panda_spheres
+    from gfcs.problems import (
+        spherized_urdf_for,
+        with_gap_spheres,
+        with_shipped_panda_spheres,
+    )
 
     group = _group_name(args)
     if group is not None:  # the group's joints active, its first tip the end effector (unless --ee-link)
@@ -304,7 +308,7 @@ def _group_name(args: argparse.Namespace) -> Optional[str]:
 
     if getattr(args, "group", None):
         if not args.srdf:
-            raise ValueError("--group needs --srdf (the SRDF defines the groups)")
+            raise InvalidValueError("--group needs --srdf (the SRDF defines the groups)")
         return str(args.group)
     if not args.srdf:
         return None
@@ -352,7 +356,7 @@ def _sampler(args: argparse.Namespace) -> Any:
 
     if args.sampler in (None, "approach", "uniform"):
         if args.sgld_noise is not None:
-            raise ValueError("--sgld-noise needs --sampler MODEL.pt")
+            raise InvalidValueError("--sgld-noise needs --sampler MODEL.pt")
         preset_sampler = "approach" if args.preset == "default" else "uniform"
         if args.sampler in (None, preset_sampler):
             return None  # the preset's own sampler, which the more-commands policy can widen
@@ -519,7 +523,7 @@ def _solve_problem(args: argparse.Namespace) -> Any:
     robot = _robot(args)
     if args.scene or args.request:
         if not (args.scene and args.request):
-            raise ValueError("--scene and --request go together")
+            raise InvalidValueError("--scene and --request go together")
         suite = [problems.load_mbm(args.scene, args.request, robot=robot)]
     else:
         suite = generators.generate(args.problem_class, 1, seed=args.problem_seed, robot=robot)[:1]
@@ -636,7 +640,6 @@ def _planner_times(args: argparse.Namespace) -> List[float]:
     """--planner-time's values, checked (finite, > 0, no repeats), and OMPL importable when a sampling-based
     method is asked for."""
     from gfcs.baselines import is_ompl_method
-    from gfcs.errors import InvalidValueError
 
     times = [float(t) for t in args.planner_time]
     if not all(math.isfinite(t) and t > 0 for t in times) or len(set(times)) != len(times):
@@ -661,7 +664,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     for path, option in ((args.rrd_dir, "--rrd-dir"), (args.results_dir, "--results-dir")):
         _writable_dir(path, option)
     if args.resume and not args.json:
-        raise ValueError("--resume needs --json (the rows of the run to resume)")
+        raise InvalidValueError("--resume needs --json (the rows of the run to resume)")
     left_out: List[Tuple[str, str]] = []
     problems = bench_suite(args, left_out)
     suite = Suite(bench_suite, (args,))

@@ -20,6 +20,7 @@ from typing import Any, Optional
 import numpy as np
 
 from gfcs.blend import START_WINDOW, limit_dynamics
+from gfcs.errors import InvalidValueError
 from gfcs.results import Trajectory
 
 __all__ = ["time_path"]
@@ -61,7 +62,7 @@ def time_path(waypoints: Any, velocity: Any, acceleration: Optional[Any] = None,
     w = np.atleast_2d(np.asarray(waypoints, dtype=np.float64))
     v = np.asarray(velocity, dtype=np.float64).reshape(-1)
     if v.shape != (w.shape[1],) or not np.all(v > 0):
-        raise ValueError(f"velocity limits: expected {w.shape[1]} values > 0 (inf: none), got {v.tolist()}")
+        raise InvalidValueError(f"velocity limits: expected {w.shape[1]} values > 0 (inf: none), got {v.tolist()}")
     finite = v[np.isfinite(v)]
     # a joint without a limit is timed at the largest limit of the others (1 rad/s when none has one)
     nominal = np.where(np.isfinite(v), v, finite.max() if finite.size else 1.0)
