@@ -147,3 +147,12 @@ print("ok")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "ok"
+
+
+def test_negatives_default_to_the_papers_noise_and_the_variant_is_a_flag():
+    pytest.importorskip("torch")
+    from gfcs.learning.sgld import SGLDConfig
+
+    assert SGLDConfig().noise_scale == 1.0
+    assert _config(parse(["train", "--out", "m.pt"])).sgld.noise_scale == 1.0
+    assert _config(parse(["train", "--out", "m.pt", "--negative-noise", "0.3"])).sgld.noise_scale == 0.3

@@ -112,7 +112,7 @@ class Quadratic:
 def test_sgld_descends_a_known_energy_and_stays_in_the_box():
     mu = torch.tensor([[0.5, -0.3, 0.7], [-0.7, 0.0, 0.2]], dtype=torch.float64)
     gen = torch.Generator().manual_seed(0)
-    y, e = sgld(Quadratic(3, 0.1), mu, 200, SGLDConfig(iters=100), gen)
+    y, e = sgld(Quadratic(3, 0.1), mu, 200, SGLDConfig(iters=100, noise_scale=0.3), gen)
     assert y.shape == (2, 200, 3) and e.shape == (2, 200)
     assert torch.all(y <= 1.0) and torch.all(y >= -1.0)
     # Stationary law ∝ exp(−E / T), T = τ² (step_scale 1): a Gaussian around μ with std w·τ per axis.
@@ -201,7 +201,7 @@ def test_info_nce_falls_during_training(trained):
 def test_sgld_concentrates_near_training_solutions(trained):
     model, ct, tt, _, _, _ = trained
     gen = torch.Generator().manual_seed(3)
-    y, e = sgld(model, ct[:32], 64, SGLDConfig(iters=60), gen)
+    y, e = sgld(model, ct[:32], 64, SGLDConfig(iters=60, noise_scale=0.3), gen)
     assert torch.all(y.abs() <= 1.0)
     dist = (y - tt[:32, None, :]).norm(dim=-1)
     uniform = torch.rand(32, 64, D, generator=gen) * 2 - 1

@@ -161,7 +161,7 @@ def test_learned_sampler_beats_uniform_and_reloads_identically(tmp_path):
     problems = make_problems(24, seed=1)
     # the sampler at the negatives' noise (τ = 0.3) shows the concentration; the default τ = 1 below
     cfg = small_config(passes=2, n_train=8, buffer_size=96, epochs=20, neg_refresh=5, hidden=(64, 64),
-                       sgld=SGLDConfig(iters=40), sample_noise=0.3)
+                       sgld=SGLDConfig(iters=40, noise_scale=0.3), sample_noise=0.3)
     out = tmp_path / "m.pt"
     res = train(problems, out=out, config=cfg, solve_fn=ToySolver(), progress=False)
     sampler = res.sampler
@@ -189,7 +189,7 @@ def test_learned_sampler_beats_uniform_and_reloads_identically(tmp_path):
 
     loaded = EBMSampler(out, device="cpu")
     assert loaded.sgld_config == cfg.sampler_sgld() and loaded.dof == 3 and loaded.n_free == 1
-    assert loaded.sgld_config.noise_scale == 0.3 and cfg.sgld.noise_scale == SGLDConfig().noise_scale
+    assert loaded.sgld_config.noise_scale == 0.3 and cfg.sgld.noise_scale == 0.3
     for p in problems[:3]:
         np.testing.assert_array_equal(loaded.sample(p, 8, np.random.default_rng(5)),
                                       sampler.sample(p, 8, np.random.default_rng(5)))

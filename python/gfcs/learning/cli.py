@@ -69,6 +69,9 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     alg.add_argument("--n-neg", type=int, help="SGLD negatives per positive (default 16)")
     alg.add_argument("--n-uniform-neg", type=int, help="uniform negatives per positive (default 8)")
     alg.add_argument("--neg-refresh", type=int, help="redraw negatives every N epochs, 0 = once (default 10)")
+    alg.add_argument("--negative-noise", type=float, metavar="TAU",
+                     help="SGLD noise scale of the training negatives (default 1, the paper's eq. 10-11; 0.3 is the "
+                          "project's variant, which concentrates them near the energy's minima)")
     alg.add_argument("--sample-noise", type=float, metavar="TAU",
                      help="SGLD noise scale of the sampler in the model file (default 1, the paper's)")
     alg.add_argument("--epochs", type=int, help="epochs per training (default 100)")
@@ -148,7 +151,8 @@ def _config(args: argparse.Namespace):
     if args.config is not None:
         solve["fabric_config"] = str(args.config)
     if args.resume is not None:
-        bad = sorted(set(given) - RESUME_OVERRIDABLE) + (["solve options"] if solve else [])
+        bad = sorted(set(given) - RESUME_OVERRIDABLE) + (["solve options"] if solve else []) + (
+            ["negative_noise"] if args.negative_noise is not None else [])
         if bad:
             raise ConfigError(f"gfcs train --resume: cannot change {bad}; only {sorted(RESUME_OVERRIDABLE)}")
         cfg = TrainConfig.from_dict(load_checkpoint(args.resume)["config"])
@@ -157,6 +161,8 @@ def _config(args: argparse.Namespace):
         cfg.solve.update(solve)
     for field, value in given.items():
         setattr(cfg, field, tuple(value) if field == "hidden" else value)
+    if args.negative_noise is not None:
+        cfg.sgld = cfg.sgld.with_noise(args.negative_noise)
     return cfg.validate()
 
 

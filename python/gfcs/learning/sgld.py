@@ -15,14 +15,10 @@ this is exactly the unadjusted Langevin algorithm with step ``ε_k = σ_k²`` wh
 give eq. 10-11 exactly):
 
 * ``step_scale`` ``s`` multiplies the drift (default 1);
-* ``noise_scale`` ``τ`` multiplies the noise standard deviation (default 0.3). The chain then samples
-  ``∝ exp(−E_θ s / τ²)``, i.e. temperature ``T = τ² / s`` (0.09 by default). At the paper's ``T = 1`` the
-  samples of a 7-D target stayed close to uniform in our synthetic tests (mean distance to the solution
-  1.2 against 1.76 for uniform samples in the unit box), at ``τ = 0.3`` they concentrate (0.43–0.52) while
-  still spreading enough to serve as InfoNCE negatives. The sampler of a trained model runs at the
-  paper's ``τ = 1`` instead (``TrainConfig.sample_noise``): on MotionBenchMaker test problems the
-  concentrated ``τ = 0.3`` batches missed the solutions that a wider batch found (19-24 of 30 solved
-  against 29-30);
+* ``noise_scale`` ``τ`` multiplies the noise standard deviation (default 1, the paper's). The chain then
+  samples ``∝ exp(−E_θ s / τ²)``, i.e. temperature ``T = τ² / s``. A smaller ``τ`` (``gfcs train
+  --negative-noise 0.3``, the project's variant for the training negatives) concentrates the samples near
+  the energy's minima while still spreading them enough to serve as InfoNCE negatives (docs/tuning.md);
 * ``max_step`` clips each coordinate of the drift to ``[−max_step, max_step]`` (unit-box units, default
   0.1, ``None`` disables it): a sharp EBM has gradients that would throw every particle onto the box
   boundary in one step. 100 iterations still let a particle cross the box several times;
@@ -66,7 +62,7 @@ class SGLDConfig:
 
     iters: int = 100
     step_scale: float = 1.0
-    noise_scale: float = 0.3
+    noise_scale: float = 1.0
     max_step: Optional[float] = 0.1
 
     def validate(self) -> "SGLDConfig":

@@ -96,8 +96,8 @@ class TrainConfig:
         neg_refresh: redraw the negatives every this many epochs (0: once per training).
         sgld: SGLD settings of the training negatives, and of the sampler except its noise.
         sample_noise: noise scale ``τ`` of the sampler's SGLD (stored in the model file; default 1, the
-            paper's eq. 10-11). The negatives keep ``sgld.noise_scale`` (see :class:`gfcs.learning.sgld.SGLDConfig`);
-            docs/tuning.md has the measured effect of both.
+            paper's eq. 10-11). The negatives use ``sgld.noise_scale`` (1, the paper's, by default; ``gfcs train
+            --negative-noise``); docs/tuning.md has the measured effect of both.
         encoder: lattice settings (paper spacing 0.15 m).
         latent_dim: autoencoder code length, or ``None`` to feed ``d̂_E`` directly.
         ae_hidden, ae_epochs: autoencoder architecture and training length.
