@@ -78,12 +78,12 @@ def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
         valid = verdicts(path.with_name(f"{robot}.{run}.validated.jsonl"))
         run_rows = [r for r in read_jsonl(path) if "label" in r]
         returned = {}  # the last row of a problem and method is the motion the solve returned
-        for r in run_rows:
-            returned[(r["problem"], r["method"])] = id(r)
-        for r in run_rows:
+        for i, r in enumerate(run_rows):
+            returned[(r["problem"], r["method"])] = i
+        for i, r in enumerate(run_rows):
             r = dict(r)
             key = (r["problem"], r["method"])
-            r["judged"] = returned[key] == id(r) and key in valid
+            r["judged"] = returned[key] == i and key in valid
             if r["judged"]:
                 r["success"] = bool(r["success"]) and valid[key]
             if r["method"] == "gfcs":
