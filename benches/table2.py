@@ -1,0 +1,133 @@
+#!/usr/bin/env python3
+"""GFCS Table II: the learned first batch against the uniform one, as the paper measures it.
+
+For each seed: ``gfcs train`` on problems 1-``--train`` of every MotionBenchMaker class (timed), then both
+samplers solve problems ``--train``+1 to 50 of every class with one CMA-ES batch of the ``paper`` preset, with
+the same per-problem seed (``gfcs.learning.evaluate_first_batch``). Differences (learned − uniform) get 95 %
+bootstrap intervals over problems: success in points of percent, hand path and time over the problems both
+solve. Writes ``OUT/table2.jsonl`` (every row, with its seed) and the fragment ``benches/results/learning.md``.
+
+    python benches/table2.py --problems ../shared/mbm --seeds 0 1 2 --out runs/table2
+    python benches/table2.py --problems ../shared/mbm --out runs/table2 --render   # from the rows only
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Dict, List, Sequence, Tuple
+
+import numpy as np
+
+RESULTS = Path(__file__).resolve().parent / "results"
+LABELS = ("No learning", "Learning")
+
+
+def train(args: argparse.Namespace, seed: int) -> Tuple[Path, float]:
+    """Train one model; (model path, wall time in s)."""
+    model = args.out / f"model.{seed}.pt"
+    cmd = [sys.executable, "-m", "gfcs", "train", "--problems", str(args.problems), "--robot", "mbm",
+           "--limit", str(args.train), *(["--classes", *args.classes] if args.classes else []), "--seed", str(seed), "--preset", "paper", "--out", str(model),
+           "--history", str(args.out / f"history.{seed}.json"), "--no-progress", *args.train_args]
+    print("$", " ".join(cmd), file=sys.stderr)
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    return model, time.perf_counter() - start
+
+
+def evaluate(args: argparse.Namespace, model: Path, seed: int) -> List[Dict[str, Any]]:
+    from gfcs import problems
+    from gfcs.learning import EBMSampler, evaluate_first_batch
+    from gfcs.planning import UniformSampler
+
+    suite = problems.load_mbm_dir(args.problems, robot=problems.mbm_panda(), skip=args.train,
+                                  limit=args.test_limit, classes=args.classes)
+    rows: List[Dict[str, Any]] = []
+    evaluate_first_batch(suite, UniformSampler(), EBMSampler(str(model)), labels=LABELS, seed=1000 * seed,
+                         preset="paper", progress=True, per_problem=rows)
+    return [{**r, "run_seed": seed} for r in rows]
+
+
+def bootstrap(values: np.ndarray, n: int = 10_000, seed: int = 0) -> Tuple[float, float, float]:
+    """(mean, 2.5 %, 97.5 %) of the mean of ``values`` over ``n`` resamples."""
+    rng = np.random.default_rng(seed)
+    means = values[rng.integers(0, values.size, size=(n, values.size))].mean(axis=1)
+    return float(values.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
+def differences(rows: List[Dict[str, Any]]) -> Dict[str, Tuple[float, float, float, int]]:
+    """Learned − uniform per (run seed, problem): success [points of %], hand path [m] and time [s] where both
+    succeed; each (mean, low, high, n)."""
+    pairs: Dict[Tuple[int, str], Dict[str, Dict[str, Any]]] = {}
+    for r in rows:
+        pairs.setdefault((r["run_seed"], r["problem"]), {})[r["label"]] = r
+    both = [p for p in pairs.values() if len(p) == 2]
+    out: Dict[str, Tuple[float, float, float, int]] = {}
+    success = np.array([100.0 * (int(p[LABELS[1]]["success"]) - int(p[LABELS[0]]["success"])) for p in both])
+    out["success (points of %)"] = (*bootstrap(success), success.size)
+    solved = [p for p in both if p[LABELS[0]]["success"] and p[LABELS[1]]["success"]]
+    for key, title in (("ee_length", "hand path (m)"), ("time", "time (s)")):
+        d = np.array([float(p[LABELS[1]][key]) - float(p[LABELS[0]][key]) for p in solved])
+        if d.size:
+            out[title] = (*bootstrap(d), d.size)
+    return out
+
+
+def render(rows: List[Dict[str, Any]], times: Dict[str, float], args: argparse.Namespace) -> List[str]:
+    seeds = sorted({r["run_seed"] for r in rows})
+    lines = ["## GFCS Table II: learned against uniform first batch", "",
+             f"Written by `python benches/table2.py --problems {args.problems} --seeds "
+             f"{' '.join(map(str, seeds))}`: trained on problems 1-{args.train} of every MBM Panda class (the "
+             f"paper preset, τ = 1 for the negatives and the sampler), tested on problems {args.train + 1}-50 "
+             "with one batch of 32, the same per-problem seed for both samplers. Training wall time per seed: "
+             + ", ".join(f"{float(t):.0f} s" for t in times.values()) + ".", "",
+             "| seed | sampler | solved | mean hand path (m) | mean time (s) |", "|---|---|---|---|---|"]
+    for s in seeds:
+        for label in LABELS:
+            rs = [r for r in rows if r["run_seed"] == s and r["label"] == label]
+            ok = [r for r in rs if r["success"]]
+            lines.append(f"| {s} | {label} | {len(ok)}/{len(rs)} | "
+                         f"{np.mean([float(r['ee_length']) for r in ok]):.3f} | "
+                         f"{np.mean([float(r['time']) for r in ok]):.3f} |")
+    lines += ["", "Learned − uniform, pooled over seeds and problems (95 % bootstrap interval):", "",
+              "| difference | mean | interval | pairs |", "|---|---|---|---|"]
+    for title, (mean, low, high, n) in differences(rows).items():
+        lines.append(f"| {title} | {mean:+.3f} | [{low:+.3f}, {high:+.3f}] | {n} |")
+    return lines
+
+
+def main(argv: Sequence[str] = ()) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--problems", type=Path, default=Path("../shared/mbm"))
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    p.add_argument("--train", type=int, default=25, help="training problems per class (the rest test)")
+    p.add_argument("--test-limit", type=int, default=None, help="test problems per class (default: the rest)")
+    p.add_argument("--classes", nargs="+", default=None, help="only these classes (default: all seven)")
+    p.add_argument("--out", type=Path, default=Path("runs/table2"))
+    p.add_argument("--render", action="store_true", help="write the fragment from OUT/table2.jsonl only")
+    p.add_argument("--train-args", nargs=argparse.REMAINDER, default=[],
+                   help="further gfcs train options (e.g. --executor ray), last")
+    args = p.parse_args(list(argv) or None)
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows_file, times_file = args.out / "table2.jsonl", args.out / "train_times.json"
+    times: Dict[str, float] = json.loads(times_file.read_text()) if times_file.is_file() else {}
+    if not args.render:
+        rows: List[Dict[str, Any]] = []
+        for seed in args.seeds:
+            model, times[str(seed)] = train(args, seed)
+            rows += evaluate(args, model, seed)
+            rows_file.write_text("".join(json.dumps(r) + "\n" for r in rows))
+            times_file.write_text(json.dumps(times))
+    rows = [json.loads(line) for line in rows_file.read_text().splitlines() if line.strip()]
+    lines = render(rows, times, args)
+    (RESULTS / "learning.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
