@@ -491,24 +491,19 @@ def train(
         raise ConfigError("train: no problems given")
     ckpt = load_checkpoint(resume) if resume is not None else None
     cfg = _resolve_config(config, ckpt)
-    device = default_device(cfg.device)
-    names = [_problem_name(p, i) for i, p in enumerate(problems)]
-    if ckpt is not None and list(ckpt["problem_names"]) != names:
-        raise ConfigError(f"resume: the problem set differs from the one in {resume}")
-    validation = list(validation or [])
-    val_names = [_problem_name(p, i) for i, p in enumerate(validation)]
-    if ckpt is not None and list(ckpt.get("validation_names", [])) != val_names:
-        raise ConfigError(f"resume: the validation problems differ from the ones in {resume}")
-    lower, upper, dof = _problem_limits(list(problems) + validation)
-    t_lower, t_upper = np.tile(lower, cfg.n_commands), np.tile(upper, cfg.n_commands)
+    run = _Alg2(list(problems), list(validation or []), cfg, ckpt, resume, executor, suite)
     threads = getattr(executor, "threads", None)
-    solve_fn = solve_fn or default_solve_fn(cfg, threads)
-    validate_fn = validate_fn or default_validate_fn(cfg, threads)
-    _check_executor(executor, suite, list(problems) + validation)
-    if checkpoint is None and out is not None:
-        checkpoint = Path(out).with_suffix(".ckpt.pt")
+    run.solve_fn = solve_fn or default_solve_fn(cfg, threads)
+    run.validate_fn = validate_fn or default_validate_fn(cfg, threads)
+    run.out = out
+    run.checkpoint = Path(out).with_suffix(".ckpt.pt") if checkpoint is None and out is not None else checkpoint
+    return run.run(stop_after, progress)
 
-    # Encode every problem once (GFCS Sec. IV-B); fit the autoencoder when asked.
+
+def _encode(problems: Sequence[Any], cfg: TrainConfig, ckpt: Optional[Dict[str, Any]], device: Any,
+            lower: np.ndarray, upper: np.ndarray) -> Tuple[SceneEncoder, np.ndarray]:
+    """The scene encoder (GFCS Sec. IV-B; its autoencoder fitted when ``cfg.latent_dim`` asks, or restored
+    from the checkpoint) and the context x^c of every problem, encoded once."""
     encoder = SceneEncoder(cfg.encoder)
     distances = np.stack([encoder.distances(encoder.scene_points(p.scene)) for p in problems])
     if ckpt is not None:
@@ -523,133 +518,174 @@ def train(
         encoder.context(p.q0, p.qd0, p.goal, codes[i], lower, upper, getattr(p.robot, "velocity_limits", None))
         for i, p in enumerate(problems)
     ])
+    return encoder, contexts
 
-    with _seeded_torch(_derived_seed(cfg.seed, 0xE3)):
-        model = EnergyModel(contexts.shape[1], dof * cfg.n_commands, cfg.hidden, cfg.activation)
-    model.set_context_normalisation(torch.as_tensor(contexts, dtype=torch.float32))
-    model.to(device)
-    optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
-    buffer = SolutionBuffer(cfg.buffer_size, cfg.top_m)
-    history: List[Dict[str, Any]] = []
-    start, trainings = 0, 0
-    best: Optional[Dict[str, Any]] = None  # {"event": validate event, "state": model weights}
-    if ckpt is not None:
-        model.load_state_dict(ckpt["model"]["state"])
-        optimizer.load_state_dict(ckpt["optimizer"])
-        buffer = SolutionBuffer.from_state_dict(ckpt["buffer"])
-        history = list(ckpt["history"])
-        start, trainings = int(ckpt["step"]), int(ckpt["trainings"])
-        best = ckpt.get("best")
 
-    robot = robot_info(problems[0].robot)
+class _Alg2:
+    """One run of Algorithm 2 (see :func:`train`): the encoded problems, the model, its optimiser, the
+    solution buffer, the history and the counters, restored from a checkpoint when resuming; its steps are
+    the methods."""
 
-    def make_sampler(net: EnergyModel = model) -> EBMSampler:
-        return EBMSampler(net, encoder, t_lower, t_upper, dof, cfg.sampler_sgld(), device, robot=robot)
+    solve_fn: SolveFn
+    validate_fn: SolveFn
+    out: Optional[Union[str, Path]] = None
+    checkpoint: Optional[Union[str, Path]] = None
 
-    def run_validation(step: int, current: Optional[EBMSampler]) -> Dict[str, Any]:
+    def __init__(self, problems: List[Any], validation: List[Any], cfg: TrainConfig,
+                 ckpt: Optional[Dict[str, Any]], resume: Any, executor: Any, suite: Any) -> None:
+        self.problems, self.validation, self.cfg, self.executor, self.suite = problems, validation, cfg, executor, suite
+        self.device = default_device(cfg.device)
+        self.names = [_problem_name(p, i) for i, p in enumerate(problems)]
+        if ckpt is not None and list(ckpt["problem_names"]) != self.names:
+            raise ConfigError(f"resume: the problem set differs from the one in {resume}")
+        self.val_names = [_problem_name(p, i) for i, p in enumerate(validation)]
+        if ckpt is not None and list(ckpt.get("validation_names", [])) != self.val_names:
+            raise ConfigError(f"resume: the validation problems differ from the ones in {resume}")
+        lower, upper, self.dof = _problem_limits(problems + validation)
+        self.t_lower, self.t_upper = np.tile(lower, cfg.n_commands), np.tile(upper, cfg.n_commands)
+        _check_executor(executor, suite, problems + validation)
+        self.encoder, self.contexts = _encode(problems, cfg, ckpt, self.device, lower, upper)
+        with _seeded_torch(_derived_seed(cfg.seed, 0xE3)):
+            self.model = EnergyModel(self.contexts.shape[1], self.dof * cfg.n_commands, cfg.hidden, cfg.activation)
+        self.model.set_context_normalisation(torch.as_tensor(self.contexts, dtype=torch.float32))
+        self.model.to(self.device)
+        self.optimizer = torch.optim.Adam(self.model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+        self.buffer = SolutionBuffer(cfg.buffer_size, cfg.top_m)
+        self.history: List[Dict[str, Any]] = []
+        self.start, self.trainings = 0, 0
+        self.best: Optional[Dict[str, Any]] = None  # {"event": validate event, "state": model weights}
+        if ckpt is not None:
+            self.model.load_state_dict(ckpt["model"]["state"])
+            self.optimizer.load_state_dict(ckpt["optimizer"])
+            self.buffer = SolutionBuffer.from_state_dict(ckpt["buffer"])
+            self.history = list(ckpt["history"])
+            self.start, self.trainings = int(ckpt["step"]), int(ckpt["trainings"])
+            self.best = ckpt.get("best")
+        self.robot = robot_info(problems[0].robot)
+        self.sampler: Optional[EBMSampler] = self.make_sampler() if self.trainings > 0 else None
+
+    def make_sampler(self, net: Optional[EnergyModel] = None) -> EBMSampler:
+        return EBMSampler(self.model if net is None else net, self.encoder, self.t_lower, self.t_upper, self.dof,
+                          self.cfg.sampler_sgld(), self.device, robot=self.robot)
+
+    def validate(self, step: int, current: Optional[EBMSampler]) -> Dict[str, Any]:
+        """Score ``current`` (None: uniform) on the validation problems; the history event."""
         t0 = time.perf_counter()
-        jobs = [(i, p, _derived_seed(cfg.seed, 0x7A11D, i, bits=31)) for i, p in enumerate(validation)]
-        solved = _solves(executor, suite, validate_fn, current, jobs)
-        results = [solved[i] for i in range(len(validation))]
+        jobs = [(i, p, _derived_seed(self.cfg.seed, 0x7A11D, i, bits=31)) for i, p in enumerate(self.validation)]
+        solved = _solves(self.executor, self.suite, self.validate_fn, current, jobs)
+        results = [solved[i] for i in range(len(self.validation))]
         costs = [min((float(c) for _, c in r.top), default=float("inf")) for r in results]
-        event = {"event": "validate", "step": step, "trainings": trainings, "mean_cost": float(np.mean(costs)),
+        event = {"event": "validate", "step": step, "trainings": self.trainings, "mean_cost": float(np.mean(costs)),
                  "solved": int(sum(bool(r.success) for r in results)), "n": len(results), "costs": costs,
                  "seconds": time.perf_counter() - t0}
-        history.append(event)
+        self.history.append(event)
         return event
 
-    sampler: Optional[EBMSampler] = make_sampler() if trainings > 0 else None
-    order = _visit_order(len(problems), cfg.passes, cfg.seed, cfg.shuffle)
-    total = len(order) if stop_after is None else min(len(order), int(stop_after))
-
-    def save_checkpoint(step: int) -> None:
-        if checkpoint is None:
+    def save_checkpoint(self, step: int) -> None:
+        if self.checkpoint is None:
             return
-        state = buffer.state_dict()
+        state = self.buffer.state_dict()
         state.update({k: torch.from_numpy(np.asarray(state[k])) for k in ("contexts", "targets", "costs")})
+        model = self.model
         _atomic_save({
-            "format": CHECKPOINT_FORMAT, "version": _CHECKPOINT_VERSION, "config": cfg.to_dict(),
-            "step": step, "trainings": trainings, "problem_names": names,
+            "format": CHECKPOINT_FORMAT, "version": _CHECKPOINT_VERSION, "config": self.cfg.to_dict(),
+            "step": step, "trainings": self.trainings, "problem_names": self.names,
             "model": {"meta": model.meta(), "state": {k: v.detach().cpu() for k, v in model.state_dict().items()}},
-            "optimizer": optimizer.state_dict(), "buffer": state, "encoder": encoder.state_dict(),
-            "history": history, "validation_names": val_names, "best": best,
-            "rng": {"scheme": "numpy.random.SeedSequence([seed, step, ...])", "seed": cfg.seed, "next_step": step},
-        }, checkpoint)
+            "optimizer": self.optimizer.state_dict(), "buffer": state, "encoder": self.encoder.state_dict(),
+            "history": self.history, "validation_names": self.val_names, "best": self.best,
+            "rng": {"scheme": "numpy.random.SeedSequence([seed, step, ...])", "seed": self.cfg.seed,
+                    "next_step": step},
+        }, self.checkpoint)
 
-    from tqdm.auto import tqdm
+    def record(self, step: int, idx: int, result: Any) -> None:
+        """Put the top solutions of problem ``idx``'s solve at ``step`` into the buffer (Alg. 2)."""
+        cfg = self.cfg
+        top = list(result.top)
+        cands = np.array([np.asarray(c, dtype=np.float64) for c, _ in top]).reshape(len(top), -1)
+        costs = np.array([float(c) for _, c in top], dtype=np.float64)
+        if cands.shape[0] and cands.shape[1] != self.dof * cfg.n_commands:
+            raise ConfigError(f"solve_fn returned candidates of length {cands.shape[1]}, expected "
+                              f"{self.dof * cfg.n_commands} (n_commands={cfg.n_commands}, dof={self.dof})")
+        inserted = self.buffer.insert(self.names[idx], self.contexts[idx], cands, costs, cfg.max_cost)
+        best_cost = float(costs.min()) if costs.size else float("nan")
+        self.history.append({"event": "solve", "step": step, "problem": self.names[idx], "best_cost": best_cost,
+                             "inserted": inserted})
 
-    from gfcs.executors import describe
+    def train_model(self, step: int) -> Dict[str, Any]:
+        """Train the energy model on the buffer (eq. 9), write the sampler, score it on the validation
+        problems and keep the best; the progress bar's new fields."""
+        cfg, device = self.cfg, self.device
+        t0 = time.perf_counter()
+        gen = torch.Generator(device=device).manual_seed(_derived_seed(cfg.seed, step, 0x7A))
+        ctx_t = torch.as_tensor(self.buffer.contexts(), dtype=torch.float32, device=device)
+        tgt_t = torch.as_tensor(to_unit(self.buffer.targets(), self.t_lower, self.t_upper), dtype=torch.float32,
+                                device=device)
+        losses = train_energy_model(self.model, self.optimizer, ctx_t, tgt_t, epochs=cfg.epochs,
+                                    batch_size=cfg.batch_size, n_neg=cfg.n_neg, sgld_config=cfg.sgld,
+                                    n_uniform_neg=cfg.n_uniform_neg, neg_refresh=cfg.neg_refresh, generator=gen)
+        self.trainings += 1
+        self.history.append({"event": "train", "step": step, "losses": losses, "seconds": time.perf_counter() - t0})
+        self.sampler = self.make_sampler()
+        if self.out is not None:
+            _atomic_save(self.sampler.to_dict(), self.out)
+        if self.validation:
+            event = self.validate(step + 1, self.sampler)
+            if self.best is None or event["mean_cost"] < self.best["event"]["mean_cost"]:
+                self.best = {"event": event, "state": {k: v.detach().cpu().clone()
+                                                       for k, v in self.model.state_dict().items()}}
+                if self.out is not None:
+                    _atomic_save(self.sampler.to_dict(), best_model_path(self.out))
+        return {"buffer": len(self.buffer), "loss": f"{losses[-1]:.3f}",
+                **({"val": f"{self.history[-1]['mean_cost']:.2f}s"} if self.validation else {})}
 
-    bar = tqdm(total=total, initial=min(start, total), disable=not progress, unit="problem",
-               desc=f"gfcs train [{describe(executor) if executor is not None else 'local'}]")
-    postfix: Dict[str, Any] = {}
-    n_solved = 0  # solves of this run that succeeded (the progress bar's "solved")
-    try:
-        if validation and not any(h["event"] == "validate" for h in history):
-            run_validation(start, None)  # the uniform sampler's score, for reference
-        round_results: Dict[int, Any] = {}
-        for step in range(start, total):
-            idx = int(order[step])
-            if step not in round_results:  # the solves until the next training (one at a time locally)
-                end = step + 1 if executor is None or executor.name == "local" else _round_end(step, total, cfg.n_train)
-                round_results = _solves(executor, suite, solve_fn, sampler,
-                                        [(s, problems[int(order[s])], _derived_seed(cfg.seed, s, bits=31))
-                                         for s in range(step, end)])
-            result = round_results.pop(step)
-            n_solved += bool(getattr(result, "success", False))
-            top = list(result.top)
-            cands = np.array([np.asarray(c, dtype=np.float64) for c, _ in top]).reshape(len(top), -1)
-            costs = np.array([float(c) for _, c in top], dtype=np.float64)
-            if cands.shape[0] and cands.shape[1] != dof * cfg.n_commands:
-                raise ConfigError(f"solve_fn returned candidates of length {cands.shape[1]}, expected "
-                                  f"{dof * cfg.n_commands} (n_commands={cfg.n_commands}, dof={dof})")
-            inserted = buffer.insert(names[idx], contexts[idx], cands, costs, cfg.max_cost)
-            best_cost = float(costs.min()) if costs.size else float("nan")
-            history.append({"event": "solve", "step": step, "problem": names[idx], "best_cost": best_cost,
-                            "inserted": inserted})
-            trained = False
-            # every n_train solves (Alg. 2), and once more at the end so that the last solves are learned
-            if ((step + 1) % cfg.n_train == 0 or step + 1 == len(order)) and len(buffer) > 0:
-                t0 = time.perf_counter()
-                gen = torch.Generator(device=device).manual_seed(_derived_seed(cfg.seed, step, 0x7A))
-                ctx_t = torch.as_tensor(buffer.contexts(), dtype=torch.float32, device=device)
-                tgt_t = torch.as_tensor(to_unit(buffer.targets(), t_lower, t_upper), dtype=torch.float32,
-                                        device=device)
-                losses = train_energy_model(model, optimizer, ctx_t, tgt_t, epochs=cfg.epochs,
-                                            batch_size=cfg.batch_size, n_neg=cfg.n_neg, sgld_config=cfg.sgld,
-                                            n_uniform_neg=cfg.n_uniform_neg, neg_refresh=cfg.neg_refresh,
-                                            generator=gen)
-                trainings += 1
-                history.append({"event": "train", "step": step, "losses": losses,
-                                "seconds": time.perf_counter() - t0})
-                sampler = make_sampler()
-                if out is not None:
-                    _atomic_save(sampler.to_dict(), out)
-                if validation:
-                    event = run_validation(step + 1, sampler)
-                    if best is None or event["mean_cost"] < best["event"]["mean_cost"]:
-                        best = {"event": event, "state": {k: v.detach().cpu().clone()
-                                                          for k, v in model.state_dict().items()}}
-                        if out is not None:
-                            _atomic_save(sampler.to_dict(), best_model_path(out))
-                trained = True
-                postfix.update(buffer=len(buffer), loss=f"{losses[-1]:.3f}",
-                               **({"val": f"{history[-1]['mean_cost']:.2f}s"} if validation else {}))
-            if trained or (step + 1) % cfg.checkpoint_every == 0 or step + 1 == total:
-                save_checkpoint(step + 1)
-            postfix["solved"] = f"{n_solved}/{step + 1 - start}"
-            bar.set_postfix(postfix, refresh=False)
-            bar.update(1)
-    finally:
-        bar.close()
+    def run(self, stop_after: Optional[int], progress: bool) -> TrainResult:
+        """Solve, record and train over the visit order (every ``n_train`` solves, and once more at the
+        end so that the last solves are learned), checkpointing as it goes."""
+        from tqdm.auto import tqdm
 
-    final = sampler if sampler is not None else make_sampler()
-    if out is not None:
-        _atomic_save(final.to_dict(), out)
-    best_sampler = None
-    if best is not None:
-        net = EnergyModel.from_meta(model.meta())
-        net.load_state_dict(best["state"])
-        best_sampler = make_sampler(net)
-    return TrainResult(final, buffer, history, max(start, total), trainings, best_sampler,
-                       None if best is None else best["event"])
+        from gfcs.executors import describe
+
+        cfg, executor, start = self.cfg, self.executor, self.start
+        order = _visit_order(len(self.problems), cfg.passes, cfg.seed, cfg.shuffle)
+        total = len(order) if stop_after is None else min(len(order), int(stop_after))
+        bar = tqdm(total=total, initial=min(start, total), disable=not progress, unit="problem",
+                   desc=f"gfcs train [{describe(executor) if executor is not None else 'local'}]")
+        postfix: Dict[str, Any] = {}
+        n_solved = 0  # solves of this run that succeeded (the progress bar's "solved")
+        try:
+            if self.validation and not any(h["event"] == "validate" for h in self.history):
+                self.validate(start, None)  # the uniform sampler's score, for reference
+            round_results: Dict[int, Any] = {}
+            for step in range(start, total):
+                if step not in round_results:  # the solves until the next training (one at a time locally)
+                    end = step + 1 if executor is None or executor.name == "local" else _round_end(step, total,
+                                                                                                  cfg.n_train)
+                    round_results = _solves(executor, self.suite, self.solve_fn, self.sampler,
+                                            [(s, self.problems[int(order[s])], _derived_seed(cfg.seed, s, bits=31))
+                                             for s in range(step, end)])
+                result = round_results.pop(step)
+                n_solved += bool(getattr(result, "success", False))
+                self.record(step, int(order[step]), result)
+                trained = ((step + 1) % cfg.n_train == 0 or step + 1 == len(order)) and len(self.buffer) > 0
+                if trained:
+                    postfix.update(self.train_model(step))
+                if trained or (step + 1) % cfg.checkpoint_every == 0 or step + 1 == total:
+                    self.save_checkpoint(step + 1)
+                postfix["solved"] = f"{n_solved}/{step + 1 - start}"
+                bar.set_postfix(postfix, refresh=False)
+                bar.update(1)
+        finally:
+            bar.close()
+        return self.result(total)
+
+    def result(self, total: int) -> TrainResult:
+        final = self.sampler if self.sampler is not None else self.make_sampler()
+        if self.out is not None:
+            _atomic_save(final.to_dict(), self.out)
+        best_sampler = None
+        if self.best is not None:
+            net = EnergyModel.from_meta(self.model.meta())
+            net.load_state_dict(self.best["state"])
+            best_sampler = self.make_sampler(net)
+        return TrainResult(final, self.buffer, self.history, max(self.start, total), self.trainings, best_sampler,
+                           None if self.best is None else self.best["event"])
