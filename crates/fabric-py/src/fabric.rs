@@ -76,19 +76,19 @@ impl PyFabric {
 /// `SequenceOptions` (waypoint_tol 0.3 rad, penalty 100 s, collision_penalty 0 s, collision_tol 0 m,
 /// distance_penalty 0 s/rad, blend_time 0.5 s) and
 /// of `RolloutOptions` (dt 0.01 s, t_max 7 s, tol 0.01).
-struct SequenceKwargs<'a> {
-    rollout: RolloutKwargs<'a>,
-    waypoint_tol: Option<f64>,
-    penalty: Option<f64>,
-    collision_penalty: Option<f64>,
-    collision_tol: Option<f64>,
-    distance_penalty: Option<f64>,
-    blend_time: Option<f64>,
+pub(crate) struct SequenceKwargs<'a> {
+    pub(crate) rollout: RolloutKwargs<'a>,
+    pub(crate) waypoint_tol: Option<f64>,
+    pub(crate) penalty: Option<f64>,
+    pub(crate) collision_penalty: Option<f64>,
+    pub(crate) collision_tol: Option<f64>,
+    pub(crate) distance_penalty: Option<f64>,
+    pub(crate) blend_time: Option<f64>,
 }
 
 impl SequenceKwargs<'_> {
     /// Validated options for `n_commands` free commands.
-    fn options(&self, n_commands: usize, record: bool) -> PyResult<SequenceOptions> {
+    pub(crate) fn options(&self, n_commands: usize, record: bool) -> PyResult<SequenceOptions> {
         let d = SequenceOptions::default();
         let opts = SequenceOptions {
             rollout: rollout_options(&self.rollout, record)?,
@@ -106,7 +106,7 @@ impl SequenceKwargs<'_> {
 }
 
 /// End-effector targets from a pose (4 × 4 or (position, quaternion xyzw)).
-fn ee_targets(obj: &Bound<'_, PyAny>) -> PyResult<EeTargets> {
+pub(crate) fn ee_targets(obj: &Bound<'_, PyAny>) -> PyResult<EeTargets> {
     let pose = convert::pose(obj, "ee_target")?;
     let r = pose.rotation.to_rotation_matrix();
     let m = r.matrix();
