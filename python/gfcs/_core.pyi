@@ -481,6 +481,8 @@ class Fabric:
         """Of the last ``acceleration`` call: energy, exec_energy, potential, min_clearance,
         min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
         alpha_boost, alpha_reg, leaves."""
+    def metric(self) -> Optional[FloatArray]:
+        """(dof, dof) root metric M̃ of the last ``acceleration`` call (GF eq. 17), or None before it."""
     def rollout(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, dt: Optional[float] = None,
         t_max: Optional[float] = None, tol: Optional[float] = None,

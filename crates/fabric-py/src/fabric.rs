@@ -31,6 +31,8 @@ pub struct PyFabric {
     robot: Py<PyRobot>,
     scene: RwLock<Arc<Scene>>,
     last: Mutex<Option<Diagnostics>>,
+    /// The root metric M̃ (dof × dof, row-major) of the last `acceleration` call, empty before it.
+    last_metric: Mutex<Vec<f64>>,
     /// Scratch of `acceleration`, kept between calls: building it (kinematics workspaces, one task point
     /// per sphere) cost about as much as the evaluation itself (MBM Panda, 81 spheres, near free space:
     /// 10.6-14.8 µs per call with it, 5.5-8.5 µs without).
@@ -167,6 +169,7 @@ impl PyFabric {
             robot: robot.unbind(),
             scene: RwLock::new(Arc::new(scene)),
             last: Mutex::new(None),
+            last_metric: Mutex::new(Vec::new()),
             ws,
         })
     }
@@ -215,6 +218,7 @@ impl PyFabric {
             robot: self.robot.clone_ref(py),
             scene: RwLock::new(self.scene_snapshot()),
             last: Mutex::new(None),
+            last_metric: Mutex::new(Vec::new()),
             ws,
         })
     }
@@ -324,6 +328,9 @@ impl PyFabric {
             Ok((qdd, fabric.diagnostics(ws)))
         })?;
         *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Some(diag);
+        // M̃ is symmetric: its column-major storage is also row-major
+        *self.last_metric.lock().unwrap_or_else(PoisonError::into_inner) =
+            ws.root().m.as_slice().to_vec();
         output(py, qdd, &[n])
     }
 
@@ -333,6 +340,17 @@ impl PyFabric {
     fn diagnostics<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let last = *self.last.lock().unwrap_or_else(PoisonError::into_inner);
         last.map(|d| diagnostics_dict(py, &d)).transpose()
+    }
+
+    /// The root metric M̃ (dof, dof) of the last `acceleration` call (GF eq. 17: the summed pulled-back
+    /// Finsler metrics, which weight a constrained fabric's projection, Lemma IV.3), or None before it.
+    fn metric<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+        let m = self.last_metric.lock().unwrap_or_else(PoisonError::into_inner).clone();
+        if m.is_empty() {
+            return Ok(None);
+        }
+        let n = self.dof();
+        output(py, m, &[n, n]).map(Some)
     }
 
     /// rollout_t (GFCS eq. 1–3): integrate from (q0, qd0) toward `command` until ‖q − command‖ < tol or
