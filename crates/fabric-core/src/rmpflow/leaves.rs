@@ -63,7 +63,11 @@ pub fn collision(c: &CollisionRmp, x: f64, xd: f64) -> Rmp1 {
             * modulation
     };
     let repel = c.repulsion_gain * (-x / c.repulsion_std_dev).exp();
-    let damp = gate * c.damping_gain * xd / (x / c.damping_std_dev + c.damping_robustness_eps);
+    let mut rate = c.damping_gain / (x / c.damping_std_dev + c.damping_robustness_eps);
+    if c.max_damping_rate > 0.0 {
+        rate = rate.min(c.max_damping_rate);
+    }
+    let damp = gate * rate * xd;
     Rmp1 { m, a: repel - damp }
 }
 
@@ -105,6 +109,15 @@ mod tests {
     #[test]
     fn collision_metric_is_gated_by_approach_and_range() {
         let c = CollisionRmp::default();
+        // the damping rate is capped at max_damping_rate (and uncapped with 0, the default)
+        let mut capped_cfg = c.clone();
+        capped_cfg.max_damping_rate = 50.0;
+        let capped = collision(&capped_cfg, 0.0, -0.1).a - c.repulsion_gain;
+        let raw = c.clone();
+        let uncapped = collision(&raw, 0.0, -0.1).a - c.repulsion_gain;
+        let gate = 1.0 - sigmoid(-10.0);
+        assert!((capped - gate * 50.0 * 0.1).abs() < 1e-9);
+        assert!((uncapped - gate * 5000.0 * 0.1).abs() < 1e-6);
         let approaching = collision(&c, 0.02, -0.5);
         let leaving = collision(&c, 0.02, 0.5);
         assert!(approaching.m > 100.0 * leaving.m);
