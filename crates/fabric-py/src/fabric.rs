@@ -329,8 +329,10 @@ impl PyFabric {
         })?;
         *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Some(diag);
         // M̃ is symmetric: its column-major storage is also row-major
-        *self.last_metric.lock().unwrap_or_else(PoisonError::into_inner) =
-            ws.root().m.as_slice().to_vec();
+        *self
+            .last_metric
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = ws.root().m.as_slice().to_vec();
         output(py, qdd, &[n])
     }
 
@@ -345,7 +347,11 @@ impl PyFabric {
     /// The root metric M̃ (dof, dof) of the last `acceleration` call (GF eq. 17: the summed pulled-back
     /// Finsler metrics, which weight a constrained fabric's projection, Lemma IV.3), or None before it.
     fn metric<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
-        let m = self.last_metric.lock().unwrap_or_else(PoisonError::into_inner).clone();
+        let m = self
+            .last_metric
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone();
         if m.is_empty() {
             return Ok(None);
         }
