@@ -64,3 +64,19 @@ def test_orientation_cli_with_a_gfcs_pose_goal(tmp_path):
     assert cli.main(["experiment", "orientation", "--json", str(out)]) == 0
     g = json.loads(out.read_text())["gfcs"]
     assert g["success"] and g["orientation_violation"] <= 0.0 and g["position_violation"] <= 0.0
+
+
+def test_recordings_of_both_experiments(tmp_path):
+    import pytest
+
+    pytest.importorskip("rerun")
+    d = tmp_path / "rrd"
+    assert cli.main(["experiment", "constrained", "--no-obstacle", "--rrd-dir", str(d)]) == 0
+    assert cli.main(["experiment", "orientation", "--no-gfcs", "--rrd-dir", str(d)]) == 0
+    assert (d / "constrained.rrd").stat().st_size > 10_000 and (d / "orientation.rrd").stat().st_size > 10_000
+
+
+def test_projection_corrects_a_drift_of_micrometres():
+    res = cx.run(obstacle=False)
+    assert 1e-9 < res["max_drift"] < 1e-4  # the Euler step leaves the plane by micrometres ...
+    assert res["max_violation"] < 1e-12  # ... and the Gauss-Newton steps bring it back

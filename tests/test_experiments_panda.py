@@ -132,3 +132,23 @@ def test_recordings_hold_both_variants_the_targets_and_the_moving_spheres(tmp_pa
     assert "/world/obstacles/static0" in static and "/world/obstacles/moving0" not in static
     target = sorted(rows["/world/target"], key=lambda r: r[0])
     np.testing.assert_allclose(np.asarray(target[0][1])[0], exp.results["dynamic"]["bent"]["targets"][0], atol=1e-6)
+
+
+def test_settings_override_the_systems_and_divergence_is_reported():
+    saved = (px.SETTINGS.fabric, px.SETTINGS.rmpflow, px.SETTINGS.rmp_substeps)
+    try:
+        px.SETTINGS.rmpflow = {"obstacles": {"metric_scalar": 0.25}}
+        px.SETTINGS.fabric = {"ee_position": {"potential": {"gain": 2.0}}}
+        px.SETTINGS.rmp_substeps = 3
+        r = px.Reacher("rmpflow", gfcs.Scene())
+        assert r.fabric.config["obstacles"]["metric_scalar"] == 0.25 and r.substeps == 3
+        f = px.Reacher("bent", gfcs.Scene())
+        assert f.fabric.config.to_dict()["ee_position"]["potential"]["gain"] == 2.0
+        assert f.substeps == 1
+        # a policy whose state blows up ends the dynamic run: the remaining targets count as missed
+        px.SETTINGS.rmpflow = {"target": {"accel_p_gain": 1e6, "accel_d_gain": 0.0}, "damping": {"accel_d_gain": 0.0}}
+        px.SETTINGS.rmp_substeps = 1
+        d = px.dynamic("rmpflow", seed=0, n_targets=2)
+        assert d["diverged"] and d["n_reached"] <= 1 and len(d["reached"]) == 2
+    finally:
+        px.SETTINGS.fabric, px.SETTINGS.rmpflow, px.SETTINGS.rmp_substeps = saved

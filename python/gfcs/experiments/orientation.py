@@ -71,6 +71,7 @@ def reach(hold: float = HOLD) -> Dict[str, Any]:
     q, qd = READY.copy(), np.zeros(READY.shape[0])
     pos_err: List[float] = []
     ang_err: List[float] = []
+    path, targets, hands = [], [], []
     final = []
     for p, r in POSES:
         target = (p, quaternion_xyzw(r))
@@ -81,8 +82,13 @@ def reach(hold: float = HOLD) -> Dict[str, Any]:
             pose = np.asarray(robot.link_poses(q))[ee]
             pos_err.append(float(np.linalg.norm(pose[:3, 3] - p)))
             ang_err.append(_angle(pose[:3, :3], r))
+            path.append(q.copy())
+            targets.append(p)
+            hands.append(pose[:3, 3].copy())
         final.append({"position_error": pos_err[-1], "orientation_error": ang_err[-1]})
     return {"final": final, "position_error": np.asarray(pos_err), "orientation_error": np.asarray(ang_err),
+            "q": np.asarray(path), "target": np.asarray(targets), "hand": np.asarray(hands),
+            "scene": gfcs.Scene(),
             "max_final_position_error": max(f["position_error"] for f in final),
             "max_final_orientation_error": max(f["orientation_error"] for f in final)}
 
@@ -157,10 +163,17 @@ def _cmd(args: argparse.Namespace) -> int:
     from gfcs.experiments import report
 
     res = run(args.seed, with_gfcs=not args.no_gfcs)
-    claims = {"reach": {k: v for k, v in res["reach"].items() if k not in ("position_error", "orientation_error")}}
+    motion = ("position_error", "orientation_error", "q", "target", "hand", "scene")
+    claims = {"reach": {k: v for k, v in res["reach"].items() if k not in motion}}
     if "gfcs" in res:
         claims["gfcs"] = res["gfcs"]
     report(summary_text(res), claims, args.json, plot(res, args.out) if args.out else None)
+    if args.rrd_dir:
+        from gfcs.experiments.panda import PandaExperiments, record
+
+        for path in record(PandaExperiments(results={"orientation": {"bent": res["reach"]}}, model="shipped"),
+                           args.rrd_dir):
+            print(f"wrote {path}")
     return 0
 
 
@@ -175,6 +188,7 @@ def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the generated pose-goal problem (default 0)")
     p.add_argument("--no-gfcs", action="store_true", help="skip the GFCS pose-goal problem")
     p.add_argument("--out", metavar="FIG.png", help="PNG to write")
+    p.add_argument("--rrd-dir", metavar="DIR", help="write a rerun recording, DIR/orientation.rrd (viz extra)")
     p.add_argument("--json", nargs="?", const="-", metavar="OUT.json",
                    help="write the figures as JSON (no file name: to stdout, the summary to stderr)")
     p.set_defaults(func=_cmd)

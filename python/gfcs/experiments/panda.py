@@ -47,7 +47,7 @@ from typing import Any, Dict, List, Sequence, Tuple
 import numpy as np
 
 __all__ = [
-    "REACHING_CONFIG", "VARIANTS", "MODELS", "EXPERIMENTS", "ring_radii", "dynamic_seeds", "READY", "WALL_X", "RING_RADII", "RING_TIME",
+    "REACHING_CONFIG", "VARIANTS", "MODELS", "EXPERIMENTS", "Settings", "SETTINGS", "ring_radii", "dynamic_seeds", "READY", "WALL_X", "RING_RADII", "RING_TIME",
     "Reacher", "wall", "rings", "dynamic", "run", "plot", "record", "summary_text", "add_cli",
 ]
 
@@ -73,7 +73,7 @@ REACHING_CONFIG: Dict[str, Any] = {
 }
 DT = 0.01  #: integration step [s] (100 Hz)
 #: Euler sub-steps of RMPflow per step (1 kHz): at 100 Hz RMPflow with the RMP² leaves diverges near
-#: obstacles (7 of 10 seeds of the dynamic task; the velocity alternates in sign step by step as the
+#: obstacles (6 of 10 seeds of the dynamic task; the velocity alternates in sign step by step as the
 #: collision leaves' velocity gates and 1 cm repulsion scale switch), so it is integrated ten times finer.
 RMP_SUBSTEPS = 10
 HOLD = 5.0  #: time per target [s] (GF: a new target every five seconds)
@@ -93,6 +93,22 @@ START_CLEARANCE = 0.05  #: the moving spheres' least clearance from the arm's sp
 MOTION_KEYS = ("hand", "q", "target", "scene", "moving")
 
 
+@dataclass
+class Settings:
+    """Overrides of the compared systems, for ablations from the command line: ``fabric`` merged over
+    :data:`REACHING_CONFIG` (both fabric variants), ``rmpflow`` the :class:`gfcs.Rmpflow` config, and
+    ``rmp_substeps`` RMPflow's Euler sub-steps per step."""
+
+    fabric: Dict[str, Any] = field(default_factory=dict)
+    rmpflow: Dict[str, Any] = field(default_factory=dict)
+    rmp_substeps: int = RMP_SUBSTEPS
+
+
+#: The settings every :class:`Reacher` is built with (the CLI's ``--fabric-config``, ``--rmp-config`` and
+#: ``--rmp-substeps`` set them).
+SETTINGS = Settings()
+
+
 class Reacher:
     """The shipped Panda (sphere model ``model``) under a reaching policy in a scene (a fabric, bent or
     unbent, or RMPflow; ``fabric`` holds either): ``step`` integrates one semi-implicit Euler step toward
@@ -109,11 +125,11 @@ class Reacher:
         self.robot = gfcs.Robot.panda()
         if model == "thin":
             self.robot = thin_sphere_model(self.robot)
-        self.substeps = RMP_SUBSTEPS if variant == "rmpflow" else 1
+        self.substeps = SETTINGS.rmp_substeps if variant == "rmpflow" else 1
         if variant == "rmpflow":
-            self.fabric = gfcs.Rmpflow(self.robot, scene)
+            self.fabric = gfcs.Rmpflow(self.robot, scene, SETTINGS.rmpflow or None)
         else:
-            config = gfcs.FabricConfig(REACHING_CONFIG).replace(mode=variant)
+            config = gfcs.FabricConfig(REACHING_CONFIG).replace(SETTINGS.fabric).replace(mode=variant)
             self.fabric = gfcs.Fabric(self.robot, scene, config)
         self.q, self.qd = READY.copy(), np.zeros(READY.shape[0])
         self.hand: List[np.ndarray] = []
@@ -227,20 +243,25 @@ def dynamic(variant: str, seed: int = 0, n_targets: int = 19, model: str = "thin
     targets = rng.uniform([0.30, -0.40, 0.25], [0.60, 0.40, 0.70], size=(n_targets, 3))
     r = Reacher(variant, scene, model)
     reached, errors, positions = [], [], []
+    diverged = False
     for target in targets:
         best = np.inf
-        for _ in range(int(round(HOLD / DT))):
+        for _ in range(0 if diverged else int(round(HOLD / DT))):
             for m in moving:  # move, bounce off the box, and tell the fabric
                 m[1] = m[1] + DT * m[2]
                 out = (m[1] < lo) | (m[1] > hi)
                 m[2] = np.where(out, -m[2], m[2])
                 r.fabric.update_obstacle(m[0], pose=(m[1], (0.0, 0.0, 0.0, 1.0)), velocity=m[2])
+            try:
+                best = min(best, float(np.linalg.norm(r.step(target) - target)))
+            except gfcs.NonFiniteError:  # the policy's state blew up: this and the later targets are missed
+                diverged = True
+                break
             positions.append([m[1] for m in moving])
-            best = min(best, float(np.linalg.norm(r.step(target) - target)))
         reached.append(best < REACHED)
         errors.append(best)
-    clearance = np.asarray(r.clearance)
-    return {"targets": targets.tolist(), "reached": reached, "n_reached": int(sum(reached)),
+    clearance = np.asarray(r.clearance[: len(r.hand)])
+    return {"targets": targets.tolist(), "reached": reached, "n_reached": int(sum(reached)), "diverged": diverged,
             "closest": errors, "collision_rate": float(np.mean(clearance < 0.0)),
             "min_clearance": float(clearance.min()), "hand": np.asarray(r.hand), **r.motion(static),
             "moving": np.asarray(positions), "moving_radius": MOVING_RADIUS}
@@ -263,18 +284,20 @@ class PandaExperiments:
 def dynamic_seeds(variant: str, seeds: Sequence[int], model: str = "thin") -> Dict[str, Any]:
     """:func:`dynamic` for every seed of ``seeds``: the first seed's full result (for the figure and the
     recording) with, over the seeds, the targets reached and the collision rates per seed and their means
-    with 95 % Student-t intervals (``*_ci95``: (low, high))."""
+    with 95 % Student-t intervals (``*_ci95``: (low, high), the low end clipped at 0), and the seeds whose
+    policy diverged (``diverged_seeds``: their remaining targets count as missed)."""
     from scipy import stats
 
     runs = [dynamic(variant, int(s), model=model) for s in seeds]
     out = dict(runs[0])
     out["seeds"] = [int(s) for s in seeds]
+    out["diverged_seeds"] = [int(s) for s, r in zip(seeds, runs) if r["diverged"]]
     for key in ("n_reached", "collision_rate"):
         x = np.asarray([r[key] for r in runs], dtype=np.float64)
         half = float(stats.t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / np.sqrt(len(x))) if len(x) > 1 else np.nan
         out[f"{key}_per_seed"] = x.tolist()
         out[f"{key}_mean"] = float(x.mean())
-        out[f"{key}_ci95"] = [float(x.mean() - half), float(x.mean() + half)]
+        out[f"{key}_ci95"] = [max(float(x.mean() - half), 0.0), float(x.mean() + half)]  # counts, rates ≥ 0
     return out
 
 
@@ -307,7 +330,8 @@ def run(experiments: Sequence[str] = EXPERIMENTS, seed: int = 0, n_seeds: int = 
 
 def summary_text(exp: PandaExperiments) -> str:
     """The measured claims, one line per experiment and variant."""
-    lines = ["GF Sec. VII, shipped Panda, 100 Hz semi-implicit Euler; bent = geometric fabric, unbent = the "
+    lines = [f"GF Sec. VII, shipped Panda ({exp.model} spheres), 100 Hz semi-implicit Euler (RMPflow: "
+             f"{SETTINGS.rmp_substeps} sub-steps); bent = geometric fabric, unbent = the "
              "same energies and potentials without the geometries, rmpflow = RMPflow (RMP² Franka leaves)"]
     variants = next(iter(exp.results.values())).keys() if exp.results else ()
     for v in variants:
@@ -330,7 +354,8 @@ def summary_text(exp: PandaExperiments) -> str:
                 clo, chi = d["collision_rate_ci95"]
                 lines.append(f"dynamic  {v:<7} {d['n_reached_mean']:.1f}/{len(d['reached'])} targets reached "
                              f"(95 % CI {lo:.1f}-{hi:.1f}, {len(d['seeds'])} seeds), collision rate "
-                             f"{d['collision_rate_mean'] * 100:.2f} % of steps (95 % CI {clo * 100:.2f}-{chi * 100:.2f})")
+                             f"{d['collision_rate_mean'] * 100:.2f} % of steps (95 % CI {clo * 100:.2f}-{chi * 100:.2f})"
+                             + (f"; diverged: seeds {d['diverged_seeds']}" if d["diverged_seeds"] else ""))
             else:
                 lines.append(f"dynamic  {v:<7} {d['n_reached']}/{len(d['reached'])} targets reached, collision "
                              f"rate {d['collision_rate'] * 100:.2f} % of steps, min clearance "
@@ -434,9 +459,16 @@ def record(exp: PandaExperiments, directory: Any, every: int = 2) -> List[Path]:
 
 # ----------------------------------------------------------------------------------------------- CLI
 def _cmd_panda(args: argparse.Namespace) -> int:
+    import json
+
     from gfcs.experiments import report
 
-    exp = run(args.only or EXPERIMENTS, seed=args.seed, n_seeds=args.seeds, model=args.model)
+    SETTINGS.fabric = json.loads(args.fabric_config) if args.fabric_config else {}
+    SETTINGS.rmpflow = json.loads(args.rmp_config) if args.rmp_config else {}
+    SETTINGS.rmp_substeps = args.rmp_substeps
+
+    exp = run(args.only or EXPERIMENTS, seed=args.seed, n_seeds=args.seeds, model=args.model,
+              variants=args.variants or VARIANTS)
     report(summary_text(exp), exp.claims(), args.json, plot(exp, args.out) if args.out else None)
     if args.rrd_dir:
         for path in record(exp, args.rrd_dir):
@@ -457,6 +489,11 @@ def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=int, default=10, help="number of seeds of the dynamic task (default 10)")
     p.add_argument("--model", choices=MODELS, default="thin",
                    help="collision-sphere model of the arm (default thin: passes the 13 cm rings' reading as openings)")
+    p.add_argument("--variants", nargs="+", choices=VARIANTS, help="systems to run (default: all three)")
+    p.add_argument("--fabric-config", metavar="JSON", help="fabric gains merged over REACHING_CONFIG (ablations)")
+    p.add_argument("--rmp-config", metavar="JSON", help="RMPflow config merged over its defaults (ablations)")
+    p.add_argument("--rmp-substeps", type=int, default=RMP_SUBSTEPS,
+                   help=f"RMPflow's Euler sub-steps per 10 ms step (default {RMP_SUBSTEPS}; 1 = 100 Hz)")
     p.add_argument("--out", metavar="FIG.png", help="PNG to write")
     p.add_argument("--rrd-dir", metavar="DIR", help="write a rerun recording per experiment, DIR/<name>.rrd "
                                                     "(needs the viz extra; open with gfcs view)")

@@ -141,9 +141,9 @@ impl Default for TargetRmp {
 ///
 /// β_max (`max_damping_rate`, off by default) is an option beyond the RMP² design: its damping rate
 /// reaches k_d/ε_d = 5000 /s at contact, and explicit Euler at Δt diverges for rates above 2/Δt (200 /s
-/// at 100 Hz). On the GF VII-D task at 100 Hz RMPflow as written diverged in 7 of 10 seeds, and still
-/// in 5 of 10 with β_max = 50 /s (the repulsion's 1 cm length scale and the velocity gates are stiff too),
-/// so the experiments integrate RMPflow at 1 kHz instead.
+/// at 100 Hz). On the GF VII-D task at 100 Hz RMPflow as written diverged in 6 of 10 seeds, and in the
+/// same 6 with β_max = 50 /s (the repulsion's 1 cm length scale and the velocity gates are stiff too), so
+/// the experiments integrate RMPflow at 1 kHz instead.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CollisionRmp {
