@@ -14,13 +14,14 @@ from gfcs.experiments import panda as px
 
 
 def test_reaching_fabric_converges_in_free_space():
-    """With the goal switch on the hand's distance, the hand settles on its target (GF VII-A3)."""
+    """With the goal switch on the hand's distance, the hand settles on its target (GF VII-A3); RMPflow's
+    posture leaf leaves it within a millimetre after 5 s."""
     for variant in px.VARIANTS:
         r = px.Reacher(variant, gfcs.Scene())
         target = np.array([0.5, 0.2, 0.4])
         hands = np.asarray([r.step(target) for _ in range(500)])
         error = np.linalg.norm(hands - target, axis=1)
-        assert error[-1] < 1e-4 and error[0] > 0.1
+        assert error[-1] < (1e-3 if variant == "rmpflow" else 1e-4) and error[0] > 0.1
         np.testing.assert_allclose(hands[-1], r.robot.ee_position(r.q), atol=1e-12)
     with pytest.raises(ValueError, match="variant"):
         px.Reacher("rmp", gfcs.Scene())
@@ -57,6 +58,33 @@ def test_dynamic_task_is_seeded_and_measured():
     assert a["hand"].shape == (2 * int(px.HOLD / px.DT), 3)
 
 
+def test_dynamic_seeds_aggregate_with_intervals():
+    runs = [px.dynamic("bent", seed=s, n_targets=1) for s in (5, 6)]
+    px_dynamic = px.dynamic
+    try:  # two short seeds: patch the task length
+        px.dynamic = lambda v, s, model="thin": px_dynamic(v, s, n_targets=1, model=model)
+        d = px.dynamic_seeds("bent", [5, 6])
+    finally:
+        px.dynamic = px_dynamic
+    assert d["seeds"] == [5, 6] and d["targets"] == runs[0]["targets"]
+    assert d["n_reached_per_seed"] == [r["n_reached"] for r in runs]
+    assert d["collision_rate_mean"] == pytest.approx(np.mean([r["collision_rate"] for r in runs]))
+    lo, hi = d["collision_rate_ci95"]
+    assert lo <= d["collision_rate_mean"] <= hi
+
+
+def test_ring_readings_and_models():
+    assert px.ring_radii("centre") == px.RING_RADII
+    np.testing.assert_allclose(np.asarray(px.ring_radii("opening")) - px.RING_RADII, px.RING_BALL)
+    with pytest.raises(ValueError, match="reading"):
+        px.ring_radii("inner")
+    with pytest.raises(ValueError, match="model"):
+        px.Reacher("bent", gfcs.Scene(), model="fat")
+    thin, shipped = (px.Reacher("bent", gfcs.Scene(), m).robot for m in ("thin", "shipped"))
+    assert len(thin.sphere_radii) != len(shipped.sphere_radii)
+    assert isinstance(px.Reacher("rmpflow", gfcs.Scene()).fabric, gfcs.Rmpflow)
+
+
 def test_run_rejects_unknown_experiments():
     with pytest.raises(ValueError, match="unknown experiment"):
         px.run(["cubby"])
@@ -66,7 +94,7 @@ def test_cli_experiment_panda(tmp_path, capsys):
     out, js = tmp_path / "panda.png", tmp_path / "panda.json"
     assert cli.main(["experiment", "panda", "--only", "wall", "--out", str(out), "--json", str(js)]) == 0
     text = capsys.readouterr().out
-    assert "wall     bent" in text and "wall     unbent" in text
+    assert "wall     bent" in text and "wall     unbent" in text and "wall     rmpflow" in text
     assert out.stat().st_size > 10_000
     claims = json.loads(js.read_text())
     assert set(claims["wall"]) == set(px.VARIANTS)
@@ -104,3 +132,23 @@ def test_recordings_hold_both_variants_the_targets_and_the_moving_spheres(tmp_pa
     assert "/world/obstacles/static0" in static and "/world/obstacles/moving0" not in static
     target = sorted(rows["/world/target"], key=lambda r: r[0])
     np.testing.assert_allclose(np.asarray(target[0][1])[0], exp.results["dynamic"]["bent"]["targets"][0], atol=1e-6)
+
+
+def test_settings_override_the_systems_and_divergence_is_reported():
+    saved = (px.SETTINGS.fabric, px.SETTINGS.rmpflow, px.SETTINGS.rmp_substeps)
+    try:
+        px.SETTINGS.rmpflow = {"obstacles": {"metric_scalar": 0.25}}
+        px.SETTINGS.fabric = {"ee_position": {"potential": {"gain": 2.0}}}
+        px.SETTINGS.rmp_substeps = 3
+        r = px.Reacher("rmpflow", gfcs.Scene())
+        assert r.fabric.config["obstacles"]["metric_scalar"] == 0.25 and r.substeps == 3
+        f = px.Reacher("bent", gfcs.Scene())
+        assert f.fabric.config.to_dict()["ee_position"]["potential"]["gain"] == 2.0
+        assert f.substeps == 1
+        # a policy whose state blows up ends the dynamic run: the remaining targets count as missed
+        px.SETTINGS.rmpflow = {"target": {"accel_p_gain": 1e6, "accel_d_gain": 0.0}, "damping": {"accel_d_gain": 0.0}}
+        px.SETTINGS.rmp_substeps = 1
+        d = px.dynamic("rmpflow", seed=0, n_targets=2)
+        assert d["diverged"] and d["n_reached"] <= 1 and len(d["reached"]) == 2
+    finally:
+        px.SETTINGS.fabric, px.SETTINGS.rmpflow, px.SETTINGS.rmp_substeps = saved

@@ -393,6 +393,50 @@ class SequenceRollout:
     def qd_final(self) -> FloatArray: ...
     def __len__(self) -> int: ...
 
+class Rmpflow:
+    """RMPflow (Cheng et al. 2018) of a robot in a scene (held by value): the GF Sec. VII comparison
+    controller on the fabric's robot, scene and task maps. ``config``: a nested dict merged over
+    :meth:`defaults` (sections cspace_target, joint_limits, target, obstacles, self_collision, damping);
+    unknown fields and negative gains raise ``FormatError`` naming the field."""
+
+    def __init__(self, robot: Robot, scene: Optional[Scene] = None, config: Optional[Dict[str, Any]] = None) -> None: ...
+    @staticmethod
+    def defaults() -> Dict[str, Any]:
+        """Every gain with its default (the hand-designed Franka RMPflow of RMP²)."""
+    @property
+    def config(self) -> Dict[str, Any]: ...
+    @property
+    def robot(self) -> Robot: ...
+    @property
+    def dof(self) -> int: ...
+    @property
+    def scene(self) -> Scene:
+        """A copy of the policy's scene."""
+    def set_scene(self, scene: Scene) -> None:
+        """Replace the scene (copied)."""
+    def update_obstacle(self, id: int, pose: Optional[Pose] = None, velocity: Optional[ArrayLike] = None) -> None:
+        """Move / set the velocity of an obstacle of the policy's scene."""
+    def acceleration(
+        self, q: ArrayLike, qd: ArrayLike, command: ArrayLike, ee_target: Optional[Pose] = None
+    ) -> FloatArray:
+        """(dof,) q̈ = M⁺f, rad/s²: posture toward ``command``, hand toward the position of ``ee_target``
+        (default: the hand position at ``command``), joint limits, collisions, damping."""
+    def diagnostics(self) -> Optional[Dict[str, float]]:
+        """Of the last ``acceleration`` call: min_clearance, min_self_clearance, min_joint_margin, leaves."""
+    def rollout(
+        self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, ee_target: Optional[Pose] = None,
+        record: bool = True, **options: Unpack[RolloutOptions],
+    ) -> Rollout:
+        """rollout_t (GFCS eq. 1-3) as :meth:`Fabric.rollout`, the hand aimed at ``ee_target`` if given."""
+    def evaluate(
+        self, q0: ArrayLike, qd0: Optional[ArrayLike], goal: ArrayLike, candidates: ArrayLike,
+        threads: Optional[int] = None, return_trajectories: bool = False, **options: Unpack[SequenceOptions],
+    ) -> Union[
+        Tuple[FloatArray, BoolArray, FloatArray],
+        Tuple[FloatArray, BoolArray, FloatArray, List[SequenceRollout]],
+    ]:
+        """Candidates (N, n·dof) under RMPflow, as :meth:`Fabric.evaluate`."""
+
 class Fabric:
     """Geometric fabric of a robot in a scene (held by value). Construction and ``set_scene`` raise
     ``InvalidValueError`` (a ``ValueError``) for a robot without collision spheres in a scene with
@@ -434,6 +478,8 @@ class Fabric:
         min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
         alpha_boost, alpha_reg, leaves. The forcing potential ψ is evaluated here at the last call's state
         (one more fabric evaluation); ``potential=False`` skips it (``potential`` is then NaN)."""
+    def metric(self) -> Optional[FloatArray]:
+        """(dof, dof) root metric M̃ of the last ``acceleration`` call (GF eq. 17), or None before it."""
     def rollout(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, record: bool = True,
         **options: Unpack[RolloutOptions],

@@ -46,7 +46,8 @@ EXTERNAL_COMMANDS: Dict[str, Tuple[Tuple[str, ...], str, str, Optional[str]]] = 
               "self-supervised EBM training of the warm-start sampler (GFCS Alg. 2)", "learn"),
     "view": (("gfcs.viz",), "register_cli", "open a rerun recording (.rrd) in the viewer", "viz"),
     "experiment": (("gfcs.experiments", "gfcs.experiments.particles", "gfcs.experiments.panda",
-                    "gfcs.experiments.reactivity"), "register_cli",
+                    "gfcs.experiments.reactivity", "gfcs.experiments.constrained",
+                    "gfcs.experiments.orientation"), "register_cli",
                    "the papers' experiments (GF Sec. VI particles, Sec. VII Panda; GFCS Sec. V reactivity)", None),
     "plot": (("gfcs.plots",), "register_cli", "plot benchmark rows (success rate, EE path length)", None),
 }

@@ -12,7 +12,7 @@ use crate::errors::{error, guarded};
 use crate::robot::path_arg;
 
 /// A Python value (dict, list, bool, int, float, str, None, numpy scalar) as JSON; `what` is its dotted path.
-fn to_json(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Value> {
+pub(crate) fn to_json(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Value> {
     let bad = |message: String| {
         error(FabricError::Format {
             file: "<dict>".into(),
@@ -90,7 +90,7 @@ fn deep_merge(base: &mut Value, user: Value) {
 }
 
 /// A JSON value as a Python object (dicts, lists, floats, ints, bools, str, None).
-fn to_python<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn to_python<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
     Ok(match v {
         Value::Null => py.None().into_bound(py),
         Value::Bool(b) => PyBool::new(py, *b).to_owned().into_any(),

@@ -31,6 +31,8 @@ pub struct PyFabric {
     robot: Py<PyRobot>,
     scene: RwLock<Arc<Scene>>,
     last: Mutex<Option<LastCall>>,
+    /// The root metric M̃ (dof × dof, row-major) of the last `acceleration` call, empty before it.
+    last_metric: Mutex<Vec<f64>>,
     /// Scratch of `acceleration` (ψ off: see `LastCall`), kept between calls: building it (kinematics workspaces, one task point
     /// per sphere) cost about as much as the evaluation itself (MBM Panda, 81 spheres, near free space:
     /// 10.6-14.8 µs per call with it, 5.5-8.5 µs without).
@@ -114,6 +116,13 @@ impl PyFabric {
             Ok(fabric.diagnostics(ws))
         });
         ws.set_potential(false);
+        // M̃ is symmetric: its column-major storage is also row-major
+        let mut metric = self
+            .last_metric
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        metric.clear();
+        metric.extend_from_slice(ws.root().m.as_slice());
         result
     }
 
@@ -124,7 +133,7 @@ impl PyFabric {
 }
 
 /// End-effector targets from a pose (4 × 4 or (position, quaternion xyzw)).
-fn ee_targets(obj: &Bound<'_, PyAny>) -> PyResult<EeTargets> {
+pub(crate) fn ee_targets(obj: &Bound<'_, PyAny>) -> PyResult<EeTargets> {
     let pose = convert::pose(obj, "ee_target")?;
     let r = pose.rotation.to_rotation_matrix();
     let m = r.matrix();
@@ -185,6 +194,7 @@ impl PyFabric {
             robot: robot.unbind(),
             scene: RwLock::new(Arc::new(scene)),
             last: Mutex::new(None),
+            last_metric: Mutex::new(Vec::new()),
             ws,
         })
     }
@@ -233,6 +243,7 @@ impl PyFabric {
             robot: self.robot.clone_ref(py),
             scene: RwLock::new(self.scene_snapshot()),
             last: Mutex::new(None),
+            last_metric: Mutex::new(Vec::new()),
             ws,
         })
     }
@@ -369,6 +380,21 @@ impl PyFabric {
             diag.potential = with_psi.potential;
         }
         diagnostics_dict(py, &diag).map(Some)
+    }
+
+    /// The root metric M̃ (dof, dof) of the last `acceleration` call (GF eq. 17: the summed pulled-back
+    /// Finsler metrics, which weight a constrained fabric's projection, Lemma IV.3), or None before it.
+    fn metric<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+        let m = self
+            .last_metric
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone();
+        if m.is_empty() {
+            return Ok(None);
+        }
+        let n = self.dof();
+        output(py, m, &[n, n]).map(Some)
     }
 
     /// rollout_t (GFCS eq. 1–3): integrate from (q0, qd0) toward `command` until ‖q − command‖ < tol or

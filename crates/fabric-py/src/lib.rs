@@ -5,7 +5,7 @@
 //! named Python exception (`errors.rs`), and no Rust panic ever reaching Python.
 //!
 //! Modules: `robot` (Robot), `scene` (Scene, load_motion_plan_request), `config` (FabricConfig), `fabric`
-//! (Fabric), `rollout` (Rollout, SequenceRollout), `particle` (GF Sec. VI particle systems), `convert`
+//! (Fabric), `rmpflow` (Rmpflow), `rollout` (Rollout, SequenceRollout), `particle` (GF Sec. VI particle systems), `convert`
 //! (numpy and pose conversion), `errors` (exception hierarchy).
 
 mod config;
@@ -13,6 +13,7 @@ mod convert;
 mod errors;
 mod fabric;
 mod particle;
+mod rmpflow;
 mod robot;
 mod rollout;
 mod scene;
@@ -57,6 +58,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyScene>()?;
     m.add_class::<config::PyFabricConfig>()?;
     m.add_class::<fabric::PyFabric>()?;
+    m.add_class::<rmpflow::PyRmpflow>()?;
     m.add_class::<rollout::PyRollout>()?;
     m.add_class::<rollout::PySequenceRollout>()?;
     m.add_class::<validate::PyMeshChecker>()?;

@@ -99,7 +99,13 @@ fn jacobian_output<'py>(
 ///
 /// Build it with `Robot.panda()` (the shipped Franka Emika Panda, no file needed) or
 /// `Robot.from_urdf(...)`. Poses are in the base-link frame; q has shape (dof,) in `joint_names` order.
-#[pyclass(frozen, weakref, skip_from_py_object, name = "Robot", module = "gfcs._core")]
+#[pyclass(
+    frozen,
+    weakref,
+    skip_from_py_object,
+    name = "Robot",
+    module = "gfcs._core"
+)]
 #[derive(Clone)]
 pub struct PyRobot {
     /// Shared model (also held by every `Fabric` built from it).

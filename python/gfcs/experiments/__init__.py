@@ -6,6 +6,8 @@
   navigation, reaching among moving obstacles), the fabric against the same components unbent.
 - :mod:`gfcs.experiments.reactivity`: GFCS Sec. V's reactivity: solved motions replayed, without
   re-optimising, after a new obstacle is put on their path.
+- :mod:`gfcs.experiments.constrained`: GF App. F, the hand held on a plane (constrained fabric).
+- :mod:`gfcs.experiments.orientation`: GF App. G, reaching a hand pose (position and axis attractors).
 
 The submodules are imported on demand: ``import gfcs.experiments`` loads neither matplotlib nor the
 experiments themselves.
@@ -28,6 +30,8 @@ EXPERIMENTS = {
     "particles": "gfcs.experiments.particles",
     "panda": "gfcs.experiments.panda",
     "reactivity": "gfcs.experiments.reactivity",
+    "constrained": "gfcs.experiments.constrained",
+    "orientation": "gfcs.experiments.orientation",
 }
 
 
