@@ -98,6 +98,22 @@ def escape(label: str) -> str:
     return label.replace("*", "\\*")
 
 
+def label_rank(label: str) -> Tuple[int, str]:
+    """Table order: GF, the sampling-based planners, GFCS paper, GFCS default (the issue's Table I rows)."""
+    for i, prefix in enumerate(("GF", "RRTConnect", "Bi-EST", "BIT", "GFCS paper", "GFCS default")):
+        if label == prefix or (prefix != "GF" and label.startswith(prefix)):
+            return i, label
+    return 9, label
+
+
+def by_label(rows: List[Dict[str, Any]]) -> Dict[str, List[Dict[str, Any]]]:
+    """Rows grouped by label, in table order."""
+    labels: Dict[str, List[Dict[str, Any]]] = {}
+    for r in rows:
+        labels.setdefault(r["label"], []).append(r)
+    return dict(sorted(labels.items(), key=lambda kv: label_rank(kv[0])))
+
+
 def stat(values: Sequence[float], digits: int = 2) -> str:
     vals = [v for v in values if math.isfinite(v)]
     if not vals:
@@ -119,10 +135,7 @@ def class_table(cls: str, rows: List[Dict[str, Any]], paper: Optional[Dict[str, 
     header = ["Method", "% Success", "n"] + [title for _, title in COLUMNS]
     lines = [f"#### {cls} ({CLASSES.get(cls, cls)})", "", "| " + " | ".join(header) + " |",
              "|" + "---|" * len(header)]
-    labels: Dict[str, List[Dict[str, Any]]] = {}
-    for r in rows:
-        labels.setdefault(r["label"], []).append(r)
-    for label, rs in labels.items():
+    for label, rs in by_label(rows).items():
         ok = [r for r in rs if r["success"]]
         mark = "" if all(r["judged"] for r in rs) else " †"
         cells = [escape(label) + mark, f"{100.0 * len(ok) / len(rs):.0f}", str(len(rs))]
@@ -136,9 +149,7 @@ def class_table(cls: str, rows: List[Dict[str, Any]], paper: Optional[Dict[str, 
 
 
 def totals(rows: List[Dict[str, Any]]) -> List[str]:
-    labels: Dict[str, List[Dict[str, Any]]] = {}
-    for r in rows:
-        labels.setdefault(r["label"], []).append(r)
+    labels = by_label(rows)
     lines = ["| Method | solved | judged by the validator | median time (s) | median whole solve (s) |",
              "|---|---|---|---|---|"]
     for label, rs in labels.items():
