@@ -29,9 +29,8 @@ import json
 import time
 from typing import Any, Callable, Dict, List
 
-import numpy as np
-
 import gfcs
+import numpy as np
 
 START = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 GOAL = np.array([0.9, 0.3, 0.2, -1.6, -0.1, 1.9, 0.6])
@@ -135,7 +134,7 @@ def curve_batch(args: argparse.Namespace) -> List[Dict[str, float]]:
         cands = rng.uniform(lo, up, size=(n, 7))
         row: Dict[str, float] = {"candidates": n}
         for threads in (1, 2):
-            t = best_of(lambda: fabric.evaluate(START, None, GOAL, cands, threads=threads), args.repeat)
+            t = best_of(lambda c=cands, k=threads: fabric.evaluate(START, None, GOAL, c, threads=k), args.repeat)
             row[f"ms_{threads}t"] = 1e3 * t
         row["speedup"] = row["ms_1t"] / row["ms_2t"]
         rows.append(row)

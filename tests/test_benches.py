@@ -99,3 +99,20 @@ def test_pose_goal_ik_times_generated_pose_goals(tmp_path):
     assert figures["problems"] == 7 and figures["source"] == "generated"
     assert 0 < figures["ms_median"] <= figures["ms_max"]
     assert 0 < figures["goal_distance_ratio_median"] <= figures["goal_distance_ratio_max"]
+
+
+def test_scaling_curves_have_every_point_and_fit_exponents(tmp_path):
+    """benches/scaling.py: every point of the obstacle, sphere and batch curves is timed, and the fitted
+    exponent of a power law is recovered exactly."""
+    scaling = load_script("benches/scaling.py")
+    rows = [{"x": x, "y": 3.0 * x ** 2} for x in (1.0, 2.0, 5.0, 10.0)]
+    assert abs(scaling.slope(rows, "x", "y") - 2.0) < 1e-12
+    out = tmp_path / "scaling.json"
+    _run("scaling.py", "--curves", "obstacles", "spheres", "batch", "--repeat", "1", "--json", str(out))
+    curves = json.loads(out.read_text())
+    assert [r["obstacles"] for r in curves["obstacles"]] == [1, 3, 10, 30, 100, 300, 1000]
+    assert [r["spheres"] for r in curves["spheres"]] == [57, 114, 228, 456]
+    assert [r["candidates"] for r in curves["batch"]] == [8, 16, 32, 64, 128]
+    for name, keys in (("obstacles", ("rollout_us", "python_us")), ("spheres", ("rollout_us",)),
+                       ("batch", ("ms_1t", "ms_2t"))):
+        assert all(r[k] > 0 for r in curves[name] for k in keys), name
