@@ -116,3 +116,14 @@ def test_scaling_curves_have_every_point_and_fit_exponents(tmp_path):
     for name, keys in (("obstacles", ("rollout_us", "python_us")), ("spheres", ("rollout_us",)),
                        ("batch", ("ms_1t", "ms_2t"))):
         assert all(r[k] > 0 for r in curves[name] for k in keys), name
+
+
+def test_benchmarks_md_is_what_the_report_writes():
+    """BENCHMARKS.md holds only figures from result files: `python benches/report.py` rewrites it exactly."""
+    import importlib.util
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("report", root / "benches" / "report.py")
+    report = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(report)
+    assert (root / "BENCHMARKS.md").read_text() == report.render(), "run: python benches/report.py"
