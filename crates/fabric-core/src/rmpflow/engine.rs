@@ -244,7 +244,7 @@ impl Rmpflow {
                 .min_joint_margin
                 .min(q[i] - lower[i])
                 .min(upper[i] - q[i]);
-            if !c.joint_limits.enabled || !(lower[i].is_finite() && upper[i].is_finite()) {
+            if !(c.joint_limits.enabled && lower[i].is_finite() && upper[i].is_finite()) {
                 continue;
             }
             let b = c.joint_limits.buffer;

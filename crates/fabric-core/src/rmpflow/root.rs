@@ -60,9 +60,9 @@ impl RmpRoot {
 
     /// A leaf on x = q − c (J = I, J̇q̇ = 0) with metric `m` I and acceleration `a` (n,).
     pub fn add_identity(&mut self, m: f64, a: &[f64]) {
-        for i in 0..self.n {
+        for (i, ai) in a.iter().enumerate().take(self.n) {
             self.metric[(i, i)] += m;
-            self.force[i] += m * a[i];
+            self.force[i] += m * ai;
         }
     }
 
@@ -83,8 +83,8 @@ impl RmpRoot {
             if mj == 0.0 {
                 continue;
             }
-            for i in 0..self.n {
-                self.metric[(i, j)] += jrow[i] * mj;
+            for (i, ji) in jrow.iter().enumerate().take(self.n) {
+                self.metric[(i, j)] += ji * mj;
             }
             self.force[j] += jrow[j] * g;
         }
