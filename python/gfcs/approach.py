@@ -9,7 +9,7 @@ inverse kinematics.
 * Retract configurations: the hand pulled in toward the robot's vertical base axis, at about the goal
   hand's height. A start in confined space (MotionBenchMaker's table under: the hand below the table top)
   is left by folding the arm in before reaching out again; a uniform command almost never does that, and it is what the learned
-  sampler came to propose on MotionBenchMaker's table-under problems (BENCHMARKS.md).
+  sampler came to propose on MotionBenchMaker's table-under problems (docs/tuning.md).
 
 Inverse kinematics (``Robot.inverse_kinematics``, in the core: damped least squares, each step clipped
 into the joint limits): approach configurations on the stacked task e = [p* − p; w (x* − x); w (z* − z)]

@@ -72,7 +72,7 @@ MESH_CHECK_CHUNK = 2
 #: trajectory to count as collision-free when a mesh checker is given: a millimetre held back for
 #: checkers of the same meshes that measure differently (other distance code, tessellation, padding).
 #: Successful motions come within hundredths of a millimetre of the meshes mid-way when the margin is 0
-#: (BENCHMARKS.md), so the millimetre keeps what passes here clear for those checkers too.
+#: (docs/tuning.md), so the millimetre keeps what passes here clear for those checkers too.
 DEFAULT_MESH_MARGIN = 0.001
 
 

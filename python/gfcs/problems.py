@@ -814,7 +814,7 @@ def mbm_panda(path: Optional[PathLike] = None, fill_gaps: bool = True) -> Any:
     in the meshes of links 1-6 and the fingers (``tools/fill_sphere_gaps.py``): they lie inside the
     meshes (by 1 mm), so a configuration whose meshes are clear stays clear for them, and the largest gaps
     fall to 12-20 mm. Link6's mesh is not convex, so it gets four; they cost no measurable time per
-    fabric step. Their effect on success and hand paths is in BENCHMARKS.md.
+    fabric step. Their effect on success and hand paths: docs/tuning.md.
 
     The model is built once per folder and shared (robots are immutable). When the folder also holds the
     mesh model ``panda.urdf``, a :class:`gfcs.MeshChecker` of its collision meshes is attached: see

@@ -30,8 +30,8 @@ Choices the paper leaves open (all in :class:`TrainConfig`):
   is scored after its training by the mean first-batch cost (eq. 8, one CMA-ES batch, the same seed per
   problem each time) on them; the uniform sampler is scored once before the first training. The lowest
   scoring trained model is kept as ``TrainResult.best_sampler`` (file ``<out stem>.best.pt``). In one
-  MotionBenchMaker run (table under) the model after 180 of 280 solves was better on unseen problems
-  than the final one; in the seven-class run (BENCHMARKS.md) the two were alike.
+  MotionBenchMaker run (table under) a model from the middle of the run was better on unseen problems
+  than the final one, which is why every trained model is scored.
 
 Reproducibility: every random draw is a function of ``(seed, step)``: solve ``seed`` of step ``s`` and
 the training generator come from ``numpy.random.SeedSequence([seed, s, …])``, and networks are

@@ -32,7 +32,7 @@ __all__ = ["PlanningModel", "RobotModels", "models_for", "model_named", "planned
 #: How much wider [m] than the fabric's obstacle margin the thin spheres are kept from obstacles: they miss
 #: the Franka meshes by up to 8.3 mm, and at the plain margin a motion can bring a collision polytope into
 #: an obstacle with every sphere clear; 4 mm more keeps the polytopes clear for most motions, and the
-#: mesh-retry policy widens it further where they still touch (BENCHMARKS.md).
+#: mesh-retry policy widens it further where they still touch (docs/tuning.md).
 THIN_SPHERE_MARGIN = 0.004
 
 

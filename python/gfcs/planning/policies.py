@@ -228,9 +228,7 @@ def default_policies(more_commands: int = 1, margin_step: float = 0.002, margin_
                      goal_contact_slack: float = 0.002, cascade: bool = True,
                      mesh_cover: float = 0.0) -> List[Any]:
     """The ``default`` preset's policies in order: :class:`MoreCommands`, :class:`WiderMargin`,
-    :class:`GoalContact`, :class:`MeshCover` (``mesh_cover`` > 0: its ``max_extra``; off by default: on 70
-    MotionBenchMaker Fetch problems 1 of its 10 attempts succeeded, and the time it took cost other
-    problems their budget, BENCHMARKS.md), :class:`ModelCascade`; a policy whose parameter turns it off
+    :class:`GoalContact`, :class:`MeshCover` (``mesh_cover`` > 0: its ``max_extra``; off by default, docs/tuning.md), :class:`ModelCascade`; a policy whose parameter turns it off
     (0 extra commands, a 0 step or 0 rounds, a 0 slack, a 0 ``mesh_cover``, ``cascade=False``) is left
     out."""
     policies: List[Any] = []

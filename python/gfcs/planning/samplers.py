@@ -71,7 +71,7 @@ class ApproachSampler:
 
     ``fraction = retract = 0`` is the uniform sampler (the paper's "No learning"). The retract half serves
     starts in confined space, which uniform commands leave no better than the goal's corridor does; on the
-    MotionBenchMaker suite it shortens hand paths most where the start is under a table (BENCHMARKS.md).
+    MotionBenchMaker suite it shortens hand paths most where the start is under a table (docs/tuning.md).
 
     Attributes:
         n_commands: number n of free commands per candidate (output width n·dof).

@@ -224,7 +224,7 @@ impl BarrierConfig {
             // 2 mm, as for obstacles: Euler steps overshoot the barrier by a millimetre or two, enough to
             // bring two spheres into overlap while their meshes stay millimetres apart. Every
             // MotionBenchMaker goal keeps at least 10.7 mm of sphere self-clearance, so the margin blocks
-            // none of them; its effect on success and hand paths is in BENCHMARKS.md.
+            // none of them; its effect on success: docs/tuning.md.
             margin: 0.002,
             ..Self::obstacle_default()
         }
