@@ -192,8 +192,10 @@ def table1_section() -> List[str]:
              "went on), which keep gfcs's own mesh-judged success. The paper's rows are its Table I "
              "(`benches/data/paper_table1.json`; its 50 problems per class are not these).", ""]
     if machine.is_file():
-        m = json.loads(machine.read_text())
-        lines += [f"Machine: {m['cpu']}, {m['cores']} cores; commit {m['commit']}; {m['date']}.", ""]
+        runs = json.loads(machine.read_text())
+        lines += ["| run | machine | commit | date | load average at its start |", "|---|---|---|---|---|"]
+        lines += [f"| {stem} | {m['cpu']}, {m['cores']} cores | {m['commit']} | {m['date']} | {m['load']:.1f} |"
+                  for stem, m in sorted(runs.items())] + [""]
     for robot, title in ROBOT_TITLES.items():
         rows, provenance = judged_rows(robot)
         if not rows:

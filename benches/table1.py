@@ -68,8 +68,9 @@ def validate(shared: Path, robot: str, run: str, out: Path, jobs: int) -> None:
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
 
 
-def write_machine(out: Path) -> None:
-    """``OUT/machine.json``: the CPU, its cores, the commit and the date of the run."""
+def write_machine(out: Path, stem: str) -> None:
+    """Record in ``OUT/machine.json`` under ``stem`` (``<robot>.<run>``) the CPU, its cores, the commit and
+    the date of that run."""
     import datetime
     import json
     import os
@@ -83,9 +84,11 @@ def write_machine(out: Path) -> None:
         cpu = names[0] if names else cpu
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__file__).resolve().parent).stdout.strip() or "unknown"
-    (out / "machine.json").write_text(json.dumps({
-        "cpu": cpu, "cores": os.cpu_count(), "commit": commit,
-        "date": datetime.date.today().isoformat()}) + "\n")
+    path = out / "machine.json"
+    runs = json.loads(path.read_text()) if path.is_file() else {}
+    runs[stem] = {"cpu": cpu, "cores": os.cpu_count(), "commit": commit,
+                  "date": datetime.date.today().isoformat(), "load": os.getloadavg()[0]}
+    path.write_text(json.dumps(runs, indent=1) + "\n")
 
 
 def main(argv: Sequence[str] = ()) -> int:
@@ -103,11 +106,10 @@ def main(argv: Sequence[str] = ()) -> int:
     p.add_argument("--validate-only", action="store_true", help="validate existing results only")
     args = p.parse_args(list(argv) or None)
     args.out.mkdir(parents=True, exist_ok=True)
-    if not args.validate_only:
-        write_machine(args.out)
     for robot in args.robots:
         for run in args.runs:
             if not args.validate_only:
+                write_machine(args.out, f"{robot}.{run}")
                 bench(args.shared, robot, run, args.out, args)
             if not args.no_validate:
                 validate(args.shared, robot, run, args.out, args.jobs)
