@@ -15,10 +15,12 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 
 use crate::config::PyFabricConfig;
-use crate::convert::{self, output, typed_output};
+use crate::convert::{self, output};
 use crate::errors::{detached, error, guarded};
 use crate::robot::PyRobot;
-use crate::rollout::{options_from_kwargs, PyRollout, PySequenceRollout};
+use crate::rollout::{
+    candidate_rows, evaluate_output, options_from_kwargs, PyRollout, PySequenceRollout,
+};
 use crate::scene::PyScene;
 
 /// Geometric fabric for one robot in one scene.
@@ -480,18 +482,7 @@ impl PyFabric {
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
         let goal = convert::vector(goal, "goal", n)?;
-        let cand = convert::array(candidates, "candidates")?;
-        let (rows, n_commands) = match cand.shape.as_slice() {
-            [r, c] if n > 0 && c % n == 0 => (*r, c / n),
-            _ => {
-                return Err(convert::shape_error(
-                    "candidates",
-                    &format!("(N, n*{n}) with n >= 0"),
-                    &cand.shape,
-                ))
-            }
-        };
-        convert::finite("candidates", &cand.data)?;
+        let (data, _, n_commands) = candidate_rows(candidates, n)?;
         let threads = convert::threads(threads)?;
         let opts = options_from_kwargs(
             "Fabric.evaluate",
@@ -501,37 +492,10 @@ impl PyFabric {
             return_trajectories,
         )?;
         let (fabric, scene) = self.shared();
-        let data = cand.data;
         let results = detached(py, move || {
             core_rollout::evaluate_batch(&fabric, &scene, &q0, &qd0, &goal, &data, &opts, threads)
         })?;
-        let costs = output(py, results.iter().map(|r| r.cost).collect(), &[rows])?;
-        let reached = typed_output(py, results.iter().map(|r| r.reached).collect(), &[rows])?;
-        let clearance = output(
-            py,
-            results.iter().map(|r| r.min_clearance).collect(),
-            &[rows],
-        )?;
-        if return_trajectories {
-            let list: Vec<PySequenceRollout> = results
-                .into_iter()
-                .map(|r| PySequenceRollout::new(n, r))
-                .collect();
-            PyTuple::new(
-                py,
-                [
-                    costs.into_any(),
-                    reached.into_any(),
-                    clearance.into_any(),
-                    list.into_pyobject(py)?.into_any(),
-                ],
-            )
-        } else {
-            PyTuple::new(
-                py,
-                [costs.into_any(), reached.into_any(), clearance.into_any()],
-            )
-        }
+        evaluate_output(py, results, n, return_trajectories)
     }
 
     fn __repr__(&self) -> String {

@@ -14,11 +14,11 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 
 use crate::config::{to_json, to_python};
-use crate::convert::{self, output, typed_output};
+use crate::convert::{self, output};
 use crate::errors::{detached, error, guarded};
 use crate::fabric::ee_targets;
 use crate::robot::PyRobot;
-use crate::rollout::{options_from_kwargs, PyRollout, PySequenceRollout};
+use crate::rollout::{candidate_rows, evaluate_output, options_from_kwargs, PyRollout};
 use crate::scene::PyScene;
 
 /// RMPflow policy for one robot in one scene.
@@ -230,6 +230,7 @@ impl PyRmpflow {
     /// rollout_t (GFCS eq. 1–3) from (q0, qd0) toward `command` until ‖q − command‖ < tol or t_max, the
     /// target leaf aiming at `ee_target` when given. Options as in `Fabric.rollout`. GIL released.
     #[pyo3(signature = (q0, qd0, command, ee_target=None, record=true, **options))]
+    #[allow(clippy::too_many_arguments)]
     fn rollout(
         &self,
         py: Python<'_>,
@@ -283,18 +284,7 @@ impl PyRmpflow {
         let n = self.dof();
         let (q0, qd0) = self.initial_state(q0, qd0)?;
         let goal = convert::vector(goal, "goal", n)?;
-        let cand = convert::array(candidates, "candidates")?;
-        let (rows, n_commands) = match cand.shape.as_slice() {
-            [r, c] if n > 0 && c % n == 0 => (*r, c / n),
-            _ => {
-                return Err(convert::shape_error(
-                    "candidates",
-                    &format!("(N, n*{n}) with n >= 0"),
-                    &cand.shape,
-                ))
-            }
-        };
-        convert::finite("candidates", &cand.data)?;
+        let (data, _, n_commands) = candidate_rows(candidates, n)?;
         let threads = convert::threads(threads)?;
         let opts = options_from_kwargs(
             "Rmpflow.evaluate",
@@ -303,28 +293,11 @@ impl PyRmpflow {
             n_commands,
             return_trajectories,
         )?;
-        let (rmp, scene, data) = (self.rmp.clone(), self.scene_snapshot(), cand.data);
+        let (rmp, scene) = (self.rmp.clone(), self.scene_snapshot());
         let results = detached(py, move || {
             rmp_evaluate_batch(&rmp, &scene, &q0, &qd0, &goal, &data, &opts, threads)
         })?;
-        let costs = output(py, results.iter().map(|r| r.cost).collect(), &[rows])?.into_any();
-        let reached =
-            typed_output(py, results.iter().map(|r| r.reached).collect(), &[rows])?.into_any();
-        let clearance = output(
-            py,
-            results.iter().map(|r| r.min_clearance).collect(),
-            &[rows],
-        )?
-        .into_any();
-        let mut items = vec![costs, reached, clearance];
-        if return_trajectories {
-            let list: Vec<PySequenceRollout> = results
-                .into_iter()
-                .map(|r| PySequenceRollout::new(n, r))
-                .collect();
-            items.push(list.into_pyobject(py)?.into_any());
-        }
-        PyTuple::new(py, items)
+        evaluate_output(py, results, n, return_trajectories)
     }
 
     fn __repr__(&self) -> String {

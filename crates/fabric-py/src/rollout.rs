@@ -8,9 +8,9 @@ use fabric_core::rollout::{
 use fabric_core::FabricError;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyTuple};
 
-use crate::convert::output;
+use crate::convert::{self, output, typed_output};
 use crate::errors::error;
 
 /// Python name of a stop reason: "reached", "timeout", "non_finite" or "stalled".
@@ -199,6 +199,55 @@ pub fn rollout_option_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     };
     out.set_item("integrator", integrator)?;
     Ok(out)
+}
+
+/// The candidates (N, n·dof) of an `evaluate` call: (row-major data, N, n), shape and finiteness checked.
+pub fn candidate_rows(
+    candidates: &Bound<'_, PyAny>,
+    dof: usize,
+) -> PyResult<(Vec<f64>, usize, usize)> {
+    let cand = convert::array(candidates, "candidates")?;
+    let (rows, n_commands) = match cand.shape.as_slice() {
+        [r, c] if dof > 0 && c % dof == 0 => (*r, c / dof),
+        _ => {
+            return Err(convert::shape_error(
+                "candidates",
+                &format!("(N, n*{dof}) with n >= 0"),
+                &cand.shape,
+            ))
+        }
+    };
+    convert::finite("candidates", &cand.data)?;
+    Ok((cand.data, rows, n_commands))
+}
+
+/// What `evaluate` returns for `results` (one per candidate): `(costs (N,), reached (N,) bool,
+/// min_clearance (N,))`, plus the list of N `SequenceRollout` when `return_trajectories`.
+pub fn evaluate_output<'py>(
+    py: Python<'py>,
+    results: Vec<SequenceResult>,
+    dof: usize,
+    return_trajectories: bool,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let rows = results.len();
+    let costs = output(py, results.iter().map(|r| r.cost).collect(), &[rows])?.into_any();
+    let reached =
+        typed_output(py, results.iter().map(|r| r.reached).collect(), &[rows])?.into_any();
+    let clearance = output(
+        py,
+        results.iter().map(|r| r.min_clearance).collect(),
+        &[rows],
+    )?
+    .into_any();
+    let mut items = vec![costs, reached, clearance];
+    if return_trajectories {
+        let list: Vec<PySequenceRollout> = results
+            .into_iter()
+            .map(|r| PySequenceRollout::new(dof, r))
+            .collect();
+        items.push(list.into_pyobject(py)?.into_any());
+    }
+    PyTuple::new(py, items)
 }
 
 /// A recorded trajectory as numpy arrays.
