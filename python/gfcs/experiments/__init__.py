@@ -62,6 +62,19 @@ def _plain(x: Any) -> Any:
     return x
 
 
+def add_output_options(p: argparse.ArgumentParser, what: str = "the figures", figure_required: bool = False,
+                       recording: Optional[str] = None) -> None:
+    """The output options of an experiment command: ``--out FIG.png``, ``--json [OUT.json]`` (``what`` as
+    JSON; no file name: to stdout, the summary to stderr) and, when ``recording`` says what it holds,
+    ``--rrd-dir DIR`` (a rerun recording; the viz extra)."""
+    p.add_argument("--out", required=figure_required, metavar="FIG.png", help="PNG to write")
+    if recording is not None:
+        p.add_argument("--rrd-dir", metavar="DIR", help=f"write a rerun recording, {recording} (viz extra; "
+                                                        "open with gfcs view)")
+    p.add_argument("--json", nargs="?", const="-", metavar="OUT.json",
+                   help=f"write {what} as JSON (no file name: to stdout, the summary to stderr)")
+
+
 def report(text: str, claims: Any, json_target: Optional[str], figure: Optional[Path] = None) -> None:
     """What an experiment command prints and writes: the summary ``text`` (and the figure written), on
     stdout, or on stderr when the claims go to stdout (``json_target`` "-"); the ``claims`` as JSON to the

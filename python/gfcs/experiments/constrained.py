@@ -176,6 +176,8 @@ def _cmd(args: argparse.Namespace) -> int:
 
 def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     """Add ``constrained`` under ``gfcs experiment``."""
+    from gfcs.experiments import add_output_options
+
     p = experiment_subparsers.add_parser(
         "constrained", help="GF App. F: the Panda's hand held on a plane while reaching (constrained fabric)",
         description="Reach targets off a plane with the hand constrained to the plane (null-space projection "
@@ -186,9 +188,6 @@ def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--identity-metric", action="store_true",
                    help="project with the identity instead of the fabric's metric M̃ (for comparison)")
     p.add_argument("--no-obstacle", action="store_true", help="leave the sphere on the plane out")
-    p.add_argument("--out", metavar="FIG.png", help="PNG to write")
-    p.add_argument("--rrd-dir", metavar="DIR", help="write a rerun recording, DIR/constrained.rrd (viz extra)")
-    p.add_argument("--json", nargs="?", const="-", metavar="OUT.json",
-                   help="write the figures as JSON (no file name: to stdout, the summary to stderr)")
+    add_output_options(p, recording="DIR/constrained.rrd")
     p.set_defaults(func=_cmd)
     return p

@@ -179,6 +179,8 @@ def _cmd(args: argparse.Namespace) -> int:
 
 def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     """Add ``orientation`` under ``gfcs experiment``."""
+    from gfcs.experiments import add_output_options
+
     p = experiment_subparsers.add_parser(
         "orientation", help="GF App. G: hand pose reaching; a GFCS problem with a pose goal",
         description="Drive the Panda's hand to target poses with the fabric's position and axis attractors "
@@ -187,9 +189,6 @@ def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the generated pose-goal problem (default 0)")
     p.add_argument("--no-gfcs", action="store_true", help="skip the GFCS pose-goal problem")
-    p.add_argument("--out", metavar="FIG.png", help="PNG to write")
-    p.add_argument("--rrd-dir", metavar="DIR", help="write a rerun recording, DIR/orientation.rrd (viz extra)")
-    p.add_argument("--json", nargs="?", const="-", metavar="OUT.json",
-                   help="write the figures as JSON (no file name: to stdout, the summary to stderr)")
+    add_output_options(p, recording="DIR/orientation.rrd")
     p.set_defaults(func=_cmd)
     return p

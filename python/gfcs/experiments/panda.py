@@ -484,6 +484,8 @@ def _cmd_panda(args: argparse.Namespace) -> int:
 
 def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     """Add ``panda`` under ``gfcs experiment``."""
+    from gfcs.experiments import add_output_options
+
     p = experiment_subparsers.add_parser(
         "panda", help="GF Sec. VII Franka Panda reaching (wall, rings, dynamic obstacles)",
         description="Run the GF Sec. VII Panda experiments with the geometric fabric, the same components "
@@ -500,10 +502,6 @@ def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--rmp-config", metavar="JSON", help="RMPflow config merged over its defaults (ablations)")
     p.add_argument("--rmp-substeps", type=int, default=RMP_SUBSTEPS,
                    help=f"RMPflow's Euler sub-steps per 10 ms step (default {RMP_SUBSTEPS}; 1 = 100 Hz)")
-    p.add_argument("--out", metavar="FIG.png", help="PNG to write")
-    p.add_argument("--rrd-dir", metavar="DIR", help="write a rerun recording per experiment, DIR/<name>.rrd "
-                                                    "(needs the viz extra; open with gfcs view)")
-    p.add_argument("--json", nargs="?", const="-", metavar="OUT.json",
-                   help="write the claims as JSON (no file name: to stdout, the summary to stderr)")
+    add_output_options(p, "the claims", recording="one per experiment, DIR/<name>.rrd")
     p.set_defaults(func=_cmd_panda)
     return p

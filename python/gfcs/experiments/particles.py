@@ -431,6 +431,8 @@ def _cmd_particles(args: argparse.Namespace) -> int:
 
 def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     """Add ``particles`` under ``gfcs experiment`` (``experiment_subparsers`` is the nested subparsers)."""
+    from gfcs.experiments import add_output_options
+
     p = experiment_subparsers.add_parser(
         "particles", help="GF Sec. VI particle systems (Fig. 1)",
         description="Roll out a fan of particles around a circular obstacle for the four GF Sec. VI systems "
@@ -438,9 +440,7 @@ def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
                     "Fig. 1 and print the measured claims (reach, path change between speeds, centre "
                     "particle stand-off, lateral deviation).",
     )
-    p.add_argument("--out", required=True, metavar="FIG.png", help="PNG to write")
-    p.add_argument("--json", nargs="?", const="-", metavar="OUT.json",
-                   help="write the claims as JSON (no file name: to stdout, the table to stderr)")
+    add_output_options(p, "the claims", figure_required=True)
     p.add_argument("--n-particles", type=int, default=11, help="particles, odd (default 11)")
     p.add_argument("--half-angle", type=float, default=35.0, help="half opening of the fan, degrees (default 35)")
     p.add_argument("--t-max", type=float, default=15.0, help="time budget per particle, s (default 15)")

@@ -170,6 +170,8 @@ def _cmd_reactivity(args: argparse.Namespace) -> int:
 
 def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     """Add ``reactivity`` under ``gfcs experiment``."""
+    from gfcs.experiments import add_output_options
+
     from gfcs import cli
 
     p = experiment_subparsers.add_parser(
@@ -184,9 +186,7 @@ def add_cli(experiment_subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--problem-seed", type=int, default=0, help="seed of generated problems (default 0)")
     p.add_argument("--seed", type=int, default=0, help="seed of the solves and the new spheres (default 0)")
     p.add_argument("--batches", type=int, default=5, help="CMA-ES batches per solve (default 5)")
-    p.add_argument("--out", metavar="FIG.png", help="PNG to write")
-    p.add_argument("--json", nargs="?", const="-", metavar="OUT.json",
-                   help="write the rows and totals as JSON (no file name: to stdout, the table to stderr)")
+    add_output_options(p, "the rows and totals")
     p.add_argument("--progress", action="store_true", help="show a progress bar")
     cli._add_robot_options(p)
     p.set_defaults(func=_cmd_reactivity)
