@@ -68,7 +68,7 @@ def test_diagnostics_potential_is_evaluated_on_demand(robot, scene):
     """``acceleration`` skips the forcing potential ψ; ``diagnostics()`` evaluates it at the last call's
     state: with only the joint attractor it is the closed form k ln cosh(α‖q − command‖) (GF VII-A1), with
     obstacles it does not depend on what was called since, and ``potential=False`` gives NaN and the same
-    other fields. Asking for it changes no later acceleration."""
+    other fields. Asking for it changes no later acceleration, and a scene set since does not change it."""
     off = {"enabled": False}
     cfg = gfcs.FabricConfig({"joint_limits": off, "self_collision": off, "obstacles": off,
                              "ee_position": off})
@@ -90,6 +90,8 @@ def test_diagnostics_potential_is_evaluated_on_demand(robot, scene):
     np.testing.assert_array_equal(f.acceleration(q, qd, GOAL), first)
     f.acceleration(Q0, qd, Q0)
     f.acceleration(q, qd, GOAL)
+    assert f.diagnostics() == with_psi
+    f.set_scene(gfcs.Scene())  # ψ is that of the scene the last call saw
     assert f.diagnostics() == with_psi
 
 

@@ -35,17 +35,19 @@ pub struct PyFabric {
     last: Mutex<Option<LastCall>>,
     /// The root metric M̃ (dof × dof, row-major) of the last `acceleration` call, empty before it.
     last_metric: Mutex<Vec<f64>>,
-    /// Scratch of `acceleration` (ψ off: see `LastCall`), kept between calls: building it (kinematics workspaces, one task point
-    /// per sphere) cost about as much as the evaluation itself (MBM Panda, 81 spheres, near free space:
-    /// 10.6-14.8 µs per call with it, 5.5-8.5 µs without).
+    /// Scratch of `acceleration` (ψ off: see `LastCall`), kept between calls: building it (kinematics
+    /// workspaces, one task point per sphere) cost about as much as the evaluation itself (MBM Panda,
+    /// 81 spheres, near free space: 10.6-14.8 µs per call with it, 5.5-8.5 µs without).
     ws: Mutex<FabricWorkspace>,
 }
 
-/// The last `acceleration` call: its inputs and diagnostics. The call evaluates with the forcing potential
-/// ψ off (`FabricWorkspace::set_potential`; ψ only reports energy, and its soft-plus terms cost ~10 % of a
-/// step near obstacles), so `diagnostics()` evaluates ψ when asked for it, at these inputs: q̈ and every
-/// other diagnostic are the same bit for bit with ψ on or off (fabric-core's engine tests).
+/// The last `acceleration` call: its inputs (the scene it saw included) and diagnostics. The call
+/// evaluates with the forcing potential ψ off (`FabricWorkspace::set_potential`; ψ only reports energy,
+/// and its soft-plus terms took 9 % of a step's profile in a cluttered scene, BENCHMARKS.md "Speed"), so
+/// `diagnostics()` evaluates ψ when asked for it, at these inputs: q̈ and every other diagnostic are the
+/// same bit for bit with ψ on or off (fabric-core's engine tests).
 struct LastCall {
+    scene: Arc<Scene>,
     q: Vec<f64>,
     qd: Vec<f64>,
     command: Vec<f64>,
@@ -85,12 +87,13 @@ impl PyFabric {
         Ok((q0, qd0))
     }
 
-    /// One evaluation of `Fabric::acceleration` (with explicit end-effector `targets` when given) in the
-    /// kept workspace, ψ on or off (`potential`); q̈ into `qdd` (dof,), the diagnostics returned.
+    /// One evaluation of `Fabric::acceleration` in `scene` (with explicit end-effector `targets` when given)
+    /// in the kept workspace, ψ on or off (`potential`); q̈ into `qdd` (dof,), the diagnostics returned.
     #[allow(clippy::too_many_arguments)]
     fn evaluate_once(
         &self,
         py: Python<'_>,
+        scene: &Scene,
         q: &[f64],
         qd: &[f64],
         command: &[f64],
@@ -99,7 +102,6 @@ impl PyFabric {
         qdd: &mut [f64],
     ) -> PyResult<Diagnostics> {
         let fabric = &self.fabric;
-        let scene = self.scene_snapshot();
         // the GIL is held throughout, so the lock is never contended; after a panic inside (poisoned
         // lock) the workspace is built afresh rather than trusted
         let mut ws = self.ws.lock().unwrap_or_else(|poisoned| {
@@ -112,8 +114,8 @@ impl PyFabric {
         ws.set_potential(potential);
         let result = guarded(py, || {
             match targets {
-                Some(t) => fabric.acceleration_with_targets(&scene, q, qd, command, t, ws, qdd)?,
-                None => fabric.acceleration(&scene, q, qd, command, ws, qdd)?,
+                Some(t) => fabric.acceleration_with_targets(scene, q, qd, command, t, ws, qdd)?,
+                None => fabric.acceleration(scene, q, qd, command, ws, qdd)?,
             }
             Ok(fabric.diagnostics(ws))
         });
@@ -341,8 +343,11 @@ impl PyFabric {
             heap.resize(n, 0.0);
             &mut heap
         };
-        let diag = self.evaluate_once(py, &q, &qd, &command, targets.as_ref(), false, qdd)?;
+        let scene = self.scene_snapshot();
+        let diag =
+            self.evaluate_once(py, &scene, &q, &qd, &command, targets.as_ref(), false, qdd)?;
         *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Some(LastCall {
+            scene,
             q,
             qd,
             command,
@@ -355,8 +360,8 @@ impl PyFabric {
     /// Diagnostics of the last `acceleration` call (dict: energy, exec_energy, potential, min_clearance,
     /// min_self_clearance, min_joint_margin, alpha_le, alpha_ex0, alpha_expsi, eta, s_beta, beta,
     /// alpha_boost, alpha_reg, leaves), or None before the first call. The forcing potential ψ is
-    /// evaluated here, at the last call's state (one more fabric evaluation); `potential=False` skips it
-    /// (`potential` is then NaN) for callers that read the other fields every step.
+    /// evaluated here, at the last call's state and scene (one more fabric evaluation); `potential=False`
+    /// skips it (`potential` is then NaN) for callers that read the other fields every step.
     #[pyo3(signature = (potential=true))]
     fn diagnostics<'py>(
         &self,
@@ -372,6 +377,7 @@ impl PyFabric {
             let mut qdd = vec![0.0; call.q.len()];
             let with_psi = self.evaluate_once(
                 py,
+                &call.scene,
                 &call.q,
                 &call.qd,
                 &call.command,
