@@ -217,6 +217,19 @@ def test_threads_above_the_cap_warn_and_give_the_same_costs(panda, fabric):
     np.testing.assert_array_equal(np.asarray(base[0]), np.asarray(capped[0]))
 
 
+def test_a_solve_above_the_thread_cap_warns_once():
+    import warnings
+
+    from gfcs import _core, generators
+    from gfcs.planning import solve
+
+    problem = generators.generate("box", 1, seed=0, robot=gfcs.Robot.panda())[0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        solve(problem, batches=1, population=4, threads=10 * _core.max_threads())
+    assert sum("exceeds 4 x" in str(w.message) for w in caught) == 1
+
+
 # ----------------------------------------------------------------------------------- bench survival
 def test_bench_records_a_malformed_problem_and_goes_on(tmp_path, capsys):
     assert cli.main(["generate", "--out", str(tmp_path / "suite"), "--classes", "box", "--n", "2"]) == 0

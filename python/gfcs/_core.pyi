@@ -541,6 +541,10 @@ class SequenceOptions(RolloutOptions, total=False):
     blend_time: Optional[float]
     """smoothstep time of the command at each handover [s] (0: the paper's switch of eq. 7)"""
 
+def max_threads() -> int:
+    """The most worker threads a batch runs on (4 × the cores); a larger ``threads`` warns
+    (``GfcsWarning``) and runs on this many."""
+
 def rollout_option_defaults() -> Dict[str, Union[float, str]]:
     """The core's default of every option of :class:`SequenceOptions` (hence of :class:`RolloutOptions`),
     by name: the one set of defaults ``gfcs.planning.RolloutSettings`` starts from."""

@@ -152,6 +152,12 @@ pub fn threads(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>> {
     Ok(Some(n))
 }
 
+/// The most worker threads a batch runs on (4 × the cores); a larger `threads` argument warns and is capped.
+#[pyfunction]
+pub fn max_threads() -> usize {
+    fabric_core::rollout::max_threads()
+}
+
 /// Exactly shape (n,), finite.
 pub fn vector(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<Vec<f64>> {
     // The common case, a contiguous float64 numpy vector, copied directly (without `array`'s array-like

@@ -54,6 +54,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(particle::particle_rollout, m)?)?;
     m.add_function(wrap_pyfunction!(particle::particle_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(rollout::rollout_option_defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(convert::max_threads, m)?)?;
     m.add_class::<robot::PyRobot>()?;
     m.add_class::<scene::PyScene>()?;
     m.add_class::<config::PyFabricConfig>()?;

@@ -51,6 +51,26 @@ def integer_at_least(name: str, value: Any, low: int) -> int:
     return v
 
 
+def worker_threads(value: Any) -> Optional[int]:
+    """A ``threads`` argument of a whole solve: None (all cores) or an integer ≥ 1, capped at
+    ``gfcs._core.max_threads()`` with one ``GfcsWarning`` here, so that the many core calls of a solve do not
+    each warn."""
+    if value is None:
+        return None
+    n = integer_at_least("threads", value, 1)
+    from gfcs import _core
+    from gfcs.errors import GfcsWarning
+
+    cap = int(_core.max_threads())
+    if n > cap:
+        import warnings
+
+        warnings.warn(f"threads={n} exceeds 4 x the {cap // 4} cores: running on {cap} threads", GfcsWarning,
+                      stacklevel=3)
+        return cap
+    return n
+
+
 def optional_time_limit(value: Any) -> Optional[float]:
     """A time budget [s]: None (no limit) or a finite number > 0."""
     return None if value is None else positive("time_limit", value, " [s]")

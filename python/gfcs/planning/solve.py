@@ -31,7 +31,7 @@ import numpy as np
 
 from gfcs import metrics as _metrics
 from gfcs.errors import InvalidValueError
-from gfcs.planning._check import integer_at_least, non_negative, optional_time_limit
+from gfcs.planning._check import integer_at_least, non_negative, optional_time_limit, worker_threads
 from gfcs.planning.attempts import Attempt, AttemptRecord, OptimOptions, combine_records, run_attempt
 from gfcs.planning.budget import Budget
 from gfcs.planning.finish import FinishOptions, rollout_commands, with_raw_ldj
@@ -140,6 +140,7 @@ def solve(
     if method not in ("gfcs", "gf"):
         raise InvalidValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
     mesh_margin = non_negative("mesh_margin", mesh_margin, " [m]")
+    threads = worker_threads(threads)
     settings = settings if settings is not None else dataclasses.replace(chosen.settings)
     finish = finish if finish is not None else dataclasses.replace(chosen.finish)
     fabric = _preset_fabric(problem, fabric_config, chosen)
