@@ -81,8 +81,12 @@ def render(rows: List[Dict[str, Any]], times: Dict[str, float], args: argparse.N
     seeds = sorted({r["run_seed"] for r in rows})
     lines = ["## GFCS Table II: learned against uniform first batch", "",
              f"Written by `python benches/table2.py --problems {args.problems} --seeds "
-             f"{' '.join(map(str, seeds))}`: trained on problems 1-{args.train} of every MBM Panda class (the "
-             f"paper preset, τ = 1 for the negatives and the sampler), tested on problems {args.train + 1}-50 "
+             f"{' '.join(map(str, seeds))}"
+             + (f" --test-limit {args.test_limit}" if args.test_limit else "")
+             + (f" --train-args {' '.join(args.train_args)}" if args.train_args else "")
+             + f"`: trained on problems 1-{args.train} of every MBM Panda class (the "
+             f"paper preset, τ = 1 for the negatives and the sampler), tested on problems {args.train + 1}-"
+             f"{50 if not args.test_limit else args.train + args.test_limit} "
              "with one batch of 32, the same per-problem seed for both samplers. Training wall time per seed: "
              + ", ".join(f"{float(t):.0f} s" for t in times.values()) + ".", "",
              "| seed | sampler | solved | mean hand path (m) | mean time (s) |", "|---|---|---|---|---|"]
