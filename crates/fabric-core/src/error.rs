@@ -64,6 +64,24 @@ pub fn check_finite(what: &str, values: &[f64]) -> Result<()> {
     }
 }
 
+/// The inputs of one policy evaluation (the fabric's or RMPflow's acceleration): `q`, `qd`, `command`
+/// of length `dof` and finite, the output `qdd` of length `dof`.
+pub fn check_policy_inputs(
+    dof: usize,
+    q: &[f64],
+    qd: &[f64],
+    command: &[f64],
+    qdd: &[f64],
+) -> Result<()> {
+    check_len("q", q.len(), dof)?;
+    check_len("qd", qd.len(), dof)?;
+    check_len("command", command.len(), dof)?;
+    check_len("qdd (output)", qdd.len(), dof)?;
+    check_finite("q", q)?;
+    check_finite("qd", qd)?;
+    check_finite("command", command)
+}
+
 /// Return `Err(Shape)` unless `got == expected`.
 pub fn check_len(what: &str, got: usize, expected: usize) -> Result<()> {
     if got == expected {

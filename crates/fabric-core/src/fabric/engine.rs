@@ -36,7 +36,7 @@ use super::energy::{ConstantMass, TanhMass};
 use super::leaves::{obstacle_leaf, self_collision_leaf};
 use super::root::RootSystem;
 use super::speed::EeMotion;
-use crate::error::{check_finite, check_len, FabricError, Result};
+use crate::error::{check_finite, check_len, check_policy_inputs, FabricError, Result};
 use crate::robot::{CollisionSphere, KinematicsWorkspace, Robot, TaskPoint};
 use crate::scene::distance::NearObstacle;
 use crate::scene::Scene;
@@ -590,14 +590,7 @@ impl Fabric {
         qdd: &[f64],
         ws: &FabricWorkspace,
     ) -> Result<()> {
-        let n = self.robot.dof();
-        check_len("q", q.len(), n)?;
-        check_len("qd", qd.len(), n)?;
-        check_len("command", command.len(), n)?;
-        check_len("qdd (output)", qdd.len(), n)?;
-        check_finite("q", q)?;
-        check_finite("qd", qd)?;
-        check_finite("command", command)?;
+        check_policy_inputs(self.robot.dof(), q, qd, command, qdd)?;
         self.check_workspace(ws)
     }
 

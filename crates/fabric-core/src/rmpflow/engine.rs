@@ -20,7 +20,7 @@ use nalgebra::Vector3;
 use super::config::RmpConfig;
 use super::leaves;
 use super::root::RmpRoot;
-use crate::error::{check_finite, check_len, FabricError, Result};
+use crate::error::{check_finite, check_policy_inputs, FabricError, Result};
 use crate::fabric::leaves::{obstacle_leaf, self_collision_leaf};
 use crate::fabric::EeTargets;
 use crate::robot::{KinematicsWorkspace, Robot, TaskPoint};
@@ -137,13 +137,7 @@ impl Rmpflow {
         ws: &RmpWorkspace,
     ) -> Result<()> {
         let n = self.robot.dof();
-        check_len("q", q.len(), n)?;
-        check_len("qd", qd.len(), n)?;
-        check_len("command", command.len(), n)?;
-        check_len("qdd (output)", qdd.len(), n)?;
-        check_finite("q", q)?;
-        check_finite("qd", qd)?;
-        check_finite("command", command)?;
+        check_policy_inputs(n, q, qd, command, qdd)?;
         if ws.root.dim() != n || ws.spheres.len() != self.robot.spheres().len() {
             return Err(FabricError::Shape {
                 what: "rmpflow workspace (dof, spheres)".into(),

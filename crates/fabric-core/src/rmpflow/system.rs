@@ -2,17 +2,17 @@
 //! of the fabric's (`rollout::fabric`) for the second controller.
 
 use super::engine::{RmpWorkspace, Rmpflow};
-use crate::error::{FabricError, Result};
+use crate::error::Result;
 use crate::fabric::EeTargets;
 use crate::rollout::{
-    evaluate_batch_system, rollout_sequence_system, rollout_system, RolloutOptions, RolloutResult,
-    SequenceOptions, SequenceResult, System,
+    breakdown_as_nan, evaluate_batch_system, rollout_sequence_system, rollout_system,
+    RolloutOptions, RolloutResult, SequenceOptions, SequenceResult, System,
 };
 use crate::scene::Scene;
 
 /// An RMPflow policy in a fixed scene: q̈ = `rmp.acceleration(scene, q, q̇, q_g, targets)`, with the
-/// clearance monitor min(obstacle, self) of each evaluation. As for the fabric's system, a `NonFinite`
-/// error at a state becomes a NaN acceleration (the rollout stops with `StopReason::NonFinite`).
+/// clearance monitor min(obstacle, self) of each evaluation. A breakdown of its dynamics at a state
+/// becomes a NaN acceleration ([`breakdown_as_nan`]), as for the fabric's system.
 #[derive(Clone, Copy)]
 pub struct RmpflowSystem<'a> {
     /// The policy.
@@ -42,16 +42,10 @@ impl System for RmpflowSystem<'_> {
         command: &[f64],
         qdd: &mut [f64],
     ) -> Result<()> {
-        match self
+        let result = self
             .rmp
-            .acceleration(self.scene, q, qd, command, self.targets, ws, qdd)
-        {
-            Err(FabricError::NonFinite { .. } | FabricError::Value { .. }) => {
-                qdd.fill(f64::NAN);
-                Ok(())
-            }
-            other => other,
-        }
+            .acceleration(self.scene, q, qd, command, self.targets, ws, qdd);
+        breakdown_as_nan(result, qdd)
     }
 
     fn clearance(&self, ws: &RmpWorkspace) -> f64 {

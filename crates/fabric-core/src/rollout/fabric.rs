@@ -3,8 +3,8 @@
 use super::batch::evaluate_batch_system;
 use super::rollout::{rollout_system, RolloutOptions, RolloutResult};
 use super::sequence::{rollout_sequence_system, SequenceOptions, SequenceResult};
-use super::system::System;
-use crate::error::{FabricError, Result};
+use super::system::{breakdown_as_nan, System};
+use crate::error::Result;
 use crate::fabric::{Fabric, FabricWorkspace};
 use crate::scene::Scene;
 
@@ -13,11 +13,8 @@ use crate::scene::Scene;
 /// collision with an obstacle or with the robot itself, measured with the collision spheres) of each
 /// evaluation. Obstacle clearance is +∞ while no sphere is within the obstacle influence radius.
 ///
-/// The rollout validates lengths and finiteness before every evaluation, so a `NonFinite` or `Value`
-/// error of the fabric at a state means its dynamics broke down there (non-finite q̈, root metric M̃ not
-/// positive definite): the acceleration is then reported as NaN and the rollout stops with
-/// [`super::StopReason::NonFinite`] instead of failing the whole sequence or batch. Other errors (e.g.
-/// `Shape` for a workspace of another fabric) propagate.
+/// A breakdown of the fabric's dynamics at a state (non-finite q̈, root metric M̃ not positive definite)
+/// becomes a NaN acceleration ([`breakdown_as_nan`]).
 #[derive(Clone, Copy)]
 pub struct FabricSystem<'a> {
     /// The fabric (robot model and gains).
@@ -46,16 +43,10 @@ impl System for FabricSystem<'_> {
         command: &[f64],
         qdd: &mut [f64],
     ) -> Result<()> {
-        match self
+        let result = self
             .fabric
-            .acceleration(self.scene, q, qd, command, ws, qdd)
-        {
-            Err(FabricError::NonFinite { .. } | FabricError::Value { .. }) => {
-                qdd.fill(f64::NAN);
-                Ok(())
-            }
-            other => other,
-        }
+            .acceleration(self.scene, q, qd, command, ws, qdd);
+        breakdown_as_nan(result, qdd)
     }
 
     fn clearance(&self, ws: &FabricWorkspace) -> f64 {

@@ -24,4 +24,4 @@ pub use rollout::{
     rollout_system, RolloutOptions, RolloutResult, StopReason, Trajectory, MAX_STEPS,
 };
 pub use sequence::{rollout_sequence_system, SequenceOptions, SequenceResult};
-pub use system::System;
+pub use system::{breakdown_as_nan, System};
