@@ -140,6 +140,7 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
         keep = keep[:1]
     goal = np.asarray(problem.goal, dtype=np.float64)
     first: Optional[Candidate] = None
+    chosen: Optional[Candidate] = None
     checked, judging = 0, 0.0
     for k in keep:
         if first is not None and _past(deadline, judging):
@@ -153,7 +154,6 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
                                           clearance_floor=options.clearance_floor,
                                           ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
                                           deadline=deadline)
-        with_raw_ldj(met, problem.robot, traj, settings.dt)
         met["selection_rank"] = int(np.flatnonzero(order == k)[0])
         if mesh_checker is not None:
             met["mesh_candidates_checked"] = checked
@@ -162,7 +162,12 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
         if first is None:
             first = candidate
         if mesh_checker is None or met["success"]:
-            return candidate
-    assert first is not None  # `keep` holds at least the lowest-cost candidate, and it is always judged
-    first.metrics["mesh_candidates_checked"] = checked
-    return first
+            chosen = candidate
+            break
+    if chosen is None:
+        assert first is not None  # `keep` holds at least the lowest-cost candidate, and it is always judged
+        first.metrics["mesh_candidates_checked"] = checked
+        chosen = first
+    # the fabric's own smoothness, for the returned candidate only (an FK pass over its rollout)
+    with_raw_ldj(chosen.metrics, problem.robot, chosen.trajectory, settings.dt)
+    return chosen
