@@ -388,8 +388,9 @@ fn kind(v: &Value) -> &'static str {
     }
 }
 
-/// Merge `user` over `base` (the defaults), checking field names and value kinds against `base`.
-fn merge(base: &mut Value, user: Value, path: &str, source: &str) -> Result<()> {
+/// Merge `user` over `base` (the defaults), checking field names and value kinds against `base`; errors
+/// name `source` (the file, or the configuration's kind) and the dotted field path.
+pub(crate) fn merge(base: &mut Value, user: Value, path: &str, source: &str) -> Result<()> {
     match (base, user) {
         (Value::Object(b), Value::Object(u)) => {
             for (key, value) in u {

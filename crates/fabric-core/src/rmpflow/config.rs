@@ -284,44 +284,6 @@ fn format_error(field: &str, message: impl Into<String>) -> FabricError {
     }
 }
 
-/// Merge `user` over `base`, recursively for tables; a field `base` does not have is an error.
-fn merge(base: &mut Value, user: Value, path: &str) -> Result<()> {
-    match (base, user) {
-        (Value::Object(b), Value::Object(u)) => {
-            for (key, value) in u {
-                let sub = if path.is_empty() {
-                    key.clone()
-                } else {
-                    format!("{path}.{key}")
-                };
-                let known: Vec<String> = b.keys().cloned().collect();
-                let slot = b.get_mut(&key).ok_or_else(|| {
-                    format_error(
-                        &sub,
-                        format!("unknown field (expected one of: {})", known.join(", ")),
-                    )
-                })?;
-                merge(slot, value, &sub)?;
-            }
-            Ok(())
-        }
-        (slot, value) => {
-            let same = matches!(
-                (&*slot, &value),
-                (Value::Bool(_), Value::Bool(_)) | (Value::Number(_), Value::Number(_))
-            );
-            if !same {
-                return Err(format_error(
-                    path,
-                    format!("expected {slot}-like value, got {value}"),
-                ));
-            }
-            *slot = value;
-            Ok(())
-        }
-    }
-}
-
 impl RmpConfig {
     /// The configuration given by the JSON text `s` merged over the defaults, validated.
     pub fn from_json_str(s: &str) -> Result<Self> {
@@ -339,7 +301,7 @@ impl RmpConfig {
         };
         let mut base = serde_json::to_value(RmpConfig::default())
             .map_err(|e| format_error("<root>", e.to_string()))?;
-        merge(&mut base, user, "")?;
+        crate::fabric::config::merge(&mut base, user, "", "rmpflow config")?;
         let cfg: RmpConfig =
             serde_json::from_value(base).map_err(|e| format_error("<root>", e.to_string()))?;
         cfg.validate()?;
