@@ -8,6 +8,7 @@ pub mod error;
 pub mod fabric;
 pub mod limits;
 mod linalg;
+pub mod mesh_tree;
 pub mod rmpflow;
 pub mod robot;
 pub mod rollout;

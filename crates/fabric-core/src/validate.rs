@@ -23,6 +23,7 @@ use std::collections::HashMap;
 use std::fmt;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use parry3d_f64::bounding_volume::Aabb;
@@ -31,6 +32,7 @@ use parry3d_f64::shape::{SharedShape, TriMesh};
 use rayon::prelude::*;
 
 use crate::error::{check_finite, FabricError, Result};
+use crate::mesh_tree::{MeshTree, MeshTreeStack};
 use crate::robot::{GeometryKind, KinematicsWorkspace, Robot};
 use crate::rollout::batch::with_threads;
 use crate::scene::meshio::{build_mesh, load_mesh};
@@ -63,6 +65,9 @@ pub struct CollisionShape {
     /// measure hulls first and the exact mesh only where the bound can still change the minimum
     /// (branch and bound; the result is the exact mesh distance).
     pub hull: Option<SharedShape>,
+    /// Box tree of a mesh's triangles, for mesh-mesh distances ([`MeshTree::distance`]); `None` for
+    /// primitives.
+    pub tree: Option<Arc<MeshTree>>,
 }
 
 impl CollisionShape {
@@ -104,6 +109,8 @@ pub struct MeshWorkspace {
     boxes: Vec<Aabb>,
     /// (lower bound, shape or pair index) candidates of the exact pass (capacity S, or P pairs).
     order: Vec<(f64, usize)>,
+    /// Scratch of the mesh-mesh distances.
+    stack: MeshTreeStack,
 }
 
 /// Exact clearance of a robot's URDF collision geometry against a [`Scene`] and against itself.
@@ -327,7 +334,7 @@ impl MeshChecker {
             });
         }
         // (file, scale bits) -> (mesh, hull): elements sharing both share the shapes.
-        type Loaded = (SharedShape, Option<SharedShape>);
+        type Loaded = (SharedShape, Option<SharedShape>, Option<Arc<MeshTree>>);
         let mut cache: HashMap<(PathBuf, [u64; 3]), Loaded> = HashMap::new();
         let mut shapes = Vec::with_capacity(geometry.len());
         for g in geometry {
@@ -337,7 +344,7 @@ impl MeshChecker {
                 .cloned()
                 .unwrap_or_else(|| format!("#{}", g.link));
             let mut origin = g.origin;
-            let (shape, hull, label) = match &g.kind {
+            let (shape, hull, tree, label) = match &g.kind {
                 GeometryKind::Mesh {
                     path,
                     scale,
@@ -354,19 +361,20 @@ impl MeshChecker {
                         path.clone(),
                         [scale.x.to_bits(), scale.y.to_bits(), scale.z.to_bits()],
                     );
-                    let (shape, hull) = match cache.get(&key) {
+                    let (shape, hull, tree) = match cache.get(&key) {
                         Some(loaded) => loaded.clone(),
                         None => {
                             let mesh = load_scaled_mesh(path, scale, &link_name)?;
                             let hull = mesh_hull(&mesh);
-                            let loaded = (SharedShape::new(mesh), hull);
+                            let tree = MeshTree::new(&mesh).map(Arc::new);
+                            let loaded = (SharedShape::new(mesh), hull, tree);
                             cache.insert(key, loaded.clone());
                             loaded
                         }
                     };
-                    (shape, hull, format!("mesh {}", path.display()))
+                    (shape, hull, tree, format!("mesh {}", path.display()))
                 }
-                GeometryKind::Box { size } => (box_shape(size), None, "box".to_string()),
+                GeometryKind::Box { size } => (box_shape(size), None, None, "box".to_string()),
                 GeometryKind::Cylinder { radius, length } => {
                     origin *= Isometry3::from_parts(
                         Translation3::identity(),
@@ -378,16 +386,18 @@ impl MeshChecker {
                     (
                         SharedShape::cylinder(length / 2.0, *radius),
                         None,
+                        None,
                         "cylinder".to_string(),
                     )
                 }
                 GeometryKind::Capsule { radius, length } => (
                     SharedShape::capsule_z(length / 2.0, *radius),
                     None,
+                    None,
                     "capsule".to_string(),
                 ),
                 GeometryKind::Sphere { radius } => {
-                    (SharedShape::ball(*radius), None, "sphere".to_string())
+                    (SharedShape::ball(*radius), None, None, "sphere".to_string())
                 }
             };
             shapes.push(CollisionShape {
@@ -396,6 +406,7 @@ impl MeshChecker {
                 shape,
                 label,
                 hull,
+                tree,
             });
         }
         let self_pairs = self_shape_pairs(robot, &shapes);
@@ -453,6 +464,7 @@ impl MeshChecker {
             poses: vec![Isometry3::identity(); s],
             boxes: vec![Aabb::new_invalid(); s],
             order: Vec::with_capacity(s.max(self.self_pairs.len())),
+            stack: MeshTreeStack::new(),
         }
     }
 
@@ -500,7 +512,8 @@ impl MeshChecker {
         let mut best = f64::INFINITY;
         ws.order.clear();
         for (i, (s, pose)) in self.shapes.iter().zip(&ws.poses).enumerate() {
-            let Some(d) = scene.shape_distance(s.bound(), pose, best.min(max)) else {
+            let slack = if s.hull.is_some() { BOUND_SLACK } else { 0.0 };
+            let Some(d) = scene.shape_distance(s.bound(), pose, best.min(max) + slack) else {
                 continue;
             };
             if s.hull.is_some() {
@@ -597,11 +610,26 @@ impl MeshChecker {
         })
     }
 
-    /// Exact distance of the self-collision pair `(i, j)` placed in `ws`; `Err(Value)` naming both
-    /// elements when parry cannot measure it.
-    fn pair_exact(&self, i: usize, j: usize, ws: &MeshWorkspace) -> Result<f64> {
+    /// Distance of the self-collision pair `(i, j)` at world `poses` (S,), exact when below `cutoff` (m) and
+    /// otherwise some value at or above it; `Err(Value)` naming both elements when parry cannot
+    /// measure it. Two meshes are measured by their trees ([`MeshTree::distance`]); when they touch,
+    /// parry's penetration depth (negative) is asked for only with `depth`, and the contact is
+    /// otherwise reported as 0.
+    fn pair_exact(
+        &self,
+        (i, j): (usize, usize),
+        poses: &[Isometry3<f64>],
+        stack: &mut MeshTreeStack,
+        (cutoff, depth): (f64, bool),
+    ) -> Result<f64> {
         let (a, b) = (&self.shapes[i], &self.shapes[j]);
-        pair_distance(&ws.poses[i], &*a.shape, &ws.poses[j], &*b.shape).ok_or_else(|| {
+        if let (Some(ta), Some(tb)) = (&a.tree, &b.tree) {
+            let d = ta.distance(&poses[i], tb, &poses[j], cutoff, stack);
+            if d > 0.0 || !depth {
+                return Ok(d);
+            }
+        }
+        pair_distance(&poses[i], &*a.shape, &poses[j], &*b.shape).ok_or_else(|| {
             let name = |s: &CollisionShape| {
                 let link = self
                     .robot
@@ -619,20 +647,23 @@ impl MeshChecker {
 
     /// Self-clearance at q with a workspace: branch and bound over the pairs as
     /// [`MeshChecker::clearance_in`], with box gaps and hull distances as lower bounds, and the same
-    /// `cutoff`.
+    /// `cutoff`. Two meshes in contact read 0 under a finite `cutoff` and parry's (negative)
+    /// penetration depth under an infinite one.
     fn self_clearance_in(&self, q: &[f64], cutoff: f64, ws: &mut MeshWorkspace) -> Result<f64> {
         self.place(q, ws)?;
         let max = self.max_distance.min(cutoff);
+        // Penetration depths are measured for unbounded queries only.
+        let depth = cutoff == f64::INFINITY;
         let mut best = f64::INFINITY;
         ws.order.clear();
         for (k, &(i, j)) in self.self_pairs.iter().enumerate() {
             let cutoff = best.min(max);
-            if aabb_gap(&ws.boxes[i], &ws.boxes[j]) > cutoff {
+            if aabb_gap(&ws.boxes[i], &ws.boxes[j]) - BOUND_SLACK > cutoff {
                 continue;
             }
             let (a, b) = (&self.shapes[i], &self.shapes[j]);
             if a.hull.is_none() && b.hull.is_none() {
-                let d = self.pair_exact(i, j, ws)?;
+                let d = self.pair_exact((i, j), &ws.poses, &mut ws.stack, (cutoff, depth))?;
                 if d <= cutoff {
                     best = d;
                 }
@@ -640,7 +671,7 @@ impl MeshChecker {
             }
             let bound = pair_distance(&ws.poses[i], a.bound(), &ws.poses[j], b.bound())
                 .unwrap_or(f64::NEG_INFINITY);
-            if bound <= cutoff {
+            if bound - BOUND_SLACK <= cutoff {
                 ws.order.push((bound, k));
             }
         }
@@ -650,7 +681,7 @@ impl MeshChecker {
                 break;
             }
             let (i, j) = self.self_pairs[k];
-            let d = self.pair_exact(i, j, ws)?;
+            let d = self.pair_exact((i, j), &ws.poses, &mut ws.stack, (best.min(max), depth))?;
             if d <= best.min(max) {
                 best = d;
             }

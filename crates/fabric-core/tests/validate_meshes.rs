@@ -344,7 +344,7 @@ fn mbm_panda_meshes_free_start_and_table_contact() {
                 .min_trajectory_self_clearance(part, Some(2), cutoff)
                 .unwrap();
             if expected <= cutoff {
-                assert_eq!(got, expected);
+                assert_eq!(got, expected, "cutoff {cutoff} states {states}");
             } else {
                 assert!(got > cutoff, "{got} at cutoff {cutoff}");
             }
