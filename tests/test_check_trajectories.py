@@ -165,13 +165,13 @@ def test_agrees_with_gfcs_on_motionbenchmaker(mbm_dir, mbm_panda_dir, tmp_path, 
         assert r["cspace_length"] == pytest.approx(m["cspace_length"], abs=1e-9)
         # FCL reports contact as 0, gfcs the penetration depth; GJK on cylinders differs by up to 11 µm
         # (all 700 motions of Table I)
-        # gfcs measures mesh clearances exactly up to its margin + MESH_REPORT_RANGE, and reports inf beyond
-        from gfcs.metrics import DEFAULT_MESH_MARGIN, MESH_REPORT_RANGE
+        # gfcs measures mesh clearances exactly up to metrics.mesh_report_cutoff, and reports inf beyond
+        from gfcs.metrics import DEFAULT_MESH_MARGIN, mesh_report_cutoff
 
         for mine, theirs in ((m["mesh_clearance"], r["clearance"]), (m["mesh_self_clearance"], r["self_clearance"])):
             mine = float(mine)
             if math.isinf(mine):
-                assert theirs > DEFAULT_MESH_MARGIN + MESH_REPORT_RANGE - 2e-5
+                assert theirs > mesh_report_cutoff(DEFAULT_MESH_MARGIN) - 2e-5
             else:
                 assert theirs == pytest.approx(max(mine, 0.0), abs=2e-5)
 

@@ -176,7 +176,7 @@ def test_trajectory_metrics_report_mesh_contact(sphere_and_mesh_sliders):
     assert meshed["mesh_self_clearance"] == math.inf  # one link: no pair
     np.testing.assert_allclose(metrics.mesh_clearance(checker, scene, q), 0.4 - (0.2 + 0.25 * t), atol=1e-7)
     short = metrics.trajectory_metrics(spheres, scene, t[:21], q[:21], q[20], mesh_checker=checker)
-    # 0.1 m clear: beyond the exactly measured range (margin + MESH_REPORT_RANGE), reported as inf
+    # 0.1 m clear: beyond the exactly measured range (metrics.mesh_report_cutoff), reported as inf
     assert short["success"] and short["mesh_clearance"] == math.inf
     assert metrics.mesh_clearance(checker, scene, q[:21]).min() == pytest.approx(0.1, abs=1e-7)
 
@@ -185,7 +185,7 @@ def test_mesh_margin_is_the_clearance_a_success_keeps(sphere_and_mesh_sliders):
     spheres, checker, scene = sphere_and_mesh_sliders
     t = np.linspace(0.0, 1.0, 51)
     q = (0.1 * t)[:, None]  # box face from 0.2 to 0.3: 0.1 m from the ball at the end (closed form)
-    assert metrics.DEFAULT_MESH_MARGIN == 0.001
+    assert metrics.DEFAULT_MESH_MARGIN == 0.0001
     assert metrics.trajectory_metrics(spheres, scene, t, q, [0.1], mesh_checker=checker)["success"]
     for margin, ok in ((0.0, True), (0.0999, True), (0.1001, False)):
         m = metrics.trajectory_metrics(spheres, scene, t, q, [0.1], mesh_checker=checker, mesh_margin=margin)
@@ -195,6 +195,29 @@ def test_mesh_margin_is_the_clearance_a_success_keeps(sphere_and_mesh_sliders):
     for bad in (-0.001, math.nan, math.inf):
         with pytest.raises(ValueError, match="mesh_margin"):
             metrics.trajectory_metrics(spheres, scene, t, q, [0.1], mesh_checker=checker, mesh_margin=bad)
+
+
+def test_sweep_finds_contact_between_states_and_certifies_near_misses(sphere_and_mesh_sliders):
+    """The slider's box (faces at x ± 0.2) against a 0.1 m ball at x = 0.5. Two states at x = -0.5 and 1.5
+    leave the ball outside the box at both ends, the straight path between them runs through it: the
+    sweep refuses it. A path whose states come 0.5 mm from the ball (margin 0.1 mm, within the allowance)
+    is certified by the sweep and passes mesh_check; at a 0.6 mm margin it does not."""
+    _, checker, scene = sphere_and_mesh_sliders
+    jump = np.array([[-0.5], [1.5]])
+    assert np.all(checker.clearance(scene, jump) > 0.5)
+    swept = checker.sweep(scene, jump, margin=1e-4)
+    assert set(swept) == {"ok", "complete", "clearance", "self_clearance", "measured"}
+    assert not swept["ok"] and swept["complete"] and swept["clearance"] <= 1e-4
+    near = np.linspace(0.0, 0.2 - 0.0005, 40)[:, None]  # face reaches 0.3995, ball surface at 0.4
+    ok = checker.sweep(scene, near, margin=1e-4)
+    assert ok["ok"] and ok["clearance"] == pytest.approx(0.0005, abs=1e-7)
+    assert metrics.mesh_check(checker, scene, near, margin=1e-4)[2]
+    assert not metrics.mesh_check(checker, scene, near, margin=6e-4)[2]
+    for bad in ({"margin": -1.0}, {"time_limit": -1.0}, {"time_limit": math.nan}):
+        with pytest.raises(ValueError):
+            checker.sweep(scene, near, **bad)
+    with pytest.raises(ValueError, match="q"):
+        checker.sweep(scene, np.zeros((3, 2)))
 
 
 def test_problem_carries_a_matching_checker(sphere_and_mesh_sliders):
@@ -315,7 +338,7 @@ def test_solve_holds_candidates_to_the_mesh_margin(shelf):
     clear = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=0))  # 0.2 m, self 0.1 m
     once = dict(batches=1, population=8, seed=0, mesh_candidates=2, mesh_retry_margin=0, max_commands=1)
     ok = opt.solve(clear, **once)
-    assert ok.success and ok.settings["mesh_margin"] == 0.001 and ok.metrics["mesh_candidates_checked"] == 1
+    assert ok.success and ok.settings["mesh_margin"] == metrics.DEFAULT_MESH_MARGIN and ok.metrics["mesh_candidates_checked"] == 1
     strict = opt.solve(clear, mesh_margin=0.15, **once)  # the links' 0.1 m from each other is too close
     assert not strict.success and strict.metrics["sphere_success"] and strict.metrics["mesh_candidates_checked"] == 2
 

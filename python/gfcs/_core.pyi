@@ -591,6 +591,14 @@ class MeshChecker:
         self, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
     ) -> float:
         """min over the states of q (T, dof) of ``self_clearance``, m, as ``min_clearance``."""
+    def sweep(
+        self, scene: Scene, q: ArrayLike, margin: float = 0.001, threads: Optional[int] = None,
+        time_limit: Optional[float] = None,
+    ) -> Dict[str, Any]:
+        """Continuous verdict on the path through the states of q (T, dof), straight between them: whether
+        every configuration on it keeps the geometry more than ``margin`` m from the scene and itself (a
+        motion bound certifies each segment; uncertified ones are halved). {ok, complete (False when
+        ``time_limit`` s ran out), clearance, self_clearance (m, least measured; inf: none near), measured}."""
 
 # ------------------------------------------------------------------------------------------- particles
 

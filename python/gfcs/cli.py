@@ -498,10 +498,10 @@ def summary_text(result: Any, problem: Any) -> str:
                  f"{_fmt(m['cspace_length'], ' rad')}, EE-LDJ {_fmt(m['ee_ldj'])}, C-space-LDJ "
                  f"{_fmt(m['cspace_ldj'])}, min clearance {_fmt(m['min_clearance'], ' m')}")
     if "mesh_clearance" in m:
-        from gfcs.metrics import MESH_REPORT_RANGE
+        from gfcs.metrics import mesh_report_cutoff
 
         # clearances beyond the exactly measured range are reported as inf (gfcs.metrics.mesh_check)
-        beyond = f"over {(mesh_margin + MESH_REPORT_RANGE) * 1000:.3g} mm"
+        beyond = f"over {mesh_report_cutoff(mesh_margin) * 1000:.3g} mm"
 
         def clearance(v: float) -> str:
             return beyond if v == math.inf else _fmt(v, " m")

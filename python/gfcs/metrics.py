@@ -47,6 +47,8 @@ __all__ = [
     "DEFAULT_SUCCESS_TOL",
     "DEFAULT_LIMIT_TOL",
     "DEFAULT_MESH_MARGIN",
+    "INTERPOLATION_ALLOWANCE",
+    "mesh_report_cutoff",
 ]
 
 #: Default tolerance [rad] on ‖q_T − q_goal‖ for a trajectory to count as reaching its goal: the default
@@ -57,23 +59,24 @@ DEFAULT_LIMIT_TOL = 1e-6
 #: Relative slack on the velocity limits in the success criterion (rounding of the re-timed samples).
 VELOCITY_RATIO_TOL = 1e-6
 #: How far above the mesh margin [m] :func:`mesh_check` measures mesh clearances exactly; beyond it a
-#: clearance is reported as +inf. Small, because every exact distance between detailed meshes whose convex
-#: hulls lie within this range is computed: on the UR5's gripper meshes a motion's self-collision check
-#: took 13 s with 0.5 mm, 17 s with 2 mm and 55 s with 11 mm.
+#: clearance is reported as +inf. Small, because the exact distances between detailed meshes cost more the
+#: farther out they are measured.
 MESH_REPORT_RANGE = 0.002
 #: Resolution [rad or m, max over joints] at which collision checks visit a path (:func:`checked_states`):
 #: half the 0.01 rad at which validators commonly interpolate a returned trajectory.
 MESH_CHECK_STEP = 0.005
-#: States per mesh-check call when a deadline bounds the check (:func:`mesh_check`): exact distances of
-#: detailed meshes take up to 0.16 s per state, so a check overruns its deadline by a few tenths of a second
-#: at most.
-MESH_CHECK_CHUNK = 2
-#: Default clearance [m] the collision meshes must keep, from the obstacles and between links, for a
-#: trajectory to count as collision-free when a mesh checker is given: a millimetre held back for
-#: checkers of the same meshes that measure differently (other distance code, tessellation, padding).
-#: Successful motions come within hundredths of a millimetre of the meshes mid-way when the margin is 0
-#: (docs/tuning.md), so the millimetre keeps what passes here clear for those checkers too.
-DEFAULT_MESH_MARGIN = 0.001
+#: States per mesh-check call when a deadline bounds the check (:func:`mesh_check`): a check overruns its
+#: deadline by one call at most.
+MESH_CHECK_CHUNK = 8
+#: Default clearance [m] the collision meshes must keep, from the obstacles and between links, at every
+#: configuration of a trajectory (its states and the straight segments between them) for it to count as
+#: collision-free when a mesh checker is given: above the round-off of distance codes, so that what passes
+#: here passes other checkers of the same meshes.
+DEFAULT_MESH_MARGIN = 0.0001
+#: Clearance [m] beyond the margin that lets a state vouch for the path around it in :func:`mesh_check`:
+#: a path whose checked states all keep the margin plus this passes without the continuous check
+#: (:meth:`gfcs.MeshChecker.sweep`), which certifies the others segment by segment.
+INTERPOLATION_ALLOWANCE = 0.001
 
 
 def _non_negative(name: str, value: Any, unit: str) -> float:
@@ -298,6 +301,12 @@ def mesh_clearance(mesh_checker: Any, scene: Any, q: Any) -> np.ndarray:
     return np.asarray(mesh_checker.clearance(scene, qa), dtype=np.float64).reshape(qa.shape[0])
 
 
+def mesh_report_cutoff(margin: float) -> float:
+    """Distance [m] up to which :func:`mesh_check` measures mesh clearances exactly for ``margin``: the
+    margin, :data:`INTERPOLATION_ALLOWANCE` and :data:`MESH_REPORT_RANGE`; beyond it a clearance reads +inf."""
+    return float(margin) + INTERPOLATION_ALLOWANCE + MESH_REPORT_RANGE
+
+
 def checked_states(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
     """The rows of ``q`` (T, dof) a collision check visits: the first, the last, and each next one that
     lies at least ``step`` [rad or m, max over joints] from the last one visited. A slowly timed path
@@ -334,14 +343,19 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
     and a check that reaches the deadline stops there with a negative verdict: exact distances between
     detailed meshes take up to a tenth of a second per state, and a solve's budget bounds its checks too.
 
+    A path whose checked states all keep more than ``margin`` + :data:`INTERPOLATION_ALLOWANCE` passes;
+    one whose states keep more than ``margin``, but not all that much more, passes when the continuous
+    check (:meth:`gfcs.MeshChecker.sweep`) certifies every configuration on the straight segments between
+    its rows, not only the states, beyond ``margin``.
+
     Returns:
-        (min mesh clearance to the obstacles [m], min mesh clearance between links [m], both > ``margin``,
-        whether the verdict is final (False: the deadline came before every state was checked)), each
-        clearance +inf when no shape comes within ``margin`` + ``MESH_REPORT_RANGE`` (over the states
-        checked).
+        (min mesh clearance to the obstacles [m], min mesh clearance between links [m], the verdict,
+        whether the verdict is final (False: the deadline came before
+        every state was checked)), each clearance +inf when no shape comes within ``margin`` +
+        ``MESH_REPORT_RANGE`` (over the states checked).
     """
     qa = checked_states(q)
-    cutoff = float(margin) + MESH_REPORT_RANGE
+    cutoff = mesh_report_cutoff(margin)
     chunk = qa.shape[0] if deadline is None else MESH_CHECK_CHUNK
     clear = self_clear = math.inf
     for start in range(0, qa.shape[0], max(1, chunk)):
@@ -352,7 +366,12 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
             return clear, self_clear, False, True
         if deadline is not None and start + chunk < qa.shape[0] and time.perf_counter() > deadline:
             return clear, self_clear, False, False
-    return clear, self_clear, True, True
+    if min(clear, self_clear) > margin + INTERPOLATION_ALLOWANCE:
+        return clear, self_clear, True, True
+    left = None if deadline is None else max(0.0, deadline - time.perf_counter())
+    sweep = mesh_checker.sweep(scene, np.atleast_2d(np.asarray(q, dtype=np.float64)), margin=float(margin),
+                               time_limit=left)
+    return clear, self_clear, bool(sweep["ok"]), bool(sweep["complete"])
 
 
 def link_path_lengths(robot: Any, q: Any, links: Sequence[str]) -> Dict[str, float]:

@@ -19,6 +19,10 @@
 //! [`MeshChecker::max_distance`] (default [`DEFAULT_MAX_DISTANCE`]) are not computed and reported as
 //! `f64::INFINITY`.
 
+mod sweep;
+
+pub use sweep::{MotionBounds, Sweep};
+
 use std::collections::HashMap;
 use std::fmt;
 use std::panic::{catch_unwind, AssertUnwindSafe};

@@ -14,7 +14,7 @@ pub mod batch;
 mod geometry;
 mod ik;
 mod kinematics;
-mod model;
+pub(crate) mod model;
 mod panda;
 mod spheres;
 mod srdf;
