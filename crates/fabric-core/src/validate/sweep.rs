@@ -345,7 +345,7 @@ impl Context<'_> {
         )?;
         let here = Found {
             least: raw,
-            ok: !(scene_open && dm.0 <= self.margin) && !(self_open && dm.1 <= self.margin),
+            ok: !(scene_open && dm.0 <= self.margin || self_open && dm.1 <= self.margin),
             complete: true,
             measured: 1,
         };
