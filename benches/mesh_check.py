@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""Cost of the exact mesh checks on a robot with detailed meshes (``gfcs.MeshChecker``).
+
+For random configurations within the joint limits (seeded) of a MotionBenchMaker robot, times:
+
+* ``self_clearance`` per state (exact self-distance, unbounded: penetration depths included), apart for the
+  states whose links are clear and those in contact;
+* ``min_self_clearance`` over the states with a 3 mm cutoff (what a solve's mesh verdict asks);
+* ``clearance`` per state against the problem's scene;
+* ``sweep`` (the continuous verdict) of straight paths between consecutive random states, split into
+  rows 0.01 rad apart, against the same scene.
+
+Prints a Markdown table (median and largest per call, seconds) and, with ``--json``, the raw times.
+
+Example::
+
+    GFCS_SHARED=../shared python benches/mesh_check.py --robot ur5 --states 60
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+from pathlib import Path
+from typing import Callable, Dict, List
+
+import numpy as np
+
+import gfcs
+from gfcs import problems, srdf_groups
+
+GROUPS = {"ur5": "manipulator", "fetch": "arm_with_torso", "panda": "panda_arm"}
+
+
+def timed(f: Callable[[], object], repeat: int = 1) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        f()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--shared", default=None, help="shared data folder (default: GFCS_SHARED or ../shared)")
+    ap.add_argument("--robot", choices=sorted(GROUPS), default="ur5")
+    ap.add_argument("--states", type=int, default=60)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--no-sweep", action="store_true", help="leave out the sweep (e.g. to time a build before it)")
+    ap.add_argument("--json", help="write the raw times here")
+    args = ap.parse_args()
+    shared = Path(args.shared) if args.shared else problems.shared_dir()
+    if shared is None:
+        raise SystemExit("shared data folder not found: pass --shared or set GFCS_SHARED")
+    folder = shared / "robots" / f"mbm_{args.robot}"
+    urdf, srdf = folder / f"{args.robot}_spherized.urdf", folder / f"{args.robot}.srdf"
+    robot, _ = srdf_groups.robot_for_group(str(urdf), str(srdf), GROUPS[args.robot], mesh_dir=str(folder))
+    checker = problems.urdf_mesh_checker(folder / f"{args.robot}.urdf", robot, mesh_dir=folder, srdf=srdf)
+    mbm = shared / ("mbm" if args.robot == "panda" else f"mbm_{args.robot}") / "table_pick"
+    scene = problems.load_mbm(mbm / "scene0001.yaml", mbm / "request0001.yaml", robot=robot).scene
+    rng = np.random.default_rng(args.seed)
+    lo, hi = np.asarray(robot.lower), np.asarray(robot.upper)
+    qs = rng.uniform(lo, hi, size=(args.states, robot.dof))
+    times: Dict[str, List[float]] = {"self_clearance, clear states": [], "self_clearance, states in contact": [],
+                                     "clearance": []}
+    for q in qs:
+        t = timed(lambda: checker.self_clearance(q))
+        clear = float(checker.self_clearance(q)) > 0
+        times["self_clearance, clear states" if clear else "self_clearance, states in contact"].append(t)
+        times["clearance"].append(timed(lambda: checker.clearance(scene, q)))
+    times["min_self_clearance (3 mm cutoff)"] = [timed(lambda: checker.min_self_clearance(qs, cutoff=0.003))]
+    for a, b in zip(qs[:-1], [] if args.no_sweep else qs[1:]):
+        rows = max(2, int(np.ceil(np.max(np.abs(b - a)) / 0.01)) + 1)
+        path = np.linspace(a, b, rows)
+        times.setdefault("sweep", []).append(timed(lambda: checker.sweep(scene, path)))
+    print(f"{args.robot}: {checker.num_shapes} collision shapes, {checker.num_self_pairs} self pairs, "
+          f"{args.states} random states (seed {args.seed})\n")
+    print("| query | calls | median (s) | largest (s) |\n|---|---|---|---|")
+    for name, ts in times.items():
+        if ts:
+            print(f"| {name} | {len(ts)} | {statistics.median(ts):.4f} | {max(ts):.4f} |")
+    if args.json:
+        Path(args.json).write_text(json.dumps(times))
+
+
+if __name__ == "__main__":
+    main()
