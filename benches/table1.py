@@ -30,7 +30,7 @@ from typing import Dict, List, Sequence, Tuple
 ROBOTS: Dict[str, Tuple[str, str, str, str, str, str]] = {
     "mbm_panda": ("mbm", "robots/mbm_panda", "panda_spherized.urdf", "panda.urdf", "panda.srdf", "panda_hand"),
     "ur5": ("mbm_ur5", "robots/mbm_ur5", "ur5_spherized.urdf", "ur5.urdf", "ur5.srdf", "ee_link"),
-    "fetch": ("mbm_fetch", "robots/mbm_fetch", "fetch_spherized.urdf", "fetch.urdf", "fetch.srdf", "gripper_link"),
+    "fetch": ("mbm_fetch", "robots/mbm_fetch", "fetch_spherized.urdf", "fetch.urdf", "fetch.srdf", "wrist_roll_link"),
 }
 
 #: run -> the methods and options of its ``gfcs bench`` call.
