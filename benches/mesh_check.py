@@ -22,25 +22,16 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import time
 from pathlib import Path
-from typing import Callable, Dict, List
+from typing import Dict, List
 
 import numpy as np
 
 import gfcs
 from gfcs import problems, srdf_groups
+from scaling import best_of  # benches/ is the script's folder
 
 GROUPS = {"ur5": "manipulator", "fetch": "arm_with_torso", "panda": "panda_arm"}
-
-
-def timed(f: Callable[[], object], repeat: int = 1) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t = time.perf_counter()
-        f()
-        best = min(best, time.perf_counter() - t)
-    return best
 
 
 def main() -> None:
@@ -67,15 +58,15 @@ def main() -> None:
     times: Dict[str, List[float]] = {"self_clearance, clear states": [], "self_clearance, states in contact": [],
                                      "clearance": []}
     for q in qs:
-        t = timed(lambda: checker.self_clearance(q))
+        t = best_of(lambda: checker.self_clearance(q), 1)
         clear = float(checker.self_clearance(q)) > 0
         times["self_clearance, clear states" if clear else "self_clearance, states in contact"].append(t)
-        times["clearance"].append(timed(lambda: checker.clearance(scene, q)))
-    times["min_self_clearance (3 mm cutoff)"] = [timed(lambda: checker.min_self_clearance(qs, cutoff=0.003))]
+        times["clearance"].append(best_of(lambda: checker.clearance(scene, q), 1))
+    times["min_self_clearance (3 mm cutoff)"] = [best_of(lambda: checker.min_self_clearance(qs, cutoff=0.003), 1)]
     for a, b in zip(qs[:-1], [] if args.no_sweep else qs[1:]):
         rows = max(2, int(np.ceil(np.max(np.abs(b - a)) / 0.01)) + 1)
         path = np.linspace(a, b, rows)
-        times.setdefault("sweep", []).append(timed(lambda: checker.sweep(scene, path)))
+        times.setdefault("sweep", []).append(best_of(lambda: checker.sweep(scene, path), 1))
     print(f"{args.robot}: {checker.num_shapes} collision shapes, {checker.num_self_pairs} self pairs, "
           f"{args.states} random states (seed {args.seed})\n")
     print("| query | calls | median (s) | largest (s) |\n|---|---|---|---|")
