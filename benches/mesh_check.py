@@ -27,7 +27,6 @@ from typing import Dict, List
 
 import numpy as np
 
-import gfcs
 from gfcs import problems, srdf_groups
 from scaling import best_of  # benches/ is the script's folder
 
