@@ -177,8 +177,9 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="prefer the shortest hand path among reached candidates within (1 + EPS) x the "
                         "lowest cost (default: the preset's, 0.1 / 0; 0: the lowest-cost candidate, eq. 4)")
     g.add_argument("--mesh-margin", type=float, metavar="M", default=None,
-                   help="clearance in m the collision meshes must keep for a motion to succeed, when a mesh "
-                        "model validates it (default 0.001; 0: contact only)")
+                   help="clearance in m the collision meshes must keep at every configuration of a motion "
+                        "(states and the segments between them) for it to succeed, when a mesh model validates "
+                        "it (default 0.0001; 0: contact only)")
     g.add_argument("--no-retry", action="store_true",
                    help="run no retry policy (gfcs.planning.policies: one more command, a wider obstacle "
                         "margin after a mesh-only collision, the goal-contact attempt, the covering spheres "
