@@ -163,6 +163,14 @@ struct Found {
 }
 
 impl Found {
+    /// Nothing measured, nothing refused: the identity of [`Found::join`].
+    const NONE: Found = Found {
+        least: (f64::INFINITY, f64::INFINITY),
+        ok: true,
+        complete: true,
+        measured: 0,
+    };
+
     fn join(self, other: Found) -> Found {
         Found {
             least: (
@@ -208,12 +216,7 @@ impl Context<'_> {
     /// first state beyond that becomes the next anchor, and the segment reaching it is certified
     /// from both ends ([`Context::segment`]), with the lower bound a − bound at its near end.
     fn cover(&self, first: usize, last: usize, ws: &mut MeshWorkspace) -> Result<Found> {
-        let mut found = Found {
-            least: (f64::INFINITY, f64::INFINITY),
-            ok: true,
-            complete: true,
-            measured: 0,
-        };
+        let mut found = Found::NONE;
         let range = (ANCHOR_RANGE, ANCHOR_RANGE);
         let mut anchor = first;
         let (mut a, raw) = self.measure(self.row(first), range, ws)?;
@@ -300,7 +303,6 @@ impl Context<'_> {
 
     /// Check the segment qa → qb (ends measured: `da`, `db`), halving it while it is not certified.
     /// `open`: which of (scene, self) still need certifying.
-    #[allow(clippy::too_many_arguments)]
     fn segment(
         &self,
         qa: &[f64],
@@ -311,36 +313,32 @@ impl Context<'_> {
         ws: &mut MeshWorkspace,
     ) -> Result<Found> {
         let dq: Vec<f64> = qa.iter().zip(qb).map(|(a, b)| b - a).collect();
-        let scene_open = open.0 && !self.certified(da.0, db.0, self.bounds.obstacle_bound(&dq));
-        let self_open = open.1 && !self.certified(da.1, db.1, self.bounds.self_bound(&dq));
-        let done = Found {
-            least: (f64::INFINITY, f64::INFINITY),
-            ok: true,
-            complete: true,
-            measured: 0,
-        };
+        let bound = self.bounds_of(&dq);
+        let scene_open = open.0 && !self.certified(da.0, db.0, bound.0);
+        let self_open = open.1 && !self.certified(da.1, db.1, bound.1);
         if !scene_open && !self_open {
-            return Ok(done);
+            return Ok(Found::NONE);
         }
         if self.late() {
             return Ok(Found {
                 ok: false,
                 complete: false,
-                ..done
+                ..Found::NONE
             });
         }
         if depth >= MAX_DEPTH {
-            return Ok(Found { ok: false, ..done });
+            return Ok(Found {
+                ok: false,
+                ..Found::NONE
+            });
         }
         let qm: Vec<f64> = qa.iter().zip(qb).map(|(a, b)| 0.5 * (a + b)).collect();
-        let half: Vec<f64> = dq.iter().map(|d| 0.5 * d).collect();
-        let need = |open: bool, bound: f64| if open { bound / 2.0 } else { f64::NAN };
+        // Each half's bound is half the segment's (the bound is linear in |Δq|); the midpoint must
+        // cover half of that for either half to certify.
+        let need = |open: bool, bound: f64| if open { bound / 4.0 } else { f64::NAN };
         let (dm, raw) = self.measure(
             &qm,
-            (
-                need(scene_open, self.bounds.obstacle_bound(&half)),
-                need(self_open, self.bounds.self_bound(&half)),
-            ),
+            (need(scene_open, bound.0), need(self_open, bound.1)),
             ws,
         )?;
         let here = Found {
@@ -374,7 +372,7 @@ impl MeshChecker {
     /// and from itself (see the module documentation). The states are split into runs checked in
     /// parallel (rayon, on `threads` threads or the current pool), each from anchor to anchor
     /// ([`Context::cover`]); the verdict does not depend on the split. With a `deadline` the sweep
-    /// stops there with `complete = false`. T = 0: ok; T = 1: the state alone.
+    /// ends at it with `complete = false`. T = 0: ok; T = 1: the state alone.
     ///
     /// Errors: `Shape` (length not a multiple of dof), `NonFinite`, `Value` (negative or NaN
     /// margin, `threads` = 0, a pair parry cannot measure).
@@ -407,23 +405,13 @@ impl MeshChecker {
         // Runs of states covered in parallel; neighbouring runs share their boundary state.
         let runs = (2 * rayon::current_num_threads().max(1)).min(n.max(1));
         let cuts: Vec<usize> = (0..=runs).map(|r| r * n.saturating_sub(1) / runs).collect();
-        let empty = Found {
-            least: (f64::INFINITY, f64::INFINITY),
-            ok: true,
-            complete: true,
-            measured: 0,
-        };
         let found = if n == 0 {
-            empty
+            Found::NONE
         } else {
             with_threads(threads, || {
                 cuts.par_windows(2)
-                    .enumerate()
-                    .map_init(
-                        || self.workspace(),
-                        |ws, (r, w)| cx.cover(if r == 0 { 0 } else { w[0] }, w[1], ws),
-                    )
-                    .try_reduce(|| empty, |a, b| Ok(a.join(b)))
+                    .map_init(|| self.workspace(), |ws, w| cx.cover(w[0], w[1], ws))
+                    .try_reduce(|| Found::NONE, |a, b| Ok(a.join(b)))
             })??
         };
         Ok(Sweep {
