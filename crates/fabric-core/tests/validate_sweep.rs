@@ -47,13 +47,25 @@ fn post(x: f64, y: f64) -> Scene {
     scene
 }
 
+/// The least of per-state distances.
+fn least(values: Vec<f64>) -> f64 {
+    values.into_iter().fold(f64::INFINITY, f64::min)
+}
+
+/// j1 swung from `from` to `to` rad with j2 = 0, as `samples` + 1 evenly spaced states (row-major).
+fn swing(from: f64, to: f64, samples: usize) -> Vec<f64> {
+    (0..=samples)
+        .flat_map(|k| [from + (to - from) * k as f64 / samples as f64, 0.0])
+        .collect()
+}
+
 #[test]
 fn a_swing_through_a_post_fails_between_clear_states() {
     let robot = arm();
     let checker = MeshChecker::new(&robot).unwrap();
     // The post at 0.6 m along +x: link2 (straight) sweeps through it when j1 goes from -0.3 to 0.3.
     let scene = post(0.6, 0.0);
-    let qs = [-0.3, 0.0, 0.3, 0.0];
+    let qs = swing(-0.3, 0.3, 1);
     let states = checker.trajectory_clearance(&scene, &qs, None).unwrap();
     assert!(
         states.iter().all(|d| *d > 0.1),
@@ -63,24 +75,21 @@ fn a_swing_through_a_post_fails_between_clear_states() {
     assert!(!sweep.ok && sweep.complete, "{sweep:?}");
     assert!(sweep.clearance <= 0.001, "{sweep:?}");
     // Densely sampled, the same path touches the post.
-    let dense: Vec<f64> = (0..=600)
-        .flat_map(|k| [-0.3 + 0.6 * k as f64 / 600.0, 0.0])
-        .collect();
-    let least = checker
-        .trajectory_clearance(&scene, &dense, None)
-        .unwrap()
-        .into_iter()
-        .fold(f64::INFINITY, f64::min);
-    assert!(least <= 0.0, "{least}");
+    let dense = least(
+        checker
+            .trajectory_clearance(&scene, &swing(-0.3, 0.3, 600), None)
+            .unwrap(),
+    );
+    assert!(dense <= 0.0, "{dense}");
 }
 
 #[test]
-fn a_path_past_a_post_is_certified_and_agrees_with_dense_sampling() {
+fn a_path_past_a_post_is_certified_and_a_near_miss_depends_on_the_margin() {
     let robot = arm();
     let checker = MeshChecker::new(&robot).unwrap();
     // The post beyond the arm's reach in x (0.9 m): clear along the whole swing, by 0.09 m at least.
     let scene = post(0.9, 0.0);
-    let qs = [-0.3, 0.0, 0.3, 0.0];
+    let qs = swing(-0.3, 0.3, 1);
     let sweep = checker.sweep(&scene, &qs, 0.001, Some(2), None).unwrap();
     assert!(sweep.ok && sweep.complete, "{sweep:?}");
     // A post 3 mm beyond the tip's arc: certified at a 1 mm margin, refused at 5 mm.
@@ -101,25 +110,20 @@ fn self_collision_between_states_is_found() {
     // Straight arm (j2 = 0): link2 spans 0.4-0.8 m from the base axis, and the base box's outer end
     // (0.3, -0.3) lies 0.42 m from it at -45°. Swinging j1 from -1.2 to -0.2 rad carries link2's
     // inner end across that corner, while both end states keep it clear.
-    let q = |a: f64| [a, 0.0];
-    let qs: Vec<f64> = [q(-1.2), q(-0.2)].concat();
+    let qs = swing(-1.2, -0.2, 1);
     let states = checker.trajectory_self_clearance(&qs, None).unwrap();
-    let dense: Vec<f64> = (0..=800)
-        .flat_map(|k| q(-1.2 + 1.0 * k as f64 / 800.0))
-        .collect();
-    let least = checker
-        .trajectory_self_clearance(&dense, None)
-        .unwrap()
-        .into_iter()
-        .fold(f64::INFINITY, f64::min);
+    assert!(states.iter().all(|d| *d > 0.0), "{states:?}");
+    let dense = least(
+        checker
+            .trajectory_self_clearance(&swing(-1.2, -0.2, 800), None)
+            .unwrap(),
+    );
+    assert!(dense <= 0.0, "the path crosses the base box: {dense}");
     let sweep = checker.sweep(&empty, &qs, 0.001, None, None).unwrap();
-    if least <= 0.001 {
-        assert!(!sweep.ok, "dense min {least}, states {states:?}, {sweep:?}");
-    } else {
-        assert!(sweep.ok, "dense min {least}, {sweep:?}");
-    }
-    assert!(states.iter().all(|d| *d > 0.0));
-    assert!(least <= 0.0, "the path crosses the base box: {least}");
+    assert!(
+        !sweep.ok && sweep.complete,
+        "dense min {dense}, states {states:?}, {sweep:?}"
+    );
 }
 
 #[test]
