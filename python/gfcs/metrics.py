@@ -333,7 +333,7 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
                deadline: Optional[float] = None) -> Tuple[float, float, bool, bool]:
     """The mesh part of the success criterion over the samples of ``q`` (T, dof).
 
-    The exact mesh distances are computed only up to ``margin`` + :data:`MESH_REPORT_RANGE`: pairs of
+    The exact mesh distances are computed only up to :func:`mesh_report_cutoff` ``(margin)``: pairs of
     shapes whose bounds lie farther are culled (exact mesh-mesh distances of near but clear pairs are
     most of a mesh check's cost), so a clearance beyond that range is reported as +inf. The verdict is
     the same as with exact distances.
@@ -351,8 +351,8 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
     Returns:
         (min mesh clearance to the obstacles [m], min mesh clearance between links [m], the verdict,
         whether the verdict is final (False: the deadline came before
-        every state was checked)), each clearance +inf when no shape comes within ``margin`` +
-        ``MESH_REPORT_RANGE`` (over the states checked).
+        every state was checked)), each clearance +inf when no shape comes within
+        :func:`mesh_report_cutoff` ``(margin)`` (over the states checked).
     """
     qa = checked_states(q)
     cutoff = mesh_report_cutoff(margin)

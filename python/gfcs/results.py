@@ -16,8 +16,8 @@ rollout time: the paper's time), ``wall_time`` [s] (the whole solve behind the r
 and validation of the returned motion, retries), ``cost`` (GFCS eq. 4), ``ee_length`` [m], ``cspace_length`` [rad], ``ee_ldj``,
 ``cspace_ldj``, ``min_clearance`` [m] (collision spheres), ``final_error`` [rad]; when the trajectory was
 validated against collision meshes also ``mesh_clearance`` and ``mesh_self_clearance`` [m] (the smallest
-mesh distance to the obstacles and between non-adjacent links; ``inf``: none within the mesh margin +
-``gfcs.metrics.MESH_REPORT_RANGE``); ``velocity_ratio`` (the largest finite-difference joint speed over its
+mesh distance to the obstacles and between non-adjacent links; ``inf``: none within
+``gfcs.metrics.mesh_report_cutoff(mesh margin)``); ``velocity_ratio`` (the largest finite-difference joint speed over its
 URDF velocity limit, ≤ 1 within the limits); for a robot with several end effectors (a group spanning two arms) also ``ee_lengths``
 ({link: hand path [m]}, every hand; ``ee_length`` is the first's).
 
