@@ -330,6 +330,35 @@ def test_per_sphere_obstacle_margins(robot, scene):
         plain.with_obstacle_margins(deep)
 
 
+def test_joint_scales(robot, scene):
+    """with_joint_scales: a copy; unit scales change no bit of q̈, others do (and survive the per-sphere
+    margins copy); gfcs.joints.velocity_scales is v_ref / v_i; bad scales name the joint."""
+    from gfcs.joints import velocity_scales
+
+    plain = gfcs.Fabric(robot, scene)
+    q, qd = Q0, np.full(7, 0.3)
+    unit = plain.with_joint_scales(np.ones(7))
+    assert plain.joint_scales is None and unit.joint_scales.shape == (7,)
+    np.testing.assert_array_equal(unit.acceleration(q, qd, GOAL), plain.acceleration(q, qd, GOAL))
+    scales = velocity_scales(robot)
+    v = np.asarray(robot.velocity_limits)
+    np.testing.assert_allclose(scales * v, np.median(v))
+    from types import SimpleNamespace
+
+    assert velocity_scales(SimpleNamespace(velocity_limits=[2.0, 0.0])) is None  # no time scale
+    heavy = plain.with_joint_scales(np.r_[5.0, np.ones(6)])
+    assert not np.array_equal(heavy.acceleration(q, qd, GOAL), plain.acceleration(q, qd, GOAL))
+    margins = heavy.with_obstacle_margins(np.full(len(robot.sphere_radii), 0.002))
+    np.testing.assert_array_equal(margins.joint_scales, heavy.joint_scales)
+    assert heavy.with_joint_scales(None).joint_scales is None
+    with pytest.raises(gfcs.ShapeError, match="scales"):
+        plain.with_joint_scales(np.ones(6))
+    with pytest.raises(gfcs.NonFiniteError, match="scales"):
+        plain.with_joint_scales(np.full(7, np.inf))
+    with pytest.raises(gfcs.InvalidValueError, match=r"joint_scales\[1\].*panda_joint2"):
+        plain.with_joint_scales(np.r_[1.0, -1.0, np.ones(5)])
+
+
 def test_bad_inputs(fabric, robot):
     with pytest.raises(gfcs.ShapeError, match=r"q: expected shape \(7,\), got \(6,\)"):
         fabric.acceleration(np.zeros(6), np.zeros(7), GOAL)

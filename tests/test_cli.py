@@ -69,6 +69,8 @@ def test_solve_selection_and_timing_options_reach_the_result():
     assert r.returncode == 2 and "length_slack" in r.stderr and "Traceback" not in r.stderr
     r = run("solve", "--mesh-margin", "-1", *SMALL)
     assert r.returncode == 2 and "mesh_margin" in r.stderr and "Traceback" not in r.stderr
+    r = run("solve", "--restarts", "-1", *SMALL)
+    assert r.returncode == 2 and "restarts" in r.stderr and "Traceback" not in r.stderr
 
 
 def panda_with(collision):

@@ -101,6 +101,34 @@ def test_model_cascade_moves_to_the_next_model_and_stops_after_the_last(context)
     assert policy.propose(context, [_record(thin, 1), _record(own, 1)]) is None
 
 
+def test_restart_begins_a_new_round_on_the_first_model_until_its_rounds_are_used(context):
+    thin, own = context.models.planning
+    policy = planning.Restart(rounds=2)
+    proposal = policy.propose(context, [_record(thin, 1), _record(own, 2)])
+    assert (proposal.model, proposal.n_commands, proposal.restart) == (thin, 1, 1)
+    assert proposal.label == "thin, 1 command, restart 1" and proposal.settings(0.002)["restart"] == 1
+    second = policy.propose(context, [_record(own, 2), _attempt_record(proposal)])
+    assert second.restart == 2
+    assert policy.propose(context, [_attempt_record(second)]) is None
+    # the other policies keep the restart of the round they continue
+    assert planning.MoreCommands(extra=1).propose(context, [_attempt_record(proposal)]).restart == 1
+    assert planning.ModelCascade().propose(context, [_attempt_record(proposal)]).restart == 1
+
+
+def test_a_restart_has_its_own_seed_and_a_doubled_population(context):
+    thin = context.models.planning[0]
+    options = _attempts.OptimOptions(population=8, seed=3)
+    assert _attempts.Attempt(thin, 1).optim_options(options) is options
+    first, second = (_attempts.Attempt(thin, 1, restart=k).optim_options(options) for k in (1, 2))
+    assert (first.population, second.population) == (16, 32)
+    assert len({options.seed, first.seed, second.seed}) == 3
+    assert _attempts.Attempt(thin, 2, restart=1).optim_options(options).seed == first.seed  # one seed per round
+
+
+def _attempt_record(attempt):
+    return _attempts.AttemptRecord(attempt, result=SimpleNamespace(success=False, metrics={}, cost=1.0))
+
+
 def test_goal_contact_needs_a_validator(context):
     thin = context.models.planning[0]
     assert planning.GoalContact().propose(context, [_record(thin, 1)]) is None
@@ -113,6 +141,12 @@ def test_policy_parameters_are_checked_by_name():
         planning.MoreCommands(extra=1.5)
     with pytest.raises(gfcs.GfcsError, match="GoalContact.slack"):
         planning.GoalContact(slack=float("nan"))
+    with pytest.raises(gfcs.GfcsError, match="Restart.rounds"):
+        planning.Restart(rounds=-1)
+    with pytest.raises(gfcs.GfcsError, match="restarts"):
+        planning.default_policies(restarts=0.5)
+    assert [type(p).__name__ for p in planning.default_policies()][-1] == "Restart"
+    assert "Restart" not in [type(p).__name__ for p in planning.default_policies(restarts=0)]
 
 
 # ------------------------------------------------------------------------------------ solve
@@ -131,7 +165,7 @@ def test_the_result_lists_every_attempt_and_survives_json(retried_problem):
     back = gfcs.results.SolveResult.from_json(r.to_json())
     assert back.attempts == json.loads(json.dumps(r.attempts)) and back.preset == "default"
     assert back.attempts[0]["settings"] == {"model": "spheres", "n_commands": 1, "kind": "plan",
-                                            "obstacle_margin": 0.002, "clearance_floor": 0.0}
+                                            "obstacle_margin": 0.002, "clearance_floor": 0.0, "restart": 0}
     assert all(a["time"] > 0 and a["n_evaluations"] == 4 for a in back.attempts)
 
 

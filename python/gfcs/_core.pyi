@@ -466,6 +466,12 @@ class Fabric:
     @property
     def obstacle_margins(self) -> Optional[FloatArray]:
         """(S,) m of :meth:`with_obstacle_margins`, or None (the configured margin for every sphere)."""
+    def with_joint_scales(self, scales: Optional[ArrayLike]) -> Fabric:
+        """A copy whose joint attractor (GF VII-A1) acts on x = S (q − q_g), S = diag(``scales``) (dof,),
+        each > 0 (units of x per rad or per m; :func:`gfcs.joints.velocity_scales`: v_ref / v_i); None: S = I."""
+    @property
+    def joint_scales(self) -> Optional[FloatArray]:
+        """(dof,) scales of :meth:`with_joint_scales`, or None (S = I, the paper's attractor)."""
     def acceleration(
         self, q: ArrayLike, qd: ArrayLike, command: ArrayLike, ee_target: Optional[Pose] = None
     ) -> FloatArray:

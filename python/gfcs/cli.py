@@ -180,6 +180,10 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="clearance in m the collision meshes must keep at every configuration of a motion "
                         "(states and the segments between them) for it to succeed, when a mesh model validates "
                         "it (default 0.0001; 0: contact only)")
+    g.add_argument("--restarts", type=int, metavar="K", default=None,
+                   help="after every other retry failed, start again up to K times with a fresh seed and twice "
+                        "the population each time while the time budget lasts (IPOP-CMA-ES; default: the "
+                        "preset's, 2 / none; 0: off)")
     g.add_argument("--no-retry", action="store_true",
                    help="run no retry policy (gfcs.planning.policies: one more command, a wider obstacle "
                         "margin after a mesh-only collision, the goal-contact attempt, the covering spheres "
@@ -253,7 +257,7 @@ def _solve_options(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
     if not (math.isfinite(args.time_limit) and args.time_limit >= 0):
         raise InvalidValueError(f"--time-limit must be a number of seconds ≥ 0 (0: no limit), got {args.time_limit}")
     given = {"length_slack": args.length_slack, "mesh_margin": args.mesh_margin,
-             "stall_batches": args.stall_batches}
+             "stall_batches": args.stall_batches, "restarts": args.restarts}
     return {"preset": args.preset, "time_limit": args.time_limit or None, "settings": _settings(args),
             "finish": _finish(args, robot), "stall_tol": args.stall_tol,
             **{k: v for k, v in given.items() if v is not None}}

@@ -14,11 +14,12 @@
 from __future__ import annotations
 
 import math
-from typing import Any, List, Tuple
+from typing import Any, List, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["continuous_mask", "joint_difference", "unwrap_goal", "snap_to_bounds", "BOUNDS_TOLERANCE"]
+__all__ = ["continuous_mask", "joint_difference", "unwrap_goal", "snap_to_bounds", "velocity_scales",
+           "BOUNDS_TOLERANCE"]
 
 #: Largest distance [rad or m] outside a joint's bounds at which :func:`snap_to_bounds` moves a value onto
 #: the bound; farther out, a value is an error.
@@ -64,3 +65,15 @@ def snap_to_bounds(robot: Any, q: Any, tol: float = BOUNDS_TOLERANCE) -> Tuple[n
                 moved.append(f"{name} = {float(q[j])!r} -> {float(bound)!r}")
                 q[j] = bound
     return q, moved
+
+
+def velocity_scales(robot: Any) -> Optional[np.ndarray]:
+    """(dof,) scales s_i = v_ref / v_i of the joint attractor (``Fabric.with_joint_scales``) from the URDF
+    velocity limits v_i [rad/s or m/s], v_ref their median: the attractor then measures each joint's error
+    in time at its speed limit, and a joint much slower than the others (a lift at 0.1 m/s beside arm joints
+    at 2 rad/s) weighs accordingly in the fabric's metric. None when a limit is missing, zero or not finite
+    (no time scale to derive)."""
+    v = np.asarray(robot.velocity_limits, dtype=np.float64)
+    if v.size == 0 or not np.all(np.isfinite(v)) or not np.all(v > 0):
+        return None
+    return float(np.median(v)) / v

@@ -562,7 +562,7 @@ impl Toy {
         );
         let mut qdd = vec![0.0; 3];
         let t = root
-            .solve(self.mode, &self.speed, qd, 1.0, 1.0, None, &mut qdd)
+            .solve(self.mode, &self.speed, qd, 1.0, 1.0, None, None, &mut qdd)
             .unwrap();
         (qdd, t.energy, t.potential)
     }

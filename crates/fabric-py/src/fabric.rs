@@ -71,6 +71,19 @@ impl PyFabric {
         self.fabric.robot().dof()
     }
 
+    /// A fabric object for `fabric` (a variant of this one's model) on the same robot object and scene.
+    fn derived(&self, py: Python<'_>, fabric: Fabric) -> PyFabric {
+        let ws = Mutex::new(FabricWorkspace::for_rollouts(&fabric));
+        PyFabric {
+            fabric: Arc::new(fabric),
+            robot: self.robot.clone_ref(py),
+            scene: RwLock::new(self.scene_snapshot()),
+            last: Mutex::new(None),
+            last_metric: Mutex::new(Vec::new()),
+            ws,
+        }
+    }
+
     /// The initial state of a rollout: `q0` (dof,) rad and `qd0` (dof,) rad/s, zeros when None; checked
     /// in that order.
     fn initial_state(
@@ -241,15 +254,36 @@ impl PyFabric {
             .transpose()?;
         let fabric = (*self.fabric).clone();
         let fabric = guarded(py, || fabric.with_obstacle_margins(margins))?;
-        let ws = Mutex::new(FabricWorkspace::for_rollouts(&fabric));
-        Ok(PyFabric {
-            fabric: Arc::new(fabric),
-            robot: self.robot.clone_ref(py),
-            scene: RwLock::new(self.scene_snapshot()),
-            last: Mutex::new(None),
-            last_metric: Mutex::new(Vec::new()),
-            ws,
-        })
+        Ok(self.derived(py, fabric))
+    }
+
+    /// A copy of this fabric whose joint attractor acts on x = S (q − q_g): `scales` (dof,) positive, one
+    /// per joint (units of x per rad or per m; `gfcs.joints.velocity_scales` gives v_ref / v_i from the
+    /// velocity limits); None: S = I (the paper's). `ShapeError` / `NonFiniteError` /
+    /// `InvalidValueError` (naming the joint).
+    #[pyo3(signature = (scales))]
+    fn with_joint_scales(
+        &self,
+        py: Python<'_>,
+        scales: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let n = self.dof();
+        let scales = scales
+            .filter(|s| !s.is_none())
+            .map(|s| convert::vector(s, "scales", n))
+            .transpose()?;
+        let fabric = (*self.fabric).clone();
+        let fabric = guarded(py, || fabric.with_joint_scales(scales))?;
+        Ok(self.derived(py, fabric))
+    }
+
+    /// The joint attractor's per-joint scales (dof,) of `with_joint_scales`, or None (S = I).
+    #[getter]
+    fn joint_scales<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+        self.fabric
+            .joint_scales()
+            .map(|s| output(py, s.to_vec(), &[s.len()]))
+            .transpose()
     }
 
     /// The per-sphere obstacle margins (S,) m of `with_obstacle_margins`, or None (the configured margin).

@@ -41,6 +41,8 @@ class Attempt:
         margin_step: [m] the step of that policy (0 for k = 0).
         obstacle_margins: (S,) per-sphere obstacle margins [m] of a goal-contact or cover attempt, else None.
         clearance_floor: [m, ≤ 0] how far spheres may overlap obstacles for success (goal contact), else 0.
+        restart: k of the restart policy (:class:`gfcs.planning.policies.Restart`): the optimiser runs with
+            its own seed and a population 2^k times the solve's (IPOP-CMA-ES); 0 for the solve's own.
     """
 
     model: PlanningModel
@@ -50,6 +52,7 @@ class Attempt:
     margin_step: float = 0.0
     obstacle_margins: Optional[tuple] = None
     clearance_floor: float = 0.0
+    restart: int = 0
 
     @property
     def label(self) -> str:
@@ -61,6 +64,8 @@ class Attempt:
             text += ", goal contact"
         if self.kind == "cover":
             text += ", mesh cover"
+        if self.restart:
+            text += f", restart {self.restart}"
         return text
 
     def obstacle_margin(self, base: float) -> float:
@@ -71,7 +76,16 @@ class Attempt:
     def settings(self, base: float) -> Dict[str, Any]:
         """What the attempt plans with, as a JSON-ready dict."""
         return {"model": self.model.name, "n_commands": int(self.n_commands), "kind": self.kind,
-                "obstacle_margin": self.obstacle_margin(base), "clearance_floor": float(self.clearance_floor)}
+                "obstacle_margin": self.obstacle_margin(base), "clearance_floor": float(self.clearance_floor),
+                "restart": int(self.restart)}
+
+    def optim_options(self, options: "OptimOptions") -> "OptimOptions":
+        """The solve's ``options`` for this attempt: a restart's own seed (derived from the solve's seed and
+        k) and population (2^k times the solve's)."""
+        if not self.restart:
+            return options
+        seed = int(np.random.SeedSequence(int(options.seed), spawn_key=(int(self.restart),)).generate_state(1)[0])
+        return dataclasses.replace(options, seed=seed, population=int(options.population) * 2 ** int(self.restart))
 
 
 @dataclass
@@ -232,6 +246,7 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
     accepts is no collision in the cost either.
     """
     started = time.perf_counter()
+    options = attempt.optim_options(options)
     floor = float(attempt.clearance_floor)
     if floor < 0.0:
         settings = dataclasses.replace(settings, collision_tol=max(settings.collision_tol, -floor))

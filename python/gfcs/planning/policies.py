@@ -15,7 +15,9 @@ or when the time budget leaves no room for another. An empty list is a solve wit
 * :class:`MeshCover`: after a mesh-only failure that the other retries did not fix, a round in which each
   sphere keeps its own extra distance from obstacles: how far the validator's meshes stick out of it;
 * :class:`ModelCascade`: when every attempt on one planning model failed, start again on the next one
-  (thin spheres, then the covering spheres: :mod:`gfcs.planning.models`).
+  (thin spheres, then the covering spheres: :mod:`gfcs.planning.models`);
+* :class:`Restart`: when all of that failed and budget is left, the whole sequence again with a fresh seed
+  and a doubled population (IPOP-CMA-ES), up to twice.
 
 A policy sees a :class:`PlanContext` and the records so far; it proposes only from the attempts of the
 model being tried (the last record's), so the cascade restarts every other policy on the next model.
@@ -35,7 +37,7 @@ from gfcs.planning.attempts import Attempt, AttemptRecord
 from gfcs.planning.models import RobotModels
 
 __all__ = ["Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "MeshCover", "ModelCascade",
-           "default_policies", "goal_contact"]
+           "Restart", "default_policies", "goal_contact"]
 
 
 @dataclass
@@ -117,7 +119,8 @@ class WiderMargin:
         round_ = [r for r in _same_model(records) if r.attempt.kind == "plan" and r.attempt.margin_round == k]
         if not any(r.mesh_collision_only for r in round_):
             return None
-        return Attempt(last.model, context.n_commands, margin_round=k + 1, margin_step=self.step)
+        return Attempt(last.model, context.n_commands, margin_round=k + 1, margin_step=self.step,
+                       restart=last.restart)
 
 
 def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
@@ -170,7 +173,8 @@ class GoalContact:
             return None
         margins, floor = found
         return Attempt(last.model, context.n_commands, kind="goal_contact",
-                       obstacle_margins=tuple(float(m) for m in margins), clearance_floor=floor)
+                       obstacle_margins=tuple(float(m) for m in margins), clearance_floor=floor,
+                       restart=last.restart)
 
 
 @dataclass
@@ -206,7 +210,7 @@ class MeshCover:
         base = float(context.model_fabric(last.model).config.to_dict()["obstacles"]["margin"])
         margins = base + np.minimum(deficits, self.max_extra)
         return Attempt(last.model, context.n_commands, kind="cover",
-                       obstacle_margins=tuple(float(m) for m in margins))
+                       obstacle_margins=tuple(float(m) for m in margins), restart=last.restart)
 
 
 @dataclass
@@ -218,19 +222,42 @@ class ModelCascade:
 
     def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
         planning = list(context.models.planning)
-        i = planning.index(records[-1].attempt.model)
+        last = records[-1].attempt
+        i = planning.index(last.model)
         if i + 1 >= len(planning):
             return None
-        return Attempt(planning[i + 1], context.n_commands)
+        return Attempt(planning[i + 1], context.n_commands, restart=last.restart)
+
+
+@dataclass
+class Restart:
+    """When every other policy declined (each model's attempts failed): start the whole sequence again,
+    from the first planning model and n_commands, with a fresh optimiser seed and twice the population of
+    the previous restart (IPOP-CMA-ES: Auger & Hansen 2005), at most ``rounds`` times. A solve whose
+    attempts all failed early has budget left (`time_limit`); a larger population explores more command
+    sequences per batch. The budget ends a restart it cannot afford."""
+
+    rounds: int = 2
+    name: str = "restart"
+
+    def __post_init__(self) -> None:
+        self.rounds = integer_at_least("Restart.rounds", self.rounds, 0)
+
+    def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
+        k = max(r.attempt.restart for r in records)
+        if k >= self.rounds:
+            return None
+        return Attempt(context.models.planning[0], context.n_commands, restart=k + 1)
 
 
 def default_policies(more_commands: int = 1, margin_step: float = 0.002, margin_rounds: int = 2,
                      goal_contact_slack: float = 0.002, cascade: bool = True,
-                     mesh_cover: float = 0.0) -> List[Any]:
+                     mesh_cover: float = 0.0, restarts: int = 2) -> List[Any]:
     """The ``default`` preset's policies in order: :class:`MoreCommands`, :class:`WiderMargin`,
-    :class:`GoalContact`, :class:`MeshCover` (``mesh_cover`` > 0: its ``max_extra``; off by default, docs/tuning.md), :class:`ModelCascade`; a policy whose parameter turns it off
-    (0 extra commands, a 0 step or 0 rounds, a 0 slack, a 0 ``mesh_cover``, ``cascade=False``) is left
-    out."""
+    :class:`GoalContact`, :class:`MeshCover` (``mesh_cover`` > 0: its ``max_extra``; off by default,
+    docs/tuning.md), :class:`ModelCascade`, :class:`Restart` (``restarts`` rounds); a policy whose
+    parameter turns it off (0 extra commands, a 0 step or 0 rounds, a 0 slack, a 0 ``mesh_cover``,
+    ``cascade=False``, 0 restarts) is left out."""
     policies: List[Any] = []
     if integer_at_least("more_commands", more_commands, 0) > 0:
         policies.append(MoreCommands(more_commands))
@@ -242,4 +269,6 @@ def default_policies(more_commands: int = 1, margin_step: float = 0.002, margin_
         policies.append(MeshCover(max_extra=mesh_cover))
     if cascade:
         policies.append(ModelCascade())
+    if integer_at_least("restarts", restarts, 0) > 0:
+        policies.append(Restart(restarts))
     return policies

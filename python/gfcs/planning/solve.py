@@ -77,6 +77,7 @@ def solve(
     mesh_retries: Optional[int] = None,
     goal_contact_slack: Optional[float] = None,
     sphere_fallback: Optional[bool] = None,
+    restarts: Optional[int] = None,
     stall_batches: Optional[int] = None,
     stall_tol: float = 0.01,
 ) -> SolveResult:
@@ -116,11 +117,12 @@ def solve(
         record_first_batch: also select and judge what each attempt held after its first batch
             (``attempt_records[i].first_batch``; ``gfcs bench``'s "1 b" row). That work counts neither in
             the attempts' times nor in ``wall_time``.
-        max_commands, mesh_retry_margin, mesh_retries, goal_contact_slack, sphere_fallback: parameters of
-            the default policies (:func:`gfcs.planning.policies.default_policies`), used when ``policies``
-            is None: the most free commands (default n + 1 with the preset's sampler, n with one of your
-            own), the wider-margin step [m] and rounds (0.002, 2), the goal-contact slack [m] (0.002), and
-            whether the model cascade runs (True).
+        max_commands, mesh_retry_margin, mesh_retries, goal_contact_slack, sphere_fallback, restarts:
+            parameters of the default policies (:func:`gfcs.planning.policies.default_policies`), used when
+            ``policies`` is None: the most free commands (default n + 1 with the preset's sampler, n with
+            one of your own), the wider-margin step [m] and rounds (0.002, 2), the goal-contact slack [m]
+            (0.002), whether the model cascade runs (True), and the IPOP restarts once every other policy
+            declined (2; :class:`gfcs.planning.policies.Restart`).
         stall_batches, stall_tol: early stop of each attempt's optimisation once ``stall_batches`` batches
             in a row lowered the best cost by at most ``stall_tol`` of it
             (:func:`gfcs.planning.gfcop.stalled`); None: the preset's (0 for both presets: every batch
@@ -151,7 +153,7 @@ def solve(
     else:
         n_commands = integer_at_least("n_commands", n_commands, 1)
         plan = _policies(chosen, policies, sampler, n_commands, max_commands, mesh_retry_margin, mesh_retries,
-                         goal_contact_slack, sphere_fallback)
+                         goal_contact_slack, sphere_fallback, restarts)
         slack = non_negative("length_slack", chosen.length_slack if length_slack is None else length_slack)
         checks = integer_at_least("mesh_candidates",
                                   chosen.mesh_candidates if mesh_candidates is None else mesh_candidates, 1)
@@ -209,13 +211,14 @@ def _solve_gf(problem: Any, fabric: Any, settings: RolloutSettings, finish: Fini
 
 def _policies(preset: Preset, policies: Optional[Sequence[Any]], sampler: Any, n_commands: int,
               max_commands: Optional[int], mesh_retry_margin: Optional[float], mesh_retries: Optional[int],
-              goal_contact_slack: Optional[float], sphere_fallback: Optional[bool]) -> List[Any]:
+              goal_contact_slack: Optional[float], sphere_fallback: Optional[bool],
+              restarts: Optional[int]) -> List[Any]:
     """The policy list of a solve: ``policies``, else the default policies with the given parameters when
     any is given, else the preset's; without the preset's sampler, no :class:`MoreCommands` (a sampler of
     your own proposes a fixed number of commands)."""
     given = {k: v for k, v in (("max_commands", max_commands), ("mesh_retry_margin", mesh_retry_margin),
                                ("mesh_retries", mesh_retries), ("goal_contact_slack", goal_contact_slack),
-                               ("sphere_fallback", sphere_fallback)) if v is not None}
+                               ("sphere_fallback", sphere_fallback), ("restarts", restarts)) if v is not None}
     if policies is not None:
         if given:
             raise InvalidValueError(f"{', '.join(given)}: parameters of the default policies; with policies= "
@@ -240,7 +243,8 @@ def _policies(preset: Preset, policies: Optional[Sequence[Any]], sampler: Any, n
     slack = non_negative("goal_contact_slack", 0.002 if goal_contact_slack is None else goal_contact_slack, " [m]")
     cascade = True if sphere_fallback is None else bool(sphere_fallback)
     return default_policies(more_commands=most - n_commands, margin_step=step, margin_rounds=rounds,
-                            goal_contact_slack=slack, cascade=cascade)
+                            goal_contact_slack=slack, cascade=cascade,
+                            restarts=integer_at_least("restarts", 2 if restarts is None else restarts, 0))
 
 
 class _Planner:

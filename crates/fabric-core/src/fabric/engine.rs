@@ -306,6 +306,9 @@ pub struct Fabric {
     obstacle_margins: Option<Arc<[f64]>>,
     /// The largest obstacle margin of any sphere (m), for the culling bounds: set with the margins.
     widest_obstacle_margin: f64,
+    /// Per-joint scales s_i (> 0) of the joint attractor's task space x = S (q − q_g); None: S = I (the
+    /// paper's x = q − q_g). See [`Fabric::with_joint_scales`].
+    joint_scales: Option<Arc<[f64]>>,
 }
 
 /// Per-thread scratch of a [`Fabric`]; create once with [`FabricWorkspace::new`] and reuse.
@@ -408,6 +411,7 @@ impl Fabric {
             obstacles: Barrier::from_config(&config.obstacles),
             obstacle_margins: None,
             widest_obstacle_margin: config.obstacles.margin,
+            joint_scales: None,
             groups,
             self_pairs,
             robot,
@@ -446,6 +450,40 @@ impl Fabric {
         });
         self.obstacle_margins = margins.map(Arc::from);
         Ok(self)
+    }
+
+    /// This fabric with the joint attractor (GF VII-A1) on the scaled task space x = S (q − q_g),
+    /// S = diag(`scales`) (one per joint, > 0, units of x per rad or per m): J = S, so the attractor adds
+    /// M̃ += m S², and ξ, f and ∂ψ of x pulled back through S. With s_i = v_ref / v_i (joint velocity
+    /// limits v_i) x measures each joint's error in time at its speed limit, and a slow joint (a lift
+    /// moving 0.1 m/s beside arm joints moving 2 rad/s) is as heavy in M̃ as its slowness: barriers then
+    /// deflect the motion with the fast joints instead of shifting the slow one. The other leaves are
+    /// task-space fabrics and do not depend on the root coordinates. None restores S = I.
+    ///
+    /// Errors: `Shape` unless there is one scale per joint, `NonFinite` for NaN or ±inf, `Value` naming
+    /// the joint for a scale ≤ 0.
+    pub fn with_joint_scales(mut self, scales: Option<Vec<f64>>) -> Result<Fabric> {
+        if let Some(s) = &scales {
+            check_len("joint_scales", s.len(), self.robot.dof())?;
+            check_finite("joint_scales", s)?;
+            if let Some(i) = s.iter().position(|&v| v <= 0.0) {
+                return Err(FabricError::Value {
+                    what: format!("joint_scales[{i}]"),
+                    message: format!(
+                        "{} is not positive (joint '{}')",
+                        s[i],
+                        self.robot.joint_names()[i]
+                    ),
+                });
+            }
+        }
+        self.joint_scales = scales.map(Arc::from);
+        Ok(self)
+    }
+
+    /// The joint attractor's per-joint scales set by [`Fabric::with_joint_scales`], if any.
+    pub fn joint_scales(&self) -> Option<&[f64]> {
+        self.joint_scales.as_deref()
     }
 
     /// The per-sphere obstacle margins (m) set by [`Fabric::with_obstacle_margins`], if any.
@@ -611,20 +649,40 @@ impl Fabric {
         ws.root.clear();
         let mut diag = Diagnostics::default();
 
-        // 1. joint attraction on x = q − q_g (J = I)
-        for i in 0..n {
-            ws.x[i] = q[i] - command[i];
+        // 1. joint attraction on x = q − q_g (J = I), or x = S (q − q_g) (J = S)
+        match self.joint_scales.as_deref() {
+            None => {
+                for i in 0..n {
+                    ws.x[i] = q[i] - command[i];
+                }
+                let e = self.joint.eval(
+                    &ws.x,
+                    qd,
+                    &mut ws.scratch[..n],
+                    &mut ws.xi[..n],
+                    &mut ws.f[..n],
+                    &mut ws.grad[..n],
+                );
+                ws.root
+                    .add_identity(e.mass, &ws.xi[..n], &ws.f[..n], &ws.grad[..n], e.psi);
+            }
+            Some(s) => {
+                for i in 0..n {
+                    ws.x[i] = s[i] * (q[i] - command[i]);
+                    ws.jrow[i] = s[i] * qd[i];
+                }
+                let e = self.joint.eval(
+                    &ws.x,
+                    &ws.jrow,
+                    &mut ws.scratch[..n],
+                    &mut ws.xi[..n],
+                    &mut ws.f[..n],
+                    &mut ws.grad[..n],
+                );
+                ws.root
+                    .add_diagonal(s, e.mass, &ws.xi[..n], &ws.f[..n], &ws.grad[..n], e.psi);
+            }
         }
-        let e = self.joint.eval(
-            &ws.x,
-            qd,
-            &mut ws.scratch[..n],
-            &mut ws.xi[..n],
-            &mut ws.f[..n],
-            &mut ws.grad[..n],
-        );
-        ws.root
-            .add_identity(e.mass, &ws.xi[..n], &ws.f[..n], &ws.grad[..n], e.psi);
 
         // 2. end-effector attraction (VII-A3, App. G); the position last, so that `ws.task` still holds
         // the end-effector point when the speed control needs it below
@@ -807,6 +865,7 @@ impl Fabric {
                 qd,
                 goal_distance,
                 self.config.joint_attraction.mass,
+                self.joint_scales.as_deref(),
                 ee,
                 qdd,
             )

@@ -232,7 +232,7 @@ pub fn particle_acceleration(
     };
     let goal = (x[0] * x[0] + x[1] * x[1]).sqrt();
     let mut qdd = [0.0; 2];
-    match root.solve(mode, &p.speed, &qd, goal, p.mass_min, None, &mut qdd) {
+    match root.solve(mode, &p.speed, &qd, goal, p.mass_min, None, None, &mut qdd) {
         Ok(_) => qdd,
         Err(_) => [0.0; 2],
     }

@@ -145,6 +145,26 @@ impl RootSystem {
         self.psi += psi;
     }
 
+    /// Add a component living on scaled root coordinates x = S q (J = S = diag(`s`), J̇q̇ = 0) with an
+    /// isotropic metric m I: M̃ += m S², ξ̃ += S ξ, f̃ += S f, ∂ψ += S grad (all (n,)), ψ += psi.
+    pub fn add_diagonal(
+        &mut self,
+        s: &[f64],
+        mass: f64,
+        xi: &[f64],
+        f: &[f64],
+        grad: &[f64],
+        psi: f64,
+    ) {
+        for a in 0..self.dim() {
+            self.m[(a, a)] += mass * s[a] * s[a];
+            self.xi[a] += s[a] * xi[a];
+            self.f[a] += s[a] * f[a];
+            self.grad[a] += s[a] * grad[a];
+        }
+        self.psi += psi;
+    }
+
     /// Add a 1-D component through a row Jacobian `j` (n,) and scalar J̇q̇:
     /// M̃ += m jjᵀ, ξ̃ += j(ξ + m J̇q̇), f̃ += j(f + m J̇q̇), ∂ψ += j grad, ψ += psi.
     /// Only the upper triangle of M̃ is updated here; [`solve`](RootSystem::solve) mirrors it.
@@ -212,8 +232,9 @@ impl RootSystem {
 
     /// Resolve the accumulated system at velocity `qd` into `qdd` (eq. 7, 17, 40-46). `goal_distance` is
     /// ‖q − q_g‖ for the speed switches; `damping_mass` is the mass m of a force-level goal damper
-    /// (`GoalDampingForm::Force`: q̈ −= s_β B m M̃⁻¹ q̇); `ee` the end-effector motion for an execution
-    /// energy with `speed.ee_weight` > 0. Errors when M̃ is not positive definite or the result is not
+    /// (`GoalDampingForm::Force`: q̈ −= s_β B m M̃⁻¹ q̇, or q̈ −= s_β B m M̃⁻¹ S² q̇ with the joint
+    /// attractor's scales S = diag(`damping_scales`), the metric of its energy); `ee` the end-effector
+    /// motion for an execution energy with `speed.ee_weight` > 0. Errors when M̃ is not positive definite or the result is not
     /// finite.
     #[allow(clippy::too_many_arguments)]
     pub fn solve(
@@ -223,6 +244,7 @@ impl RootSystem {
         qd: &[f64],
         goal_distance: f64,
         damping_mass: f64,
+        damping_scales: Option<&[f64]>,
         ee: Option<EeMotion<'_>>,
         qdd: &mut [f64],
     ) -> Result<RootTerms> {
@@ -287,6 +309,11 @@ impl RootSystem {
         let d = speed_terms.force_damping * damping_mass;
         if d != 0.0 {
             self.scratch.as_mut_slice().copy_from_slice(qd);
+            if let Some(s) = damping_scales {
+                for a in 0..n {
+                    self.scratch[a] *= s[a] * s[a];
+                }
+            }
             cholesky_solve_in_place(&self.chol, self.scratch.as_mut_slice());
             for a in 0..n {
                 qdd[a] -= d * self.scratch[a];
