@@ -354,13 +354,13 @@ def test_failed_solve_retries_with_one_more_command(shelf):
     # without a retry the one-command attempt is returned, failed
     once = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
     r1 = opt.solve(once, batches=1, population=8, seed=0, mesh_candidates=2, max_commands=1, mesh_retry_margin=0,
-                   thin_spheres=False)
+                   restarts=0, thin_spheres=False)
     assert not r1.success and r1.commands.shape == (1, 7) and "commands_tried" not in r1.settings
     # a sampler of your own proposes a fixed width: no retry by default, an error when asked for one
     mine = opt.UniformSampler(1)
     again = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
     r2 = opt.solve(again, batches=1, population=8, seed=0, mesh_candidates=2, sampler=mine, mesh_retry_margin=0,
-                   thin_spheres=False)
+                   restarts=0, thin_spheres=False)
     assert not r2.success and r2.commands.shape == (1, 7)
     with pytest.raises(ValueError, match="max_commands"):
         opt.solve(shelf, batches=1, population=8, sampler=mine, max_commands=2)
@@ -382,7 +382,7 @@ def test_mesh_only_failure_retries_with_a_wider_obstacle_margin(shelf):
     # a failure of the sphere model itself (no time to reach the goal) is not retried that way
     short = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=0))
     r = opt.solve(short, batches=1, population=8, seed=0, sampler=mine, settings=opt.RolloutSettings(t_max=0.05),
-                  thin_spheres=False)
+                  restarts=0, thin_spheres=False)
     assert not r.success and "commands_tried" not in r.settings and r.n_evaluations == 8
     with pytest.raises(ValueError, match="mesh_retry_margin"):
         opt.solve(shelf, batches=1, population=8, mesh_retry_margin=-0.001)
@@ -402,7 +402,7 @@ def test_mesh_retries_widen_the_margin_step_by_step(shelf):
     base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
     # ten trajectories touch: five attempts fail (two checked each); a single mesh retry stops after four,
     # the default second one, 4 mm wider, succeeds with two commands
-    kw = dict(batches=1, population=8, seed=0, mesh_candidates=2, thin_spheres=False)
+    kw = dict(batches=1, population=8, seed=0, mesh_candidates=2, thin_spheres=False, restarts=0)
     once = opt.solve(dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10)),
                      mesh_retries=1, **kw)
     assert not once.success and once.settings["commands_tried"] == [1, 2, 1, 2]
@@ -528,12 +528,13 @@ def test_the_cli_no_retry_options_turn_every_retry_off(shelf):
     hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10**6))
     retried = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2)
     # thin spheres: 1, 2 commands, 1, 2 with the margin 2 mm wider, 1, 2 4 mm wider; then the same on the
-    # covering spheres
-    assert not retried.success and retried.settings["commands_tried"] == [1, 2, 1, 2, 1, 2] * 2
+    # covering spheres; then all of it again in each of the two restarts
+    assert not retried.success and retried.settings["commands_tried"] == [1, 2, 1, 2, 1, 2] * 2 * 3
     base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
     thin = base + opt.THIN_SPHERE_MARGIN
     assert retried.settings["obstacle_margins_tried"] == pytest.approx(
-        [m + k * 0.002 for m in (thin, base) for k in (0, 0, 1, 1, 2, 2)])
+        [m + k * 0.002 for m in (thin, base) for k in (0, 0, 1, 1, 2, 2)] * 3)
+    assert [a["settings"]["restart"] for a in retried.attempts] == [0] * 12 + [1] * 12 + [2] * 12
     once = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2, **cli._no_retry())
     assert not once.success and "commands_tried" not in once.settings and once.n_evaluations == 8
     assert once.settings["sphere_model"] == "thin"  # the thin spheres are the first model, not a retry
@@ -542,7 +543,7 @@ def test_the_cli_no_retry_options_turn_every_retry_off(shelf):
 def test_a_failed_thin_sphere_solve_falls_back_to_the_covering_spheres(shelf):
     base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
     single = dict(batches=1, population=8, seed=0, mesh_candidates=2, max_commands=1, mesh_retry_margin=0,
-                  goal_contact_slack=0)
+                  goal_contact_slack=0, restarts=0)
     # the two trajectories checked on the thin spheres touch: the covering spheres' solve comes back
     flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=2))
     r = opt.solve(flagged, **single)

@@ -247,11 +247,8 @@ impl PyFabric {
         py: Python<'_>,
         margins: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let n = self.fabric.robot().spheres().len();
-        let margins = margins
-            .filter(|m| !m.is_none())
-            .map(|m| convert::vector(m, "margins", n))
-            .transpose()?;
+        let margins =
+            convert::optional_vector(margins, "margins", self.fabric.robot().spheres().len())?;
         let fabric = (*self.fabric).clone();
         let fabric = guarded(py, || fabric.with_obstacle_margins(margins))?;
         Ok(self.derived(py, fabric))
@@ -267,11 +264,7 @@ impl PyFabric {
         py: Python<'_>,
         scales: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let n = self.dof();
-        let scales = scales
-            .filter(|s| !s.is_none())
-            .map(|s| convert::vector(s, "scales", n))
-            .transpose()?;
+        let scales = convert::optional_vector(scales, "scales", self.dof())?;
         let fabric = (*self.fabric).clone();
         let fabric = guarded(py, || fabric.with_joint_scales(scales))?;
         Ok(self.derived(py, fabric))
