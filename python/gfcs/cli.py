@@ -179,7 +179,7 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     g.add_argument("--mesh-margin", type=float, metavar="M", default=None,
                    help="clearance in m the collision meshes must keep at every configuration of a motion "
                         "(states and the segments between them) for it to succeed, when a mesh model validates "
-                        "it (default 0.0001; 0: contact only)")
+                        "it (default 1e-4; 0: contact only)")
     g.add_argument("--restarts", type=int, metavar="K", default=None,
                    help="after every other retry failed, start again up to K times with a fresh seed and twice "
                         "the population each time while the time budget lasts (IPOP-CMA-ES; default: the "

@@ -72,7 +72,7 @@ MESH_CHECK_CHUNK = 8
 #: configuration of a trajectory (its states and the straight segments between them) for it to count as
 #: collision-free when a mesh checker is given: above the round-off of distance codes, so that what passes
 #: here passes other checkers of the same meshes.
-DEFAULT_MESH_MARGIN = 0.0001
+DEFAULT_MESH_MARGIN = 1e-4
 #: Clearance [m] beyond the margin that lets a state vouch for the path around it in :func:`mesh_check`:
 #: a path whose checked states all keep the margin plus this passes without the continuous check
 #: (:meth:`gfcs.MeshChecker.sweep`), which certifies the others segment by segment.

@@ -179,7 +179,6 @@ pub fn vector(obj: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<Vec<f64>
     Ok(a.data)
 }
 
-/// A finite 3-vector (shape (3,)).
 /// [`vector`] of an optional argument: None (absent or Python `None`) stays None.
 pub fn optional_vector(
     obj: Option<&Bound<'_, PyAny>>,
@@ -191,6 +190,7 @@ pub fn optional_vector(
         .transpose()
 }
 
+/// A finite 3-vector (shape (3,)).
 pub fn vector3(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vector3<f64>> {
     let v = vector(obj, what, 3)?;
     Ok(Vector3::new(v[0], v[1], v[2]))

@@ -244,7 +244,7 @@ def _policies(preset: Preset, policies: Optional[Sequence[Any]], sampler: Any, n
     cascade = True if sphere_fallback is None else bool(sphere_fallback)
     return default_policies(more_commands=most - n_commands, margin_step=step, margin_rounds=rounds,
                             goal_contact_slack=slack, cascade=cascade,
-                            restarts=integer_at_least("restarts", 2 if restarts is None else restarts, 0))
+                            restarts=2 if restarts is None else restarts)
 
 
 class _Planner:

@@ -649,39 +649,26 @@ impl Fabric {
         ws.root.clear();
         let mut diag = Diagnostics::default();
 
-        // 1. joint attraction on x = q − q_g (J = I), or x = S (q − q_g) (J = S)
-        match self.joint_scales.as_deref() {
-            None => {
-                for i in 0..n {
-                    ws.x[i] = q[i] - command[i];
-                }
-                let e = self.joint.eval(
-                    &ws.x,
-                    qd,
-                    &mut ws.scratch[..n],
-                    &mut ws.xi[..n],
-                    &mut ws.f[..n],
-                    &mut ws.grad[..n],
-                );
-                ws.root
-                    .add_identity(e.mass, &ws.xi[..n], &ws.f[..n], &ws.grad[..n], e.psi);
-            }
-            Some(s) => {
-                for i in 0..n {
-                    ws.x[i] = s[i] * (q[i] - command[i]);
-                    ws.jrow[i] = s[i] * qd[i];
-                }
-                let e = self.joint.eval(
-                    &ws.x,
-                    &ws.jrow,
-                    &mut ws.scratch[..n],
-                    &mut ws.xi[..n],
-                    &mut ws.f[..n],
-                    &mut ws.grad[..n],
-                );
-                ws.root
-                    .add_diagonal(s, e.mass, &ws.xi[..n], &ws.f[..n], &ws.grad[..n], e.psi);
-            }
+        // 1. joint attraction on x = S (q − q_g), ẋ = S q̇ (J = S; S = I without scales, exactly:
+        //    a factor of 1 changes no bit)
+        let scales = self.joint_scales.as_deref();
+        for i in 0..n {
+            let s = scales.map_or(1.0, |s| s[i]);
+            ws.x[i] = s * (q[i] - command[i]);
+            ws.jrow[i] = s * qd[i];
+        }
+        let e = self.joint.eval(
+            &ws.x,
+            &ws.jrow,
+            &mut ws.scratch[..n],
+            &mut ws.xi[..n],
+            &mut ws.f[..n],
+            &mut ws.grad[..n],
+        );
+        let (xi, f, grad) = (&ws.xi[..n], &ws.f[..n], &ws.grad[..n]);
+        match scales {
+            None => ws.root.add_identity(e.mass, xi, f, grad, e.psi),
+            Some(s) => ws.root.add_diagonal(s, e.mass, xi, f, grad, e.psi),
         }
 
         // 2. end-effector attraction (VII-A3, App. G); the position last, so that `ws.task` still holds

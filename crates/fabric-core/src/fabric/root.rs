@@ -234,8 +234,8 @@ impl RootSystem {
     /// ‖q − q_g‖ for the speed switches; `damping_mass` is the mass m of a force-level goal damper
     /// (`GoalDampingForm::Force`: q̈ −= s_β B m M̃⁻¹ q̇, or q̈ −= s_β B m M̃⁻¹ S² q̇ with the joint
     /// attractor's scales S = diag(`damping_scales`), the metric of its energy); `ee` the end-effector
-    /// motion for an execution energy with `speed.ee_weight` > 0. Errors when M̃ is not positive definite or the result is not
-    /// finite.
+    /// motion for an execution energy with `speed.ee_weight` > 0. Errors when M̃ is not positive definite
+    /// or the result is not finite.
     #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &mut self,
