@@ -330,6 +330,37 @@ def test_per_sphere_obstacle_margins(robot, scene):
         plain.with_obstacle_margins(deep)
 
 
+def test_per_pair_self_margins(robot, scene):
+    """with_self_margins: a copy; margins all equal to m act as the configured self-collision margin m (same
+    q̈ to the bit); a wider one changes q̈; the margins survive the per-sphere obstacle copy; bad margins
+    name the pair's links."""
+    config = gfcs.FabricConfig.defaults()
+    plain = gfcs.Fabric(robot, scene, config)
+    p = len(robot.self_collision_pairs)
+    margin = plain.config.to_dict()["self_collision"]["margin"]
+    same = plain.with_self_margins(np.full(p, margin))
+    assert plain.self_margins is None and same.self_margins.shape == (p,)
+    wide = gfcs.Fabric(robot, scene, config.replace({"self_collision": {"margin": 0.1}}))
+    as_wide = plain.with_self_margins(np.full(p, 0.1))
+    q, qd = Q0, np.full(7, 0.3)
+    np.testing.assert_array_equal(same.acceleration(q, qd, GOAL), plain.acceleration(q, qd, GOAL))
+    np.testing.assert_array_equal(as_wide.acceleration(q, qd, GOAL), wide.acceleration(q, qd, GOAL))
+    assert not np.array_equal(as_wide.acceleration(q, qd, GOAL), plain.acceleration(q, qd, GOAL))
+    both = as_wide.with_obstacle_margins(np.full(len(robot.sphere_radii), 0.01))
+    np.testing.assert_array_equal(both.self_margins, as_wide.self_margins)
+    assert as_wide.with_self_margins(None).self_margins is None
+    with pytest.raises(gfcs.ShapeError, match="margins"):
+        plain.with_self_margins(np.zeros(p + 1))
+    with pytest.raises(gfcs.NonFiniteError, match="margins"):
+        plain.with_self_margins(np.full(p, np.nan))
+    a, b = np.asarray(robot.self_collision_pairs)[7]
+    deep = np.zeros(p)
+    deep[7] = -(robot.sphere_radii[a] + robot.sphere_radii[b])
+    with pytest.raises(gfcs.InvalidValueError,
+                       match=rf"self_margins\[7\].*'{robot.sphere_links[a]}' and '{robot.sphere_links[b]}'"):
+        plain.with_self_margins(deep)
+
+
 def test_joint_scales(robot, scene):
     """with_joint_scales: a copy; unit scales change no bit of q̈, others do (and survive the per-sphere
     margins copy); gfcs.joints.velocity_scales is v_ref / v_i; bad scales name the joint."""

@@ -54,10 +54,11 @@ def test_a_deadline_stops_the_batches_and_cuts_the_last_one():
 
 
 # ------------------------------------------------------------------------------------ policies
-def _record(model, n, success=False, mesh_only=False, kind="plan", margin_round=0):
+def _record(model, n, success=False, mesh_only=False, kind="plan", margin_round=0, contact="mesh_clearance"):
     metrics = {"success": success}
     if mesh_only:
-        metrics.update(mesh_clearance=-0.001, sphere_success=True)
+        metrics.update({"mesh_clearance": np.inf, "mesh_self_clearance": np.inf, contact: -0.001,
+                        "sphere_success": True})
     result = SimpleNamespace(success=success, metrics=metrics, cost=1.0, n_evaluations=1, batch_times=[0.1])
     step = 0.002 if margin_round else 0.0
     attempt = _attempts.Attempt(model, n, kind=kind, margin_round=margin_round, margin_step=step)
@@ -91,6 +92,17 @@ def test_wider_margin_follows_a_mesh_only_failure_of_the_round(context):
     assert proposal.label == "thin, 1 command, margin +2 mm"
     last_round = [_record(thin, 1, mesh_only=True, margin_round=2)]
     assert policy.propose(context, last_round) is None  # both rounds used
+
+
+def test_wider_margin_leaves_contacts_between_links_to_mesh_cover(context):
+    thin = context.models.planning[0]
+    between_links = _record(thin, 1, mesh_only=True, contact="mesh_self_clearance")
+    assert planning.mesh_contacts(between_links, context.mesh_margin) == ("self",)
+    assert planning.mesh_contacts(_record(thin, 1, mesh_only=True), context.mesh_margin) == ("obstacles",)
+    assert planning.mesh_contacts(_record(thin, 1), context.mesh_margin) == ()
+    policy = planning.WiderMargin(step=0.002, rounds=2)
+    assert policy.propose(context, [between_links, _record(thin, 2)]) is None
+    assert policy.propose(context, [between_links, _record(thin, 2, mesh_only=True)]).margin_round == 1
 
 
 def test_model_cascade_moves_to_the_next_model_and_stops_after_the_last(context):

@@ -46,6 +46,7 @@ from gfcs._core import (
     particle_rollout,
 )
 from gfcs.errors import (
+    CollisionError,
     ConfigError,
     FormatError,
     GenerationError,
@@ -95,6 +96,7 @@ __all__ = [
     "IoError",
     "MissingFileError",
     "GenerationError",
+    "CollisionError",
     "particle_acceleration",
     "particle_defaults",
     "particle_rollout",

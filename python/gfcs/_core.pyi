@@ -466,6 +466,13 @@ class Fabric:
     @property
     def obstacle_margins(self) -> Optional[FloatArray]:
         """(S,) m of :meth:`with_obstacle_margins`, or None (the configured margin for every sphere)."""
+    def with_self_margins(self, margins: Optional[ArrayLike]) -> Fabric:
+        """A copy whose self-collision barrier uses one margin per sphere pair: ``margins`` (P,) m in the order
+        of ``robot.self_collision_pairs``, each > −(r_a + r_b), replacing ``config.self_collision.margin``;
+        None: the configured one."""
+    @property
+    def self_margins(self) -> Optional[FloatArray]:
+        """(P,) m of :meth:`with_self_margins`, or None (the configured margin for every pair)."""
     def with_joint_scales(self, scales: Optional[ArrayLike]) -> Fabric:
         """A copy whose joint attractor (GF VII-A1) acts on x = S (q − q_g), S = diag(``scales``) (dof,),
         each > 0 (units of x per rad or per m; :func:`gfcs.joints.velocity_scales`: v_ref / v_i); None: S = I."""
@@ -586,6 +593,9 @@ class MeshChecker:
         inf: nothing within max_distance). Trajectories in parallel, GIL released."""
     def self_clearance(self, q: ArrayLike, threads: Optional[int] = None) -> Union[float, FloatArray]:
         """q (dof,) -> float, q (T, dof) -> (T,): min distance over the self-collision shape pairs, m."""
+    def self_contacts(self, q: ArrayLike, within: float = 0.0) -> List[Tuple[str, str, float]]:
+        """The checked self-collision shape pairs nearer than ``within`` m (≥ 0) at q (dof,): (link a, link b,
+        distance m), nearest first; ≤ 0 in contact (negative: penetration depth)."""
     def min_clearance(
         self, scene: Scene, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
     ) -> float:

@@ -22,6 +22,9 @@ class                       bases                                  raised for
                                                                    (raised by the Python layer)
 ``GenerationError``         ``GfcsError``, ``RuntimeError``        no valid problem found in the draws a
                                                                    generator may make
+``CollisionError``          ``GfcsError``, ``ValueError``          a start or goal state whose collision meshes
+                                                                   touch an obstacle or each other (MoveIt
+                                                                   refuses such a request)
 ``GfcsWarning``             ``UserWarning``                        (a warning) input accepted but not fully
                                                                    applied: MoveIt scene fields, SRDF entries
                                                                    for links the robot lacks, a thread count
@@ -56,6 +59,11 @@ class GenerationError(GfcsError, RuntimeError):
     """A problem generator found no valid start and goal within the draws it may make."""
 
 
+class CollisionError(GfcsError, ValueError):
+    """A problem whose start or goal state puts the robot's collision meshes in contact with an obstacle or
+    with each other: no motion from or to it can be collision-free (MoveIt refuses such a request)."""
+
+
 __all__ = [
     "GfcsError",
     "UrdfError",
@@ -69,5 +77,6 @@ __all__ = [
     "IoError",
     "MissingFileError",
     "GenerationError",
+    "CollisionError",
     "GfcsWarning",
 ]

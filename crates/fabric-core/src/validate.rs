@@ -693,6 +693,36 @@ impl MeshChecker {
         Ok(best)
     }
 
+    /// The self-collision shape pairs ([`MeshChecker::self_pairs`]) nearer than `within` (m, ≥ 0) at q
+    /// (dof,): (shape i, shape j, distance m), nearest first; a pair in contact has distance ≤ 0 (parry's
+    /// penetration depth where the shapes overlap). For reports that name the links in contact, e.g. a
+    /// start state MoveIt would refuse.
+    ///
+    /// Errors: `Shape`, `NonFinite` (q), `Value` for a negative or non-finite `within`, or when parry
+    /// cannot measure a pair.
+    pub fn self_contacts(&self, q: &[f64], within: f64) -> Result<Vec<(usize, usize, f64)>> {
+        if !(within.is_finite() && within >= 0.0) {
+            return Err(FabricError::Value {
+                what: "within".to_string(),
+                message: format!("must be a finite distance >= 0 m, got {within}"),
+            });
+        }
+        let mut ws = self.workspace();
+        self.place(q, &mut ws)?;
+        let mut out = Vec::new();
+        for &(i, j) in &self.self_pairs {
+            if aabb_gap(&ws.boxes[i], &ws.boxes[j]) - BOUND_SLACK > within {
+                continue;
+            }
+            let d = self.pair_exact((i, j), &ws.poses, &mut ws.stack, (within, true))?;
+            if d <= within {
+                out.push((i, j, d));
+            }
+        }
+        out.sort_by(|a, b| a.2.total_cmp(&b.2));
+        Ok(out)
+    }
+
     /// Self-clearance (m) at q (dof,): the minimum distance over [`MeshChecker::self_pairs`] (shapes on
     /// links of different, non-adjacent rigid bodies whose pair the SRDF does not disable); ≤ 0 means
     /// contact. `f64::INFINITY` when no pair is within [`MeshChecker::max_distance`] or there is no pair.

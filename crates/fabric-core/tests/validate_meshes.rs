@@ -486,4 +486,26 @@ fn self_clearance_closed_form() {
         assert_eq!(*d, checker.self_clearance(&qs[2 * k..2 * k + 2]).unwrap());
     }
     assert!(along.iter().any(|d| *d < 0.0) && along.iter().any(|d| *d > 0.1));
+    // the pair is reported by self_contacts exactly when nearer than `within`, with its distance
+    for k in 0..=32 {
+        let t2 = -3.1 + 6.2 * k as f64 / 32.0;
+        let d = checker.self_clearance(&[0.0, t2]).unwrap();
+        for within in [0.0, 0.05, 0.2] {
+            let contacts = checker.self_contacts(&[0.0, t2], within).unwrap();
+            if d <= within {
+                assert_eq!(contacts.len(), 1, "θ2={t2}, within {within}");
+                let (i, j, got) = contacts[0];
+                assert_eq!((i.min(j), i.max(j)), (0, 1));
+                assert!((got - d).abs() < 1e-9, "θ2={t2}: {got} vs {d}");
+            } else {
+                assert!(
+                    contacts.is_empty(),
+                    "θ2={t2}, within {within}: {contacts:?}"
+                );
+            }
+        }
+    }
+    for bad in [-0.001, f64::NAN, f64::INFINITY] {
+        assert!(checker.self_contacts(&[0.0, 0.0], bad).is_err(), "{bad}");
+    }
 }

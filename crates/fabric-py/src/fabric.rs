@@ -254,6 +254,23 @@ impl PyFabric {
         Ok(self.derived(py, fabric))
     }
 
+    /// A copy of this fabric whose self-collision barrier uses one margin per sphere pair: `margins` (P,) m
+    /// in the order of `robot.self_collision_pairs`, each > −(r_a + r_b), replacing
+    /// `config.self_collision.margin`; None: the configured margin. `ShapeError` / `NonFiniteError` /
+    /// `InvalidValueError` (naming the pair's links).
+    #[pyo3(signature = (margins))]
+    fn with_self_margins(
+        &self,
+        py: Python<'_>,
+        margins: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let pairs = self.fabric.robot().self_collision_pairs().len();
+        let margins = convert::optional_vector(margins, "margins", pairs)?;
+        let fabric = (*self.fabric).clone();
+        let fabric = guarded(py, || fabric.with_self_margins(margins))?;
+        Ok(self.derived(py, fabric))
+    }
+
     /// A copy of this fabric whose joint attractor acts on x = S (q − q_g): `scales` (dof,) positive, one
     /// per joint (units of x per rad or per m; `gfcs.joints.velocity_scales` gives v_ref / v_i from the
     /// velocity limits); None: S = I (the paper's). `ShapeError` / `NonFiniteError` /
@@ -276,6 +293,15 @@ impl PyFabric {
         self.fabric
             .joint_scales()
             .map(|s| output(py, s.to_vec(), &[s.len()]))
+            .transpose()
+    }
+
+    /// The per-pair self-collision margins (P,) m of `with_self_margins`, or None (the configured margin).
+    #[getter]
+    fn self_margins<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+        self.fabric
+            .self_margins()
+            .map(|m| output(py, m.to_vec(), &[m.len()]))
             .transpose()
     }
 

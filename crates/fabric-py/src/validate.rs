@@ -163,6 +163,31 @@ impl PyMeshChecker {
         scalar_or_array(py, values, batch)
     }
 
+    /// The checked self-collision shape pairs nearer than `within` m (≥ 0) at q (dof,): a list of
+    /// (link a, link b, distance m), nearest first; ≤ 0 in contact (negative: penetration depth).
+    #[pyo3(signature = (q, within=0.0))]
+    fn self_contacts(
+        &self,
+        py: Python<'_>,
+        q: &Bound<'_, PyAny>,
+        within: f64,
+    ) -> PyResult<Vec<(String, String, f64)>> {
+        let checker = &self.inner;
+        let q = convert::vector(q, "q", checker.robot().dof())?;
+        let contacts = guarded(py, || checker.self_contacts(&q, within))?;
+        let (names, shapes) = (checker.robot().link_names(), checker.shapes());
+        Ok(contacts
+            .into_iter()
+            .map(|(i, j, d)| {
+                (
+                    names[shapes[i].link].clone(),
+                    names[shapes[j].link].clone(),
+                    d,
+                )
+            })
+            .collect())
+    }
+
     /// min over the states of q (T, dof) (or one state (dof,)) of `clearance`, m: the same value as
     /// `clearance(scene, q).min()` where that is ≤ `cutoff` (m; None: always), faster (states farther
     /// from the scene than the closest of every eighth state are culled, and so are shape pairs whose

@@ -24,7 +24,8 @@ from gfcs.planning.finish import FinishOptions, finish_rollout, rollout_commands
 from gfcs.planning.gfcop import BatchInfo, OptimResult, solve_gfcop
 from gfcs.planning.models import THIN_SPHERE_MARGIN, PlanningModel, RobotModels, models_for, planned_robot
 from gfcs.planning.policies import (GoalContact, ModelCascade, MoreCommands, PlanContext, Policy, Restart,
-                                    WiderMargin, default_policies, goal_contact)
+                                    WiderMargin, cover_self_margins, default_policies, goal_contact,
+                                    mesh_contacts)
 from gfcs.planning.presets import PRESETS, Preset, get_preset
 from gfcs.planning.rollout import RolloutSettings, fabric_goal, make_fabric
 from gfcs.planning.samplers import ApproachSampler, Sampler, UniformSampler
@@ -39,6 +40,6 @@ __all__ = [
     "PlanningModel", "RobotModels", "models_for", "planned_robot", "THIN_SPHERE_MARGIN",
     "Attempt", "AttemptRecord", "combine_attempts",
     "Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "ModelCascade", "Restart",
-    "default_policies", "goal_contact",
+    "default_policies", "goal_contact", "cover_self_margins", "mesh_contacts",
     "Preset", "PRESETS", "get_preset", "Budget",
 ]

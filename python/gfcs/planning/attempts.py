@@ -40,6 +40,8 @@ class Attempt:
         margin_round: k of the wider-margin policy: the obstacle margin is the model's plus k × ``margin_step``.
         margin_step: [m] the step of that policy (0 for k = 0).
         obstacle_margins: (S,) per-sphere obstacle margins [m] of a goal-contact or cover attempt, else None.
+        self_margins: (P,) per-pair self-collision margins [m] of a cover attempt (in the order of
+            ``robot.self_collision_pairs``), else None.
         clearance_floor: [m, ≤ 0] how far spheres may overlap obstacles for success (goal contact), else 0.
         restart: k of the restart policy (:class:`gfcs.planning.policies.Restart`): the optimiser runs with
             its own seed and a population 2^k times the solve's (IPOP-CMA-ES); 0 for the solve's own.
@@ -51,6 +53,7 @@ class Attempt:
     margin_round: int = 0
     margin_step: float = 0.0
     obstacle_margins: Optional[tuple] = None
+    self_margins: Optional[tuple] = None
     clearance_floor: float = 0.0
     restart: int = 0
 
@@ -274,9 +277,11 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
                                  options.threads, select_deadline)
     if budget is not None:
         budget.observe_selection(time.perf_counter() - chosen_at)
-    # per-sphere margins are recorded under the attempt's kind ("goal_contact" or "cover")
+    # per-sphere (and per-pair) margins are recorded under the attempt's kind ("goal_contact" or "cover")
     contact = {} if fabric.obstacle_margins is None else {
-        attempt.kind: {"clearance_floor": floor, "obstacle_margins": np.asarray(fabric.obstacle_margins).tolist()}}
+        attempt.kind: {"clearance_floor": floor, "obstacle_margins": np.asarray(fabric.obstacle_margins).tolist(),
+                       **({} if fabric.self_margins is None else
+                          {"self_margins": np.asarray(fabric.self_margins).tolist()})}}
     extra = {"n_commands": n, "sampler": type(sampler).__name__, **contact}
     if attempt.model.name == "thin":
         extra["sphere_model"] = "thin"

@@ -13,7 +13,8 @@ or when the time budget leaves no room for another. An empty list is a solve wit
   margin while its meshes clear them (conservative spheres at a grasp), one attempt with those spheres'
   margins lowered to the goal's clearance and the meshes judging the contact;
 * :class:`MeshCover`: after a mesh-only failure that the other retries did not fix, a round in which each
-  sphere keeps its own extra distance from obstacles: how far the validator's meshes stick out of it;
+  sphere keeps its own extra distance from obstacles, how far the validator's meshes stick out of it, and
+  each self-collision pair the sum of its two;
 * :class:`ModelCascade`: when every attempt on one planning model failed, start again on the next one
   (thin spheres, then the covering spheres: :mod:`gfcs.planning.models`);
 * :class:`Restart`: when all of that failed and budget is left, the whole sequence again with a fresh seed
@@ -37,7 +38,7 @@ from gfcs.planning.attempts import Attempt, AttemptRecord
 from gfcs.planning.models import RobotModels
 
 __all__ = ["Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "MeshCover", "ModelCascade",
-           "Restart", "default_policies", "goal_contact"]
+           "Restart", "default_policies", "goal_contact", "cover_self_margins", "mesh_contacts"]
 
 
 @dataclass
@@ -80,6 +81,20 @@ def _same_model(records: Sequence[AttemptRecord]) -> List[AttemptRecord]:
     return [r for r in records if r.attempt.model == model]
 
 
+def mesh_contacts(record: AttemptRecord, mesh_margin: float) -> Tuple[str, ...]:
+    """What the meshes of a mesh-only failure (:attr:`AttemptRecord.mesh_collision_only`) came too near:
+    ``"obstacles"`` and/or ``"self"`` (two links), each whose clearance lies within ``mesh_margin`` +
+    :data:`gfcs.metrics.INTERPOLATION_ALLOWANCE` (the range the continuous check judges); both when neither
+    does; () for any other record."""
+    if not record.mesh_collision_only:
+        return ()
+    m = record.result.metrics
+    near = mesh_margin + _metrics.INTERPOLATION_ALLOWANCE
+    kinds = tuple(kind for kind, key in (("obstacles", "mesh_clearance"), ("self", "mesh_self_clearance"))
+                  if float(m.get(key, np.inf)) <= near)
+    return kinds or ("obstacles", "self")
+
+
 @dataclass
 class MoreCommands:
     """After a failed plan attempt with n < ``n_commands + extra`` commands: the same with n + 1."""
@@ -99,9 +114,10 @@ class MoreCommands:
 
 @dataclass
 class WiderMargin:
-    """After a round of plan attempts (one margin, n_commands upward) that failed with a mesh-only failure
-    among them: a new round with the obstacle margin ``step`` [m] wider, at most ``rounds`` times. The
-    thin and covering sphere models miss parts of the meshes; a wider margin keeps those parts clear."""
+    """After a round of plan attempts (one margin, n_commands upward) that failed with a mesh contact with
+    obstacles among them (:func:`mesh_contacts`): a new round with the obstacle margin ``step`` [m] wider,
+    at most ``rounds`` times. The thin and covering sphere models miss parts of the meshes; a wider margin
+    keeps those parts clear. Contacts between links alone are left to :class:`MeshCover`."""
 
     step: float = 0.002
     rounds: int = 2
@@ -117,7 +133,7 @@ class WiderMargin:
         if last.kind not in _ROUND_KINDS or self.step == 0 or k >= self.rounds:
             return None
         round_ = [r for r in _same_model(records) if r.attempt.kind == "plan" and r.attempt.margin_round == k]
-        if not any(r.mesh_collision_only for r in round_):
+        if not any("obstacles" in mesh_contacts(r, context.mesh_margin) for r in round_):
             return None
         return Attempt(last.model, context.n_commands, margin_round=k + 1, margin_step=self.step,
                        restart=last.restart)
@@ -177,18 +193,39 @@ class GoalContact:
                        restart=last.restart)
 
 
+def cover_self_margins(robot: Any, deficits: np.ndarray, base: float, max_extra: float,
+                       states: Sequence[Any], slack: float = 0.002) -> np.ndarray:
+    """(P,) self-collision margins [m] that cover the meshes, in the order of ``robot.self_collision_pairs``:
+    base + min(e_a + e_b, ``max_extra``) for the pair of spheres a, b with mesh deficits e (S,) m
+    (:func:`gfcs.coverage.sphere_deficits`), lowered, where a configuration of ``states`` (the start and the
+    goal, (dof,) each) holds the pair's spheres nearer than that, to their clearance there − ``slack`` (but
+    not below ``base``): the barrier must hold at both ends."""
+    pairs = np.asarray(robot.self_collision_pairs, dtype=np.int64).reshape(-1, 2)
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    e = np.asarray(deficits, dtype=np.float64)
+    margins = base + np.minimum(e[pairs[:, 0]] + e[pairs[:, 1]], max_extra)
+    for q in states:
+        c = np.asarray(robot.sphere_centers(np.asarray(q, dtype=np.float64)))
+        gap = np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1) - radii[pairs[:, 0]] - radii[pairs[:, 1]]
+        margins = np.minimum(margins, np.maximum(base, gap - slack))
+    return margins
+
+
 @dataclass
 class MeshCover:
     """Once per model, after an attempt on it failed only because a collision mesh came too near and the
     other mesh retries did not help: a round (n_commands upward, with :class:`MoreCommands`) in which every
     sphere keeps the model's obstacle margin plus its mesh deficit from obstacles: how far the validator's
-    meshes stick out of that sphere (:func:`gfcs.coverage.sphere_deficits`), at most ``max_extra`` [m].
-    A uniformly wider margin (:class:`WiderMargin`) covers millimetres; a sphere model made for another
-    checker can miss its robot's meshes by centimetres on some links only. Needs a mesh validator; skipped
-    when no sphere misses the meshes by more than ``min_deficit`` [m]."""
+    meshes stick out of that sphere (:func:`gfcs.coverage.sphere_deficits`), at most ``max_extra`` [m];
+    with ``self_pairs``, every self-collision sphere pair likewise keeps the sum of its two deficits
+    (:func:`cover_self_margins`, kept feasible at the start and the goal). A uniformly wider margin
+    (:class:`WiderMargin`) covers millimetres; a sphere model made for another checker can miss its robot's
+    meshes by centimetres on some links only. Needs a mesh validator; skipped when no sphere misses the
+    meshes by more than ``min_deficit`` [m]."""
 
     min_deficit: float = 0.001
     max_extra: float = 0.03
+    self_pairs: bool = True
     name: str = "mesh cover"
 
     def __post_init__(self) -> None:
@@ -204,13 +241,20 @@ class MeshCover:
         if (validator is None or self.max_extra == 0 or any(r.attempt.kind == "cover" for r in same)
                 or not any(r.mesh_collision_only for r in same)):
             return None
-        deficits = sphere_deficits(context.model_problem(last.model).robot, validator.robot)
+        problem = context.model_problem(last.model)
+        deficits = sphere_deficits(problem.robot, validator.robot)
         if not np.any(deficits > self.min_deficit):
             return None
-        base = float(context.model_fabric(last.model).config.to_dict()["obstacles"]["margin"])
-        margins = base + np.minimum(deficits, self.max_extra)
+        config = context.model_fabric(last.model).config.to_dict()
+        margins = float(config["obstacles"]["margin"]) + np.minimum(deficits, self.max_extra)
+        pairs = None
+        if self.self_pairs:
+            pairs = tuple(float(m) for m in cover_self_margins(
+                problem.robot, deficits, float(config["self_collision"]["margin"]), self.max_extra,
+                (problem.q0, problem.goal)))
         return Attempt(last.model, context.n_commands, kind="cover",
-                       obstacle_margins=tuple(float(m) for m in margins), restart=last.restart)
+                       obstacle_margins=tuple(float(m) for m in margins), self_margins=pairs,
+                       restart=last.restart)
 
 
 @dataclass

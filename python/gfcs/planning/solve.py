@@ -39,6 +39,7 @@ from gfcs.planning.gfcop import BatchInfo
 from gfcs.planning.models import PlanningModel, RobotModels, model_named, models_for, with_robot
 from gfcs.planning.policies import MoreCommands, PlanContext, default_policies
 from gfcs.planning.presets import Preset, get_preset
+from gfcs.planning.endpoints import check_endpoints
 from gfcs.planning.rollout import RolloutSettings, make_fabric
 from gfcs.planning.samplers import ApproachSampler, Sampler, UniformSampler
 from gfcs.planning.selection import SelectionOptions
@@ -80,6 +81,7 @@ def solve(
     restarts: Optional[int] = None,
     stall_batches: Optional[int] = None,
     stall_tol: float = 0.01,
+    endpoint_check: bool = True,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1 and the preset's retry policies) or with the local fabric
     alone (``method="gf"``).
@@ -127,6 +129,8 @@ def solve(
             in a row lowered the best cost by at most ``stall_tol`` of it
             (:func:`gfcs.planning.gfcop.stalled`); None: the preset's (0 for both presets: every batch
             runs).
+        endpoint_check: refuse a start or goal whose collision meshes are in contact
+            (:func:`gfcs.planning.endpoints.check_endpoints`) before planning; False plans anyway.
 
     Returns:
         :class:`gfcs.results.SolveResult` (the chosen attempt's motion and metrics; ``attempts``: every
@@ -135,6 +139,7 @@ def solve(
 
     Raises:
         gfcs.InvalidValueError: a bad argument (the message names it).
+        gfcs.CollisionError: the start or the goal is in collision on the meshes (``endpoint_check``).
     """
     # Long only by its docstring, which documents every argument of the public API; the work is in helpers.
     budget = Budget(optional_time_limit(time_limit))
@@ -143,6 +148,8 @@ def solve(
         raise InvalidValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
     mesh_margin = non_negative("mesh_margin", mesh_margin, " [m]")
     threads = worker_threads(threads)
+    if endpoint_check:
+        check_endpoints(problem)
     settings = settings if settings is not None else dataclasses.replace(chosen.settings)
     finish = finish if finish is not None else dataclasses.replace(chosen.finish)
     fabric = _preset_fabric(problem, fabric_config, chosen)
@@ -266,7 +273,8 @@ class _Planner:
         return with_robot(self.problem, model.robot)
 
     def fabric_for(self, attempt: Attempt) -> Any:
-        """The fabric of ``attempt``'s model at its obstacle margin (goal contact: with per-sphere margins)."""
+        """The fabric of ``attempt``'s model at its obstacle margin (goal contact and cover: with per-sphere
+        margins; cover: with per-pair self-collision margins too)."""
         key = (attempt.model.name, attempt.margin_round)
         if key not in self._fabrics:
             if attempt.model.margin_offset == 0 and attempt.margin_round == 0:
@@ -279,6 +287,8 @@ class _Planner:
         fabric = self._fabrics[key]
         if attempt.obstacle_margins is not None:
             fabric = fabric.with_obstacle_margins(np.asarray(attempt.obstacle_margins, dtype=np.float64))
+        if attempt.self_margins is not None:
+            fabric = fabric.with_self_margins(np.asarray(attempt.self_margins, dtype=np.float64))
         return fabric
 
     def sampler_for(self, n: int) -> Any:
@@ -288,7 +298,7 @@ class _Planner:
 
     def attempt(self, attempt: Attempt, policy: str) -> AttemptRecord:
         fabric = self.fabric_for(attempt)
-        model_fabric = self.fabric_for(dataclasses.replace(attempt, obstacle_margins=None))
+        model_fabric = self.fabric_for(dataclasses.replace(attempt, obstacle_margins=None, self_margins=None))
         common = _common(self.problem, attempt.model.robot, model_fabric, self.options.seed)
         record = run_attempt(self.problem_for(attempt.model), fabric, self.models.validator, common, attempt,
                              self.sampler_for(attempt.n_commands), self.settings, self.finish, self.options,

@@ -64,8 +64,8 @@ pub struct Diagnostics {
     /// Minimum over (robot sphere, obstacle) pairs within the obstacle influence radius (plus margin) of
     /// d(c) − r (m, negative in collision); +∞ when no sphere is that close to any obstacle.
     pub min_clearance: f64,
-    /// Minimum over self-collision sphere pairs within the self-collision influence radius (plus margin)
-    /// of ‖c_a − c_b‖ − r_a − r_b (m); +∞ when no pair is that close.
+    /// Minimum over self-collision sphere pairs within the self-collision influence radius (plus the
+    /// widest pair margin) of ‖c_a − c_b‖ − r_a − r_b (m); +∞ when no pair is that close.
     pub min_self_clearance: f64,
     /// Minimum over joints of min(q − q_low, q_up − q) (rad or m), without margin; +∞ without limits.
     pub min_joint_margin: f64,
@@ -306,6 +306,12 @@ pub struct Fabric {
     obstacle_margins: Option<Arc<[f64]>>,
     /// The largest obstacle margin of any sphere (m), for the culling bounds: set with the margins.
     widest_obstacle_margin: f64,
+    /// Per-pair self-collision margins (m), replacing `config.self_collision.margin` for each pair of
+    /// [`Robot::self_collision_pairs`]; None: the configured margin for all. See
+    /// [`Fabric::with_self_margins`].
+    self_margins: Option<Arc<[f64]>>,
+    /// The largest self-collision margin of any pair (m), for the culling bounds: set with the margins.
+    widest_self_margin: f64,
     /// Per-joint scales s_i (> 0) of the joint attractor's task space x = S (q − q_g); None: S = I (the
     /// paper's x = q − q_g). See [`Fabric::with_joint_scales`].
     joint_scales: Option<Arc<[f64]>>,
@@ -411,6 +417,8 @@ impl Fabric {
             obstacles: Barrier::from_config(&config.obstacles),
             obstacle_margins: None,
             widest_obstacle_margin: config.obstacles.margin,
+            self_margins: None,
+            widest_self_margin: config.self_collision.margin,
             joint_scales: None,
             groups,
             self_pairs,
@@ -450,6 +458,49 @@ impl Fabric {
         });
         self.obstacle_margins = margins.map(Arc::from);
         Ok(self)
+    }
+
+    /// This fabric with a self-collision margin per sphere pair (m, in the order of
+    /// [`Robot::self_collision_pairs`]), replacing `config.self_collision.margin` in the pair's barrier
+    /// x = ‖c_a − c_b‖ − r_a − r_b − margin; None restores the configured margin. A wider margin keeps two
+    /// links apart by more than their spheres, e.g. where the robot's meshes stick out of its spheres
+    /// (`gfcs.planning.policies.SelfCover`); a negative one (down to, not including, −(r_a + r_b)) lets the
+    /// pair's spheres overlap by up to −margin.
+    ///
+    /// Errors: `Shape` unless there is one margin per pair, `NonFinite` for NaN or ±inf, `Value` naming
+    /// the pair's spheres and links for a margin ≤ −(r_a + r_b).
+    pub fn with_self_margins(mut self, margins: Option<Vec<f64>>) -> Result<Fabric> {
+        if let Some(m) = &margins {
+            let (spheres, pairs) = (self.robot.spheres(), self.robot.self_collision_pairs());
+            check_len("self_margins", m.len(), pairs.len())?;
+            check_finite("self_margins", m)?;
+            for (k, (&mk, &(a, b))) in m.iter().zip(pairs).enumerate() {
+                let radii = spheres[a].radius + spheres[b].radius;
+                if mk <= -radii {
+                    let links = self.robot.link_names();
+                    return Err(FabricError::Value {
+                        what: format!("self_margins[{k}]"),
+                        message: format!(
+                            "{mk} m is at or below minus the radii ({radii} m) of spheres {a} and {b} on \
+                             links '{}' and '{}'",
+                            links[spheres[a].link], links[spheres[b].link]
+                        ),
+                    });
+                }
+            }
+        }
+        self.widest_self_margin = margins
+            .as_ref()
+            .map_or(self.config.self_collision.margin, |m| {
+                m.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+            });
+        self.self_margins = margins.map(Arc::from);
+        Ok(self)
+    }
+
+    /// The per-pair self-collision margins (m) set by [`Fabric::with_self_margins`], if any.
+    pub fn self_margins(&self) -> Option<&[f64]> {
+        self.self_margins.as_deref()
     }
 
     /// This fabric with the joint attractor (GF VII-A1) on the scaled task space x = S (q − q_g),
@@ -727,7 +778,9 @@ impl Fabric {
         // 4. self-collision pairs: link pairs whose bounding spheres are within reach, then the sphere
         //    pairs within reach, processed in the order of `Robot::self_collision_pairs`
         let sc = &self.config.self_collision;
-        let reach = sc.margin + sc.influence;
+        let self_margins = self.self_margins.as_deref();
+        // the culling bounds hold for the widest margin of any pair
+        let reach = self.widest_self_margin + sc.influence;
         ws.active_pairs.clear();
         self.self_pairs.collect(
             &self.groups,
@@ -747,6 +800,11 @@ impl Fabric {
             if !sc.enabled {
                 continue;
             }
+            let margin = match self_margins {
+                None => sc.margin,
+                Some(m) if clearance - m[index as usize] < sc.influence => m[index as usize],
+                Some(_) => continue, // within the widest pair's reach, beyond this pair's
+            };
             ensure_sphere(robot, ws, a);
             ensure_sphere(robot, ws, b);
             let leaf = self_collision_leaf(
@@ -754,7 +812,7 @@ impl Fabric {
                 ra,
                 &ws.spheres[b],
                 rb,
-                sc.margin,
+                margin,
                 sc.min_curvature_radius,
                 &mut ws.jrow,
             );
@@ -1150,5 +1208,97 @@ mod tests {
         let mut shallow = vec![0.0; s];
         shallow[s - 1] = -0.9 * robot.spheres()[s - 1].radius;
         assert!(narrow.clone().with_obstacle_margins(Some(shallow)).is_ok());
+    }
+    /// Per-pair self-collision margins: all equal to m, q̈ is bit for bit that of the configured margin m
+    /// (culling included); one pair's margin raised changes q̈ only where that pair is within its reach;
+    /// None restores the configured margin; bad margins are refused, naming the pair's links.
+    #[test]
+    fn per_pair_self_margins_act_as_the_configured_margin() {
+        let robot = Arc::new(Robot::panda());
+        let mut cfg = FabricConfig::default();
+        (cfg.self_collision.margin, cfg.self_collision.influence) = (0.03, 0.1);
+        let wide = Fabric::new(robot.clone(), cfg.clone()).unwrap();
+        cfg.self_collision.margin = 0.002;
+        let narrow = Fabric::new(robot.clone(), cfg).unwrap();
+        let pairs = robot.self_collision_pairs();
+        let p = pairs.len();
+        let per_pair = narrow
+            .clone()
+            .with_self_margins(Some(vec![0.03; p]))
+            .unwrap();
+        assert_eq!(per_pair.self_margins(), Some(&vec![0.03; p][..]));
+        let restored = per_pair.clone().with_self_margins(None).unwrap();
+        assert!(restored.self_margins().is_none());
+        // one pair (the first of the hand against link 2) with a margin of 0.2 m
+        let spheres = robot.spheres();
+        let link = |name: &str| robot.link_names().iter().position(|l| l == name).unwrap();
+        let (hand, link2) = (link("panda_hand"), link("panda_link2"));
+        let k = pairs
+            .iter()
+            .position(|&(a, b)| {
+                let l = [spheres[a].link, spheres[b].link];
+                l.contains(&hand) && l.contains(&link2)
+            })
+            .expect("a hand / link 2 pair");
+        let mut one = vec![0.002; p];
+        one[k] = 0.2;
+        let one_wide = narrow.clone().with_self_margins(Some(one)).unwrap();
+        let scene = Scene::new();
+        let mut ws = FabricWorkspace::new(&narrow);
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let command = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+        let mut qdd = [[0.0; 7]; 5];
+        let (mut differ, mut one_differs) = (0, 0);
+        for _ in 0..400 {
+            let (q, qd) = random_state(&robot, &mut rng);
+            let fabrics = [&wide, &per_pair, &narrow, &restored, &one_wide];
+            let ok: Vec<bool> = fabrics
+                .iter()
+                .zip(qdd.iter_mut())
+                .map(|(f, out)| {
+                    f.acceleration(&scene, &q, &qd, &command, &mut ws, out)
+                        .is_ok()
+                })
+                .collect();
+            if !ok.iter().all(|&o| o) {
+                continue;
+            }
+            assert_eq!(qdd[0], qdd[1], "q = {q:?}");
+            assert_eq!(qdd[2], qdd[3], "q = {q:?}");
+            differ += (qdd[0] != qdd[2]) as usize;
+            let mut kin = KinematicsWorkspace::new(&robot);
+            robot.update(&q, &qd, &mut kin).unwrap();
+            let (a, b) = pairs[k];
+            let gap = (robot.sphere_center(&kin, a) - robot.sphere_center(&kin, b)).norm()
+                - spheres[a].radius
+                - spheres[b].radius;
+            if gap - 0.2 >= 0.1 {
+                assert_eq!(qdd[4], qdd[2], "pair {k} out of reach, q = {q:?}");
+            } else {
+                one_differs += (qdd[4] != qdd[2]) as usize;
+            }
+        }
+        assert!(differ > 20, "{differ} states where the margin matters");
+        assert!(
+            one_differs > 5,
+            "{one_differs} states where the one pair matters"
+        );
+        let err = |m: Vec<f64>| narrow.clone().with_self_margins(Some(m)).unwrap_err();
+        assert!(matches!(err(vec![0.0; p - 1]), FabricError::Shape { .. }));
+        let mut nan = vec![0.0; p];
+        nan[3] = f64::INFINITY;
+        assert!(matches!(err(nan), FabricError::NonFinite { .. }));
+        let (a, b) = pairs[p - 1];
+        let radii = spheres[a].radius + spheres[b].radius;
+        let mut deep = vec![0.0; p];
+        deep[p - 1] = -radii;
+        let message = err(deep).to_string();
+        assert!(
+            message.contains(&format!("self_margins[{}]", p - 1)) && message.contains("panda_"),
+            "{message}"
+        );
+        let mut shallow = vec![0.0; p];
+        shallow[p - 1] = -0.9 * radii;
+        assert!(narrow.clone().with_self_margins(Some(shallow)).is_ok());
     }
 }

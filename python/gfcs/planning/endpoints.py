@@ -1,0 +1,46 @@
+"""The start and goal of a problem, judged on the collision meshes before any planning.
+
+MoveIt refuses a request whose start state is in collision, and a goal in collision cannot be reached by a
+collision-free motion. A validator that checks every state of a returned motion against the meshes rejects
+each motion of such a problem, so :func:`gfcs.planning.solve` checks both states first
+(:func:`check_endpoints`) and raises :class:`gfcs.CollisionError` naming the links in contact instead of
+spending its time budget. ``solve(..., endpoint_check=False)`` plans anyway.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from gfcs.errors import CollisionError
+
+__all__ = ["check_endpoints"]
+
+
+def check_endpoints(problem: Any) -> None:
+    """Raise :class:`gfcs.CollisionError` when the start ``problem.q0`` or the goal ``problem.goal`` puts the
+    collision meshes of ``problem.mesh_checker`` in contact (distance ≤ 0) with the scene or with each other
+    (the SRDF's enabled link pairs); the message names the problem, the state, the links and the depth.
+    Nothing is checked for a problem without a :class:`gfcs.MeshChecker` (the sphere model is conservative by
+    design; a duck-typed stand-in checker is not asked, so that it sees only the motions)."""
+    from gfcs._core import MeshChecker
+
+    checker = getattr(problem, "mesh_checker", None)
+    if not isinstance(checker, MeshChecker):
+        return
+    for state, q in (("start", problem.q0), ("goal", problem.goal)):
+        q = np.asarray(q, dtype=np.float64)
+        contacts = checker.self_contacts(q, 0.0)
+        if contacts:
+            a, b, depth = contacts[0]
+            more = f" (and {len(contacts) - 1} more pair(s))" if len(contacts) > 1 else ""
+            raise CollisionError(f"problem '{problem.name}': the {state} state is in collision: the meshes of "
+                                 f"links '{a}' and '{b}' touch ({-depth * 1000:.3g} mm deep){more}; "
+                                 f"MoveIt refuses such a request (endpoint_check=False plans anyway)")
+        # distances up to a micrometre are measured exactly; nearer than 0 is contact
+        clearance = float(checker.min_clearance(problem.scene, q, cutoff=1e-6))
+        if clearance <= 0.0:
+            raise CollisionError(f"problem '{problem.name}': the {state} state is in collision: the meshes "
+                                 f"touch an obstacle ({-clearance * 1000:.3g} mm deep); MoveIt refuses such a "
+                                 f"request (endpoint_check=False plans anyway)")
