@@ -1151,6 +1151,21 @@ mod tests {
         scene
     }
 
+    /// q̈ of each fabric at (q, q̇) toward the Panda ready configuration, or None when any evaluation fails.
+    fn accelerations<const N: usize>(
+        fabrics: [&Fabric; N],
+        scene: &Scene,
+        (q, qd): (&[f64], &[f64]),
+        ws: &mut FabricWorkspace,
+    ) -> Option<[[f64; 7]; N]> {
+        let command = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+        let mut qdd = [[0.0; 7]; N];
+        for (f, out) in fabrics.iter().zip(qdd.iter_mut()) {
+            f.acceleration(scene, q, qd, &command, ws, out).ok()?;
+        }
+        Some(qdd)
+    }
+
     /// Per-sphere obstacle margins: all equal to m, q̈ is bit for bit that of the configured margin m
     /// (culling included); None restores the configured margin; bad margins are refused, naming the sphere.
     #[test]
@@ -1172,21 +1187,11 @@ mod tests {
         let scene = obstacle_scene();
         let mut ws = FabricWorkspace::new(&narrow);
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let command = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
-        let mut qdd = [[0.0; 7]; 4];
         let mut differ = 0;
         for _ in 0..300 {
             let (q, qd) = random_state(&robot, &mut rng);
             let fabrics = [&wide, &per_sphere, &narrow, &restored];
-            let ok: Vec<bool> = fabrics
-                .iter()
-                .zip(qdd.iter_mut())
-                .map(|(f, out)| {
-                    f.acceleration(&scene, &q, &qd, &command, &mut ws, out)
-                        .is_ok()
-                })
-                .collect();
-            if ok.iter().all(|&o| o) {
+            if let Some(qdd) = accelerations(fabrics, &scene, (&q, &qd), &mut ws) {
                 assert_eq!(qdd[0], qdd[1], "q = {q:?}");
                 assert_eq!(qdd[2], qdd[3], "q = {q:?}");
                 differ += (qdd[0] != qdd[2]) as usize;
@@ -1209,6 +1214,7 @@ mod tests {
         shallow[s - 1] = -0.9 * robot.spheres()[s - 1].radius;
         assert!(narrow.clone().with_obstacle_margins(Some(shallow)).is_ok());
     }
+
     /// Per-pair self-collision margins: all equal to m, q̈ is bit for bit that of the configured margin m
     /// (culling included); one pair's margin raised changes q̈ only where that pair is within its reach;
     /// None restores the configured margin; bad margins are refused, naming the pair's links.
@@ -1246,23 +1252,13 @@ mod tests {
         let scene = Scene::new();
         let mut ws = FabricWorkspace::new(&narrow);
         let mut rng = ChaCha8Rng::seed_from_u64(9);
-        let command = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
-        let mut qdd = [[0.0; 7]; 5];
         let (mut differ, mut one_differs) = (0, 0);
         for _ in 0..400 {
             let (q, qd) = random_state(&robot, &mut rng);
             let fabrics = [&wide, &per_pair, &narrow, &restored, &one_wide];
-            let ok: Vec<bool> = fabrics
-                .iter()
-                .zip(qdd.iter_mut())
-                .map(|(f, out)| {
-                    f.acceleration(&scene, &q, &qd, &command, &mut ws, out)
-                        .is_ok()
-                })
-                .collect();
-            if !ok.iter().all(|&o| o) {
+            let Some(qdd) = accelerations(fabrics, &scene, (&q, &qd), &mut ws) else {
                 continue;
-            }
+            };
             assert_eq!(qdd[0], qdd[1], "q = {q:?}");
             assert_eq!(qdd[2], qdd[3], "q = {q:?}");
             differ += (qdd[0] != qdd[2]) as usize;
