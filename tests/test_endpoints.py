@@ -1,6 +1,7 @@
 """A start or goal whose collision meshes are in contact is refused before planning (gfcs.CollisionError)."""
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -58,3 +59,21 @@ def test_clear_endpoints_pass_and_the_check_has_a_switch(problem):
     result = planning.solve(bad, batches=1, population=4, policies=[], endpoint_check=False)
     assert not result.success  # planned anyway; the meshes judge the start
     check_endpoints(dataclasses.replace(problem, mesh_checker=None))  # nothing to judge with
+
+
+def test_the_cli_and_bench_report_a_start_in_collision_by_name(problem, tmp_path, capsys):
+    from gfcs import cli
+
+    bad = dataclasses.replace(problem, q0=_self_contact(problem))
+    generators.write_problems([bad], tmp_path)
+    folder = tmp_path / problem.cls
+    scene, request = folder / "scene0001.yaml", folder / "request0001.yaml"
+    assert cli.main(["solve", "--scene", str(scene), "--request", str(request), "--batches", "1"]) == 2
+    assert "start state is in collision" in capsys.readouterr().err
+    # a bench records the problem as failed, with the message, and goes on
+    out = tmp_path / "rows.jsonl"
+    code = cli.main(["bench", "--problems", str(tmp_path), "--batches", "1", "--population", "4",
+                     "--no-progress", "--json", str(out)])
+    rows = [json.loads(line) for line in out.read_text().splitlines()]
+    assert code == 0 and rows and all(not r["success"] for r in rows if r.get("method") == "gfcs")
+    assert any("start state is in collision" in str(r.get("error", "")) for r in rows)
