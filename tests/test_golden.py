@@ -40,7 +40,9 @@ CASES: Dict[str, Tuple[Tuple[Any, ...], Dict[str, Any]]] = {
     "generated_without_meshes": (("generated", "cage", 1, False), {"batches": 1, "population": 4}),
     "generated_uniform_sampler": (("generated", "box", 1, True), {"batches": 2, "sampler": "uniform"}),
     "mbm_cage_0001": (("mbm", "cage", 1, "shipped"), {"batches": 1}),
+    "mbm_cage_0001_no_repair": (("mbm", "cage", 1, "shipped"), {"batches": 1, "mesh_repair": False}),
     "mbm_cage_0006": (("mbm", "cage", 6, "shipped"), {"batches": 1}),
+    "mbm_cage_0006_no_repair": (("mbm", "cage", 6, "shipped"), {"batches": 1, "mesh_repair": False}),
     "mbm_table_pick_0041": (("mbm", "table_pick", 41, "mbm"), {"batches": 1}),
 }
 
@@ -171,16 +173,19 @@ def test_solve_makes_the_pinned_attempts_and_returns_the_pinned_motion(name: str
 
 def test_the_cases_exercise_every_retry_path(golden: Dict[str, Any]) -> None:
     """The fixture covers what it claims: a thin-then-covering cascade, a second command, a mesh retry that
-    succeeds, and a goal-contact attempt that succeeds."""
+    succeeds, and a goal-contact attempt that succeeds (with the mesh repair off), and mesh contacts that
+    the repair undoes in the first attempt."""
     attempts = [a for entry in golden.values() for a in entry["attempts"]]
     assert {"thin", "own"} <= {a["model"] for a in attempts}
     assert any(a["n_commands"] == 2 for a in attempts)
-    cage6 = golden["mbm_cage_0006"]["attempts"]
+    cage6 = golden["mbm_cage_0006_no_repair"]["attempts"]
     assert cage6[-1]["success"] and cage6[-1]["obstacle_margin"] > cage6[0]["obstacle_margin"]
     contact = golden["mbm_table_pick_0041"]["attempts"]
     assert contact[-1]["success"] and contact[-1]["goal_contact_margins"] is not None
-    cascade = [a["model"] for a in golden["mbm_cage_0001"]["attempts"]]
+    cascade = [a["model"] for a in golden["mbm_cage_0001_no_repair"]["attempts"]]
     assert cascade[0] == "thin" and cascade[-1] == "own"
+    for name in ("mbm_cage_0001", "mbm_cage_0006"):  # both failed the first attempt on the meshes
+        assert [a["success"] for a in golden[name]["attempts"]] == [True]
 
 
 def main(argv: List[str]) -> int:

@@ -588,11 +588,32 @@ class MeshChecker:
     def joint_names(self) -> List[str]: ...
     @property
     def robot(self) -> Robot: ...
-    def clearance(self, scene: Scene, q: ArrayLike, threads: Optional[int] = None) -> Union[float, FloatArray]:
+    def clearance(
+        self, scene: Scene, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
+    ) -> Union[float, FloatArray]:
         """q (dof,) -> float, q (T, dof) -> (T,): min distance of the shapes to the scene, m (≤ 0: contact;
-        inf: nothing within max_distance). Trajectories in parallel, GIL released."""
-    def self_clearance(self, q: ArrayLike, threads: Optional[int] = None) -> Union[float, FloatArray]:
-        """q (dof,) -> float, q (T, dof) -> (T,): min distance over the self-collision shape pairs, m."""
+        inf: nothing within max_distance). Trajectories in parallel, GIL released. With ``cutoff`` [m] a value
+        is exact only below it (some value at or above it otherwise): cheaper away from contact."""
+    def self_clearance(
+        self, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
+    ) -> Union[float, FloatArray]:
+        """q (dof,) -> float, q (T, dof) -> (T,): min distance over the self-collision shape pairs, m (negative:
+        penetration depth); ``cutoff`` as in :meth:`clearance`."""
+    def shape_clearances(
+        self, scene: Scene, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
+    ) -> FloatArray:
+        """q (dof,) -> (S,), q (T, dof) -> (T, S): clearance of each collision shape (``shape_links`` order) to
+        the scene, m; exact below ``cutoff`` (None: ``max_distance``), inf where no obstacle lies that near; the
+        row minimum is :meth:`clearance`."""
+    def pair_clearances(
+        self, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
+    ) -> FloatArray:
+        """q (dof,) -> (P,), q (T, dof) -> (T, P): distance of each checked self-collision shape pair
+        (``self_pair_links`` order), m; negative penetration depth in contact, inf beyond ``cutoff``; the row
+        minimum is :meth:`self_clearance`."""
+    @property
+    def self_pair_links(self) -> List[Tuple[str, str]]:
+        """(link a, link b) of each checked self-collision shape pair, in :meth:`pair_clearances` order."""
     def self_contacts(self, q: ArrayLike, within: float = 0.0) -> List[Tuple[str, str, float]]:
         """The checked self-collision shape pairs nearer than ``within`` m (≥ 0) at q (dof,): (link a, link b,
         distance m), nearest first; ≤ 0 in contact (negative: penetration depth)."""

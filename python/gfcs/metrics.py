@@ -49,6 +49,8 @@ __all__ = [
     "DEFAULT_MESH_MARGIN",
     "INTERPOLATION_ALLOWANCE",
     "mesh_report_cutoff",
+    "checked_indices",
+    "checked_states",
 ]
 
 #: Default tolerance [rad] on ‖q_T − q_goal‖ for a trajectory to count as reaching its goal: the default
@@ -307,11 +309,11 @@ def mesh_report_cutoff(margin: float) -> float:
     return float(margin) + INTERPOLATION_ALLOWANCE + MESH_REPORT_RANGE
 
 
-def checked_states(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
-    """The rows of ``q`` (T, dof) a collision check visits: the first, the last, and each next one that
-    lies at least ``step`` [rad or m, max over joints] from the last one visited. A slowly timed path
-    (small steps) is checked at that resolution instead of at every time sample; a path whose samples lie
-    farther apart keeps all of them."""
+def checked_indices(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
+    """Indices (K,) of the rows of ``q`` (T, dof) a collision check visits: the first, the last, and each
+    next one that lies at least ``step`` [rad or m, max over joints] from the last one visited. A slowly
+    timed path (small steps) is checked at that resolution instead of at every time sample; a path whose
+    samples lie farther apart keeps all of them."""
     qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
     keep = [0]
     for k in range(1, qa.shape[0] - 1):
@@ -319,7 +321,13 @@ def checked_states(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
             keep.append(k)
     if qa.shape[0] > 1:
         keep.append(qa.shape[0] - 1)
-    return qa[keep]
+    return np.asarray(keep, dtype=np.int64)
+
+
+def checked_states(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
+    """The rows of ``q`` (T, dof) at :func:`checked_indices`."""
+    qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    return qa[checked_indices(qa, step)]
 
 
 def mesh_verdict(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_MESH_MARGIN,

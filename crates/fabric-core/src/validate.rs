@@ -547,6 +547,137 @@ impl MeshChecker {
         Ok(best)
     }
 
+    /// Clearance of each collision shape at q against the scene into `out` (S,): its distance as in
+    /// [`MeshChecker::clearance_in`] (obstacles enclosed by a solid link mesh count as contact), exact
+    /// below min(`cutoff`, max distance) and +∞ where no obstacle lies that near.
+    fn shape_clearances_in(
+        &self,
+        scene: &Scene,
+        obstacles: &[&Obstacle],
+        q: &[f64],
+        cutoff: f64,
+        ws: &mut MeshWorkspace,
+        out: &mut [f64],
+    ) -> Result<()> {
+        self.place(q, ws)?;
+        let max = self.max_distance.min(cutoff);
+        for (i, (s, pose)) in self.shapes.iter().zip(&ws.poses).enumerate() {
+            out[i] = f64::INFINITY;
+            let slack = if s.hull.is_some() { BOUND_SLACK } else { 0.0 };
+            let Some(bound) = scene.shape_distance(s.bound(), pose, max + slack) else {
+                continue;
+            };
+            if s.hull.is_none() {
+                out[i] = bound;
+                continue;
+            }
+            if let Some(d) = scene.shape_distance(&*s.shape, pose, max) {
+                out[i] = d;
+            }
+            if bound <= 0.0 {
+                if let Some(mesh) = s.solid_mesh() {
+                    if let Some(d) = enclosed_clearance(mesh, pose, &ws.boxes[i], obstacles) {
+                        out[i] = out[i].min(d);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Distance of each self-collision pair ([`MeshChecker::self_pairs`]) at q into `out` (P,), exact below
+    /// min(`cutoff`, max distance) and +∞ beyond; a pair in contact reads parry's (negative) penetration
+    /// depth.
+    fn pair_clearances_in(
+        &self,
+        q: &[f64],
+        cutoff: f64,
+        ws: &mut MeshWorkspace,
+        out: &mut [f64],
+    ) -> Result<()> {
+        self.place(q, ws)?;
+        let max = self.max_distance.min(cutoff);
+        for (k, &(i, j)) in self.self_pairs.iter().enumerate() {
+            out[k] = f64::INFINITY;
+            if aabb_gap(&ws.boxes[i], &ws.boxes[j]) - BOUND_SLACK > max {
+                continue;
+            }
+            let (a, b) = (&self.shapes[i], &self.shapes[j]);
+            if a.hull.is_some() || b.hull.is_some() {
+                let bound = pair_distance(&ws.poses[i], a.bound(), &ws.poses[j], b.bound())
+                    .unwrap_or(f64::NEG_INFINITY);
+                if bound - BOUND_SLACK > max {
+                    continue;
+                }
+            }
+            let d = self.pair_exact((i, j), &ws.poses, &mut ws.stack, (max, true))?;
+            if d <= max {
+                out[k] = d;
+            }
+        }
+        Ok(())
+    }
+
+    /// Run `row(workspace, q, out)` on every state of `qs` (T × dof row-major) in parallel, each filling
+    /// a row of `width` values: T × `width` row-major, in state order whatever the thread count.
+    fn per_state_rows(
+        &self,
+        qs: &[f64],
+        threads: Option<usize>,
+        width: usize,
+        row: impl Fn(&mut MeshWorkspace, &[f64], &mut [f64]) -> Result<()> + Sync + Send,
+    ) -> Result<Vec<f64>> {
+        let n = self.states(qs)?;
+        let mut out = vec![f64::INFINITY; n * width];
+        if n == 0 || width == 0 {
+            return Ok(out);
+        }
+        let dof = self.robot.dof();
+        with_threads(threads, || {
+            qs.par_chunks(dof)
+                .zip(out.par_chunks_mut(width))
+                .try_for_each_init(|| self.workspace(), |ws, (q, o)| row(ws, q, o))
+        })??;
+        Ok(out)
+    }
+
+    /// The clearance of every collision shape ([`MeshChecker::shapes`]) to `scene` at every state of
+    /// `qs` (T × dof row-major): T × S row-major (m), each exact below min(`cutoff`, max distance) and
+    /// +∞ where no obstacle lies that near; the minimum of a row is [`MeshChecker::clearance`] (where
+    /// below the cutoff). Which link touches what, per state, e.g. for the gradients of a path repair
+    /// that must move two links off two obstacles at once. Parallel as
+    /// [`MeshChecker::trajectory_clearance`].
+    ///
+    /// Errors: as [`MeshChecker::trajectory_clearance`].
+    pub fn trajectory_shape_clearances(
+        &self,
+        scene: &Scene,
+        qs: &[f64],
+        threads: Option<usize>,
+        cutoff: f64,
+    ) -> Result<Vec<f64>> {
+        let obstacles: Vec<&Obstacle> = scene.iter().map(|(_, o)| o).collect();
+        self.per_state_rows(qs, threads, self.shapes.len(), |ws, q, out| {
+            self.shape_clearances_in(scene, &obstacles, q, cutoff, ws, out)
+        })
+    }
+
+    /// The distance of every self-collision pair ([`MeshChecker::self_pairs`]) at every state of `qs`:
+    /// T × P row-major (m), exact below min(`cutoff`, max distance), +∞ beyond, negative penetration
+    /// depths in contact; the minimum of a row is [`MeshChecker::self_clearance`] (where below the cutoff).
+    ///
+    /// Errors: as [`MeshChecker::trajectory_self_clearance`].
+    pub fn trajectory_pair_clearances(
+        &self,
+        qs: &[f64],
+        threads: Option<usize>,
+        cutoff: f64,
+    ) -> Result<Vec<f64>> {
+        self.per_state_rows(qs, threads, self.self_pairs.len(), |ws, q, out| {
+            self.pair_clearances_in(q, cutoff, ws, out)
+        })
+    }
+
     /// Clearance (m) of the collision geometry at q (dof, joint order of [`MeshChecker::robot`]) against
     /// `scene`: the minimum over the shapes of [`Scene::shape_distance`] (positive when separated,
     /// negative penetration depth or 0 when in contact), with obstacles wholly enclosed by a solid link
@@ -608,9 +739,25 @@ impl MeshChecker {
         qs: &[f64],
         threads: Option<usize>,
     ) -> Result<Vec<f64>> {
+        self.trajectory_clearance_within(scene, qs, threads, f64::INFINITY)
+    }
+
+    /// [`MeshChecker::trajectory_clearance`] measured up to `cutoff` (m, > 0; +∞: all): each value is
+    /// exact where it is below `cutoff` and otherwise some value at or above it, or +∞. Shape pairs
+    /// whose bounds lie beyond `cutoff` are not measured, which spares most of the cost of states away
+    /// from contact (e.g. the constraint values of a path repair, which only needs the near ones).
+    ///
+    /// Errors: as [`MeshChecker::trajectory_clearance`].
+    pub fn trajectory_clearance_within(
+        &self,
+        scene: &Scene,
+        qs: &[f64],
+        threads: Option<usize>,
+        cutoff: f64,
+    ) -> Result<Vec<f64>> {
         let obstacles: Vec<&Obstacle> = scene.iter().map(|(_, o)| o).collect();
         self.per_state(qs, threads, |ws, q| {
-            self.clearance_in(scene, &obstacles, q, f64::INFINITY, ws)
+            self.clearance_in(scene, &obstacles, q, cutoff, ws)
         })
     }
 
@@ -651,13 +798,17 @@ impl MeshChecker {
 
     /// Self-clearance at q with a workspace: branch and bound over the pairs as
     /// [`MeshChecker::clearance_in`], with box gaps and hull distances as lower bounds, and the same
-    /// `cutoff`. Two meshes in contact read 0 under a finite `cutoff` and parry's (negative)
-    /// penetration depth under an infinite one.
-    fn self_clearance_in(&self, q: &[f64], cutoff: f64, ws: &mut MeshWorkspace) -> Result<f64> {
+    /// `cutoff`. Two meshes in contact read parry's (negative) penetration depth with `depth`, and 0
+    /// without (a verdict needs no depth).
+    fn self_clearance_in(
+        &self,
+        q: &[f64],
+        cutoff: f64,
+        depth: bool,
+        ws: &mut MeshWorkspace,
+    ) -> Result<f64> {
         self.place(q, ws)?;
         let max = self.max_distance.min(cutoff);
-        // Penetration depths are measured for unbounded queries only.
-        let depth = cutoff == f64::INFINITY;
         let mut best = f64::INFINITY;
         ws.order.clear();
         for (k, &(i, j)) in self.self_pairs.iter().enumerate() {
@@ -729,7 +880,7 @@ impl MeshChecker {
     ///
     /// Errors: `Shape`, `NonFinite`, `Value` when parry cannot measure a pair of shapes.
     pub fn self_clearance(&self, q: &[f64]) -> Result<f64> {
-        self.self_clearance_in(q, f64::INFINITY, &mut self.workspace())
+        self.self_clearance_in(q, f64::INFINITY, true, &mut self.workspace())
     }
 
     /// [`MeshChecker::self_clearance`] of every state of `qs` (T × dof row-major) -> (T,), in parallel
@@ -739,8 +890,20 @@ impl MeshChecker {
         qs: &[f64],
         threads: Option<usize>,
     ) -> Result<Vec<f64>> {
+        self.trajectory_self_clearance_within(qs, threads, f64::INFINITY)
+    }
+
+    /// [`MeshChecker::trajectory_self_clearance`] measured up to `cutoff` as
+    /// [`MeshChecker::trajectory_clearance_within`]; pairs in contact still read parry's (negative)
+    /// penetration depth.
+    pub fn trajectory_self_clearance_within(
+        &self,
+        qs: &[f64],
+        threads: Option<usize>,
+        cutoff: f64,
+    ) -> Result<Vec<f64>> {
         self.per_state(qs, threads, |ws, q| {
-            self.self_clearance_in(q, f64::INFINITY, ws)
+            self.self_clearance_in(q, cutoff, true, ws)
         })
     }
 
@@ -817,7 +980,7 @@ impl MeshChecker {
         cutoff: f64,
     ) -> Result<f64> {
         self.trajectory_min(qs, threads, cutoff, |ws, q, cutoff| {
-            self.self_clearance_in(q, cutoff, ws)
+            self.self_clearance_in(q, cutoff, cutoff == f64::INFINITY, ws)
         })
     }
 }

@@ -30,6 +30,19 @@ fn cutoff_arg(cutoff: Option<f64>) -> PyResult<f64> {
     }
 }
 
+/// `values` (T × width row-major) as a (width,) array for one state (`batch` None) or (T, width).
+fn rows_output<'py>(
+    py: Python<'py>,
+    values: Vec<f64>,
+    batch: Option<usize>,
+    width: usize,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    match batch {
+        None => output(py, values, &[width]),
+        Some(t) => output(py, values, &[t, width]),
+    }
+}
+
 fn scalar_or_array(py: Python<'_>, values: Vec<f64>, batch: Option<usize>) -> PyResult<Py<PyAny>> {
     match (batch, values.first()) {
         (None, Some(v)) => Ok(v.into_pyobject(py)?.into_any().unbind()),
@@ -124,43 +137,106 @@ impl PyMeshChecker {
     /// Clearance (m) of the collision geometry against `scene`: float for q (dof,), (T,) array for
     /// q (T, dof). Positive when separated, ≤ 0 in contact (negative: penetration depth), `inf` when no
     /// obstacle is within `max_distance`. Trajectories run in parallel (`threads`, None: all cores) with
-    /// the GIL released.
-    #[pyo3(signature = (scene, q, threads=None))]
+    /// the GIL released. With `cutoff` (m) a value is exact only where it is below the cutoff and some
+    /// value at or above it otherwise (shape pairs beyond it are not measured: cheaper away from
+    /// contact).
+    #[pyo3(signature = (scene, q, threads=None, cutoff=None))]
     fn clearance(
         &self,
         py: Python<'_>,
         scene: PyRef<'_, PyScene>,
         q: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
+        cutoff: Option<f64>,
     ) -> PyResult<Py<PyAny>> {
         let threads = convert::threads(threads)?;
+        let cutoff = cutoff_arg(cutoff)?;
         let checker = &self.inner;
         let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let scene = &scene.inner;
-        let values = match batch {
-            None => guarded(py, || checker.clearance(scene, &qs).map(|d| vec![d]))?,
-            Some(_) => detached(py, || checker.trajectory_clearance(scene, &qs, threads))?,
-        };
+        let values = detached(py, || {
+            checker.trajectory_clearance_within(scene, &qs, threads, cutoff)
+        })?;
         scalar_or_array(py, values, batch)
     }
 
     /// Self-clearance (m) over the checked shape pairs: float for q (dof,), (T,) array for q (T, dof);
-    /// ≤ 0 in contact, `inf` when no pair is within `max_distance`. Parallel as `clearance`.
-    #[pyo3(signature = (q, threads=None))]
+    /// ≤ 0 in contact (negative: penetration depth), `inf` when no pair is within `max_distance`.
+    /// Parallel, and `cutoff` as in `clearance`.
+    #[pyo3(signature = (q, threads=None, cutoff=None))]
     fn self_clearance(
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
+        cutoff: Option<f64>,
     ) -> PyResult<Py<PyAny>> {
         let threads = convert::threads(threads)?;
+        let cutoff = cutoff_arg(cutoff)?;
         let checker = &self.inner;
         let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
-        let values = match batch {
-            None => guarded(py, || checker.self_clearance(&qs).map(|d| vec![d]))?,
-            Some(_) => detached(py, || checker.trajectory_self_clearance(&qs, threads))?,
-        };
+        let values = detached(py, || {
+            checker.trajectory_self_clearance_within(&qs, threads, cutoff)
+        })?;
         scalar_or_array(py, values, batch)
+    }
+
+    /// Clearance (m) of each collision shape (`shape_links` order) to `scene`: (S,) for q (dof,), (T, S)
+    /// for q (T, dof); exact below `cutoff` (None: `max_distance`), `inf` where no obstacle lies that
+    /// near; the minimum over the shapes is `clearance`. Parallel, GIL released.
+    #[pyo3(signature = (scene, q, threads=None, cutoff=None))]
+    fn shape_clearances<'py>(
+        &self,
+        py: Python<'py>,
+        scene: PyRef<'_, PyScene>,
+        q: &Bound<'_, PyAny>,
+        threads: Option<&Bound<'_, PyAny>>,
+        cutoff: Option<f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let threads = convert::threads(threads)?;
+        let cutoff = cutoff_arg(cutoff)?;
+        let checker = &self.inner;
+        let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
+        let scene = &scene.inner;
+        let values = detached(py, || {
+            checker.trajectory_shape_clearances(scene, &qs, threads, cutoff)
+        })?;
+        rows_output(py, values, batch, checker.num_shapes())
+    }
+
+    /// Distance (m) of each checked self-collision shape pair (`self_pair_links` order): (P,) for q
+    /// (dof,), (T, P) for q (T, dof); exact below `cutoff`, `inf` beyond, negative penetration depth in
+    /// contact; the minimum over the pairs is `self_clearance`. Parallel, GIL released.
+    #[pyo3(signature = (q, threads=None, cutoff=None))]
+    fn pair_clearances<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'_, PyAny>,
+        threads: Option<&Bound<'_, PyAny>>,
+        cutoff: Option<f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let threads = convert::threads(threads)?;
+        let cutoff = cutoff_arg(cutoff)?;
+        let checker = &self.inner;
+        let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
+        let values = detached(py, || {
+            checker.trajectory_pair_clearances(&qs, threads, cutoff)
+        })?;
+        rows_output(py, values, batch, checker.self_pairs().len())
+    }
+
+    /// The links of each checked self-collision shape pair, in `pair_clearances` order: [(link a, link b)].
+    #[getter]
+    fn self_pair_links(&self) -> Vec<(String, String)> {
+        let (names, shapes) = (self.inner.robot().link_names(), self.inner.shapes());
+        self.inner
+            .self_pairs()
+            .iter()
+            .map(|&(i, j)| {
+                let name = |k: usize| names.get(shapes[k].link).cloned().unwrap_or_default();
+                (name(i), name(j))
+            })
+            .collect()
     }
 
     /// The checked self-collision shape pairs nearer than `within` m (≥ 0) at q (dof,): a list of

@@ -22,7 +22,7 @@ from gfcs.blend import append_goal_blend, limit_dynamics, retime_start
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.results import Trajectory
 
-__all__ = ["FinishOptions", "finish_rollout", "rollout_commands", "with_raw_ldj"]
+__all__ = ["FinishOptions", "finish_rollout", "within_limits", "rollout_commands", "with_raw_ldj"]
 
 
 @dataclass
@@ -70,6 +70,15 @@ def finish_rollout(fabric: Any, seq: Any, goal: Any, dt: float, options: FinishO
     if seq.reached and options.goal_blend:
         t, q, qd = append_goal_blend(t, q, qd, qdd[-1], np.asarray(goal, dtype=np.float64), dt,
                                      np.asarray(robot.lower), np.asarray(robot.upper))
+    t, q, qd = within_limits(robot, t, q, qd, dt, options)
+    return (Trajectory(t, q, qd, raw_q=np.asarray(seq.q)), float(seq.cost), bool(seq.reached),
+            np.asarray(seq.t_stars, dtype=np.float64))
+
+
+def within_limits(robot: Any, t: np.ndarray, q: np.ndarray, qd: np.ndarray, dt: float, options: FinishOptions,
+                  ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t, q, qd) re-timed along the same path within the velocity and acceleration limits ``options``
+    keeps (:func:`gfcs.blend.limit_dynamics`); unchanged when it keeps none."""
     accel = None
     if options.limit_acceleration:
         accel = options.acceleration_limits
@@ -79,8 +88,7 @@ def finish_rollout(fabric: Any, seq: Any, goal: Any, dt: float, options: FinishO
         velocity = np.minimum(velocity, np.asarray(options.velocity_limits, dtype=np.float64))
     if velocity is not None or accel is not None:
         t, q, qd = limit_dynamics(t, q, qd, dt, velocity=velocity, acceleration=accel)
-    return (Trajectory(t, q, qd, raw_q=np.asarray(seq.q)), float(seq.cost), bool(seq.reached),
-            np.asarray(seq.t_stars, dtype=np.float64))
+    return t, q, qd
 
 
 def with_raw_ldj(metrics: Dict[str, Any], robot: Any, trajectory: Trajectory, dt: float) -> Dict[str, Any]:

@@ -1,7 +1,8 @@
 """Presets: named sets of planner settings.
 
 * ``default``: the planner as the project ships it: the approach/retract warm start, the command blend, the
-  near-optimal shortest-hand-path choice, mesh-validated candidate selection, the finished trajectory
+  near-optimal shortest-hand-path choice, mesh-validated candidate selection with the repair of candidates
+  that fail only on the meshes (:mod:`gfcs.planning.repair`), the finished trajectory
   (smooth start, goal blend, velocity and acceleration re-timing), the thin-then-covering sphere models and
   every retry policy (:func:`gfcs.planning.policies.default_policies`).
 * ``paper``: GFCS as the paper writes it (GFCS Sec. IV-A, Alg. 1): a uniform first batch (or the learned
@@ -9,7 +10,7 @@
   the goal tolerance ε = 0.01 rad, the goal commanded as it is, eq. 4's cost without a collision term, no
   stall exit, the paper's
   barriers (no braking cap or damper, exact curvature: ``braking_time`` and ``min_curvature_radius`` 0),
-  the robot's own spheres, no retries and the trajectory as the fabric integrates it (no re-timing, no
+  the robot's own spheres, no retries, no mesh repair and the trajectory as the fabric integrates it (no re-timing, no
   blend). With a mesh model the returned motion is still judged on the meshes; it is not chosen by them.
 
 Both presets keep a time budget when one is given (``time_limit``): a budget bounds how long a solve may
@@ -20,11 +21,12 @@ run, it does not change the method. :func:`gfcs.planning.solve.solve` has no bud
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, List
+from typing import Any, Callable, Dict, List, Optional
 
 from gfcs.errors import InvalidValueError
 from gfcs.planning.finish import FinishOptions
 from gfcs.planning.policies import default_policies
+from gfcs.planning.repair import RepairOptions
 from gfcs.planning.rollout import RolloutSettings
 
 __all__ = ["Preset", "PRESETS", "get_preset", "PAPER_BARRIERS"]
@@ -54,6 +56,7 @@ class Preset:
         fabric: configuration overrides applied over the fabric configuration given to the solve.
         stall_batches: early stop of the optimisation after this many stalled batches (0: every batch
             runs; :func:`gfcs.planning.gfcop.stalled`).
+        repair: the repair of candidates that fail only on the meshes (None: none).
     """
 
     name: str
@@ -66,6 +69,7 @@ class Preset:
     policies: Callable[[], List[Any]]
     fabric: Dict[str, Any] = field(default_factory=dict)
     stall_batches: int = 0
+    repair: Optional[RepairOptions] = None
 
 
 PRESETS: Dict[str, Preset] = {
@@ -76,7 +80,8 @@ PRESETS: Dict[str, Preset] = {
     # motion, so colliding candidates rank behind collision-free ones.
     "default": Preset("default", RolloutSettings(tol=0.02, collision_penalty=100.0, limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
-                      sampler="approach", thin_spheres=True, policies=default_policies),
+                      sampler="approach", thin_spheres=True, policies=default_policies,
+                      repair=RepairOptions()),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,

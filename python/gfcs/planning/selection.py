@@ -4,11 +4,14 @@ Eq. 4 scores time only. The ``paper`` preset returns the lowest-cost candidate (
 model). The ``default`` preset prefers, among the reached candidates whose cost is within
 ``(1 + length_slack)`` times the lowest, the one with the shortest end-effector path (near-equal times differ
 much more in hand path), and with a mesh checker returns the first candidate of that order whose trajectory
-succeeds with the collision meshes included (the fabric sees spheres; a validator sees meshes).
+succeeds with the collision meshes included (the fabric sees spheres; a validator sees meshes). When none does
+and :attr:`SelectionOptions.repair` is set, the first candidates that failed only on the meshes are moved off
+their contacts (:mod:`gfcs.planning.repair`), re-timed and judged again.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional
@@ -16,8 +19,9 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from gfcs import metrics as _metrics
-from gfcs.planning.finish import FinishOptions, finish_rollout, with_raw_ldj
+from gfcs.planning.finish import FinishOptions, finish_rollout, with_raw_ldj, within_limits
 from gfcs.planning.gfcop import OptimResult
+from gfcs.planning.repair import RepairOptions, repair_path
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.results import Trajectory
 
@@ -61,12 +65,15 @@ class SelectionOptions:
         mesh_candidates: with a mesh checker, at most this many candidates are judged (≥ 1).
         mesh_margin: clearance [m] the collision meshes must keep for success.
         clearance_floor: how far [m, ≤ 0] the spheres may overlap obstacles (the goal-contact attempt).
+        repair: with a mesh checker, how candidates that failed only on the meshes are repaired
+            (:func:`gfcs.planning.repair.repair_path`) when no candidate succeeds; None: not at all.
     """
 
     length_slack: float = 0.1
     mesh_candidates: int = 32
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN
     clearance_floor: float = 0.0
+    repair: Optional[RepairOptions] = None
 
 
 class _Rollouts:
@@ -123,51 +130,95 @@ def _past(deadline: Optional[float], needed: float = 0.0) -> bool:
     return deadline is not None and time.perf_counter() + needed > deadline
 
 
+def _judge(problem: Any, trajectory: Trajectory, mesh_checker: Any, options: SelectionOptions,
+           deadline: Optional[float]) -> Dict[str, Any]:
+    """:func:`gfcs.metrics.trajectory_metrics` of a candidate's trajectory, as the selection judges it."""
+    return _metrics.trajectory_metrics(problem.robot, problem.scene, trajectory.t, trajectory.q,
+                                       np.asarray(problem.goal, dtype=np.float64), mesh_checker=mesh_checker,
+                                       mesh_margin=options.mesh_margin, clearance_floor=options.clearance_floor,
+                                       ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
+                                       deadline=deadline)
+
+
+def _mesh_contact_only(metrics: Dict[str, Any]) -> bool:
+    """A judged candidate that failed only because a collision mesh came too near (its sphere criterion
+    holds and the mesh check finished)."""
+    return (not metrics.get("success") and bool(metrics.get("sphere_success"))
+            and "mesh_clearance" in metrics and bool(metrics.get("mesh_check_complete", True)))
+
+
+def _repair(problem: Any, candidate: Candidate, mesh_checker: Any, options: SelectionOptions, finish: FinishOptions,
+            dt: float, deadline: Optional[float]) -> Optional[Candidate]:
+    """``candidate`` moved off its mesh contacts (:func:`gfcs.planning.repair.repair_path`), re-timed within the
+    limits ``finish`` keeps, and judged; None when the repair or the judgement fails. Either way the record of
+    the repair is kept in ``candidate.metrics["mesh_repair"]``."""
+    assert options.repair is not None
+    traj = candidate.trajectory
+    moved, record = repair_path(problem.robot, problem.scene, mesh_checker, traj.t, traj.q, options.repair,
+                                options.mesh_margin, options.clearance_floor, deadline)
+    candidate.metrics["mesh_repair"] = record
+    if moved is None or _past(deadline):
+        return None
+    qd = traj.qd + np.gradient(moved - traj.q, traj.t, axis=0) if len(traj) > 1 else traj.qd.copy()
+    qd[0], qd[-1] = traj.qd[0], traj.qd[-1]
+    t, q, qd = within_limits(problem.robot, traj.t, moved, qd, dt, finish)
+    repaired = Trajectory(t, q, qd, raw_q=traj.raw_q)
+    met = _judge(problem, repaired, mesh_checker, options, deadline)
+    if not met["success"]:
+        candidate.metrics["mesh_repair"] = {**record, "judged": "failed"}
+        return None
+    met.update(mesh_repair={**record, "judged": "success"}, selection_rank=candidate.metrics.get("selection_rank"),
+               mesh_candidates_checked=candidate.metrics.get("mesh_candidates_checked"))
+    return dataclasses.replace(candidate, trajectory=repaired, metrics=met)
+
+
 def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
                      mesh_checker: Any, options: SelectionOptions, finish: Optional[FinishOptions] = None,
                      threads: Optional[int] = None, deadline: Optional[float] = None) -> Candidate:
     """The candidate an attempt returns, rolled out, finished and judged.
 
     Without a mesh checker the first candidate of the preference order (see the module docstring) is
-    returned; with one, the first whose trajectory succeeds with meshes included, or, if none does, the
-    first of the order. With a ``deadline`` (a ``time.perf_counter()`` value) a further candidate is judged
-    only when the longest judgement so far would end before it; the first candidate always is.
+    returned; with one, the first whose trajectory succeeds with meshes included, else, with
+    ``options.repair``, the first repaired one that does, or, if none does, the first of the order. With a
+    ``deadline`` (a ``time.perf_counter()`` value) a further candidate is judged only when the longest
+    judgement so far would end before it; the first candidate always is.
     """
-    roll = _Rollouts(fabric, problem, opt, n_commands, settings, finish or FinishOptions(), threads)
+    finish = finish or FinishOptions()
+    roll = _Rollouts(fabric, problem, opt, n_commands, settings, finish, threads)
     order = np.argsort(opt.all_costs, kind="stable")
     keep = _preference(opt, settings.penalty, options, roll, problem.robot, deadline)
     if mesh_checker is None:
         keep = keep[:1]
-    goal = np.asarray(problem.goal, dtype=np.float64)
-    first: Optional[Candidate] = None
+    judged: List[Candidate] = []
     chosen: Optional[Candidate] = None
-    checked, judging = 0, 0.0
+    judging = 0.0
     for k in keep:
-        if first is not None and _past(deadline, judging):
+        if judged and _past(deadline, judging):
             break
-        checked += 1
         started = time.perf_counter()
         candidate = roll(k)
-        traj = candidate.trajectory
-        met = _metrics.trajectory_metrics(problem.robot, problem.scene, traj.t, traj.q, goal,
-                                          mesh_checker=mesh_checker, mesh_margin=options.mesh_margin,
-                                          clearance_floor=options.clearance_floor,
-                                          ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
-                                          deadline=deadline)
+        met = _judge(problem, candidate.trajectory, mesh_checker, options, deadline)
         met["selection_rank"] = int(np.flatnonzero(order == k)[0])
         if mesh_checker is not None:
-            met["mesh_candidates_checked"] = checked
+            met["mesh_candidates_checked"] = len(judged) + 1
         candidate.metrics = met
         judging = max(judging, time.perf_counter() - started)
-        if first is None:
-            first = candidate
+        judged.append(candidate)
         if mesh_checker is None or met["success"]:
             chosen = candidate
             break
+    # a stand-in checker without per-part distances (duck-typed) is not repaired against
+    repairable = all(hasattr(mesh_checker, m) for m in ("shape_clearances", "pair_clearances"))
+    if chosen is None and options.repair is not None and repairable:
+        for candidate in [c for c in judged if _mesh_contact_only(c.metrics)][:options.repair.candidates]:
+            if _past(deadline):
+                break
+            chosen = _repair(problem, candidate, mesh_checker, options, finish, settings.dt, deadline)
+            if chosen is not None:
+                break
     if chosen is None:
-        assert first is not None  # `keep` holds at least the lowest-cost candidate, and it is always judged
-        first.metrics["mesh_candidates_checked"] = checked
-        chosen = first
+        chosen = judged[0]  # `keep` holds at least the lowest-cost candidate, and it is always judged
+        chosen.metrics["mesh_candidates_checked"] = len(judged)
     # the fabric's own smoothness, for the returned candidate only (an FK pass over its rollout)
     with_raw_ldj(chosen.metrics, problem.robot, chosen.trajectory, settings.dt)
     return chosen

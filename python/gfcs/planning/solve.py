@@ -42,6 +42,7 @@ from gfcs.planning.presets import Preset, get_preset
 from gfcs.planning.endpoints import check_endpoints
 from gfcs.planning.rollout import RolloutSettings, make_fabric
 from gfcs.planning.samplers import ApproachSampler, Sampler, UniformSampler
+from gfcs.planning.repair import RepairOptions
 from gfcs.planning.selection import SelectionOptions
 from gfcs.results import SolveResult
 
@@ -82,6 +83,7 @@ def solve(
     stall_batches: Optional[int] = None,
     stall_tol: float = 0.01,
     endpoint_check: bool = True,
+    mesh_repair: Optional[bool] = None,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1 and the preset's retry policies) or with the local fabric
     alone (``method="gf"``).
@@ -131,6 +133,9 @@ def solve(
             runs).
         endpoint_check: refuse a start or goal whose collision meshes are in contact
             (:func:`gfcs.planning.endpoints.check_endpoints`) before planning; False plans anyway.
+        mesh_repair: with a mesh checker, move candidates that fail only on the meshes off their contacts
+            when no candidate succeeds (:mod:`gfcs.planning.repair`); None: the preset's (on / off), True:
+            the preset's options or the defaults of :class:`gfcs.planning.repair.RepairOptions`.
 
     Returns:
         :class:`gfcs.results.SolveResult` (the chosen attempt's motion and metrics; ``attempts``: every
@@ -166,11 +171,12 @@ def solve(
                                   chosen.mesh_candidates if mesh_candidates is None else mesh_candidates, 1)
         stall = integer_at_least("stall_batches",
                                  chosen.stall_batches if stall_batches is None else stall_batches, 0)
+        repair = chosen.repair if mesh_repair is None else (chosen.repair or RepairOptions()) if mesh_repair else None
         options = OptimOptions(batches, population, seed, threads, progress, top_m, sigma0, callback,
-                               SelectionOptions(slack, checks, mesh_margin), bool(record_first_batch),
+                               SelectionOptions(slack, checks, mesh_margin, repair=repair), bool(record_first_batch),
                                stall, non_negative("stall_tol", stall_tol))
         recorded.update(batches=int(batches), population=int(population), sigma0=float(sigma0),
-                        top_m=int(top_m), length_slack=slack,
+                        top_m=int(top_m), length_slack=slack, mesh_repair=repair is not None,
                         **({"stall_batches": stall, "stall_tol": float(stall_tol)} if stall else {}))
         models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres))
         planner = _Planner(problem, models, fabric, n_commands, sampler, chosen, settings, finish, options,

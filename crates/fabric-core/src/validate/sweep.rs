@@ -285,7 +285,9 @@ impl Context<'_> {
             (f64::INFINITY, f64::INFINITY)
         } else {
             let c = cut(need.1);
-            let d = self.checker.self_clearance_in(q, c, ws)?;
+            let d = self
+                .checker
+                .self_clearance_in(q, c, c == f64::INFINITY, ws)?;
             (d.min(c), d)
         };
         Ok(((scene.0, own.0), (scene.1, own.1)))
