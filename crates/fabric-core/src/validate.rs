@@ -274,6 +274,17 @@ fn enclosed_clearance(
     best
 }
 
+/// [`enclosed_clearance`] of the obstacles enclosed by shape `s` placed at `pose` (box `aabb`), when it is a
+/// solid mesh.
+fn enclosed_by(
+    s: &CollisionShape,
+    pose: &Isometry3<f64>,
+    aabb: &Aabb,
+    obstacles: &[&Obstacle],
+) -> Option<f64> {
+    enclosed_clearance(s.solid_mesh()?, pose, aabb, obstacles)
+}
+
 /// Distance between two placed parry shapes: positive when separated, the (negative) penetration depth
 /// from `parry::query::contact` when they intersect and parry supports the pair, 0 for an intersection it
 /// cannot measure; `None` when parry has no distance for the pair.
@@ -537,10 +548,8 @@ impl MeshChecker {
             }
             // An obstacle enclosed by the mesh is inside its hull too: the bound is then <= 0.
             if bound <= 0.0 {
-                if let Some(mesh) = s.solid_mesh() {
-                    if let Some(d) = enclosed_clearance(mesh, pose, &ws.boxes[i], obstacles) {
-                        best = best.min(d);
-                    }
+                if let Some(d) = enclosed_by(s, pose, &ws.boxes[i], obstacles) {
+                    best = best.min(d);
                 }
             }
         }
@@ -575,10 +584,8 @@ impl MeshChecker {
                 out[i] = d;
             }
             if bound <= 0.0 {
-                if let Some(mesh) = s.solid_mesh() {
-                    if let Some(d) = enclosed_clearance(mesh, pose, &ws.boxes[i], obstacles) {
-                        out[i] = out[i].min(d);
-                    }
+                if let Some(d) = enclosed_by(s, pose, &ws.boxes[i], obstacles) {
+                    out[i] = out[i].min(d);
                 }
             }
         }
