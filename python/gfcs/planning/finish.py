@@ -22,7 +22,7 @@ from gfcs.blend import append_goal_blend, limit_dynamics, retime_start
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.results import Trajectory
 
-__all__ = ["FinishOptions", "finish_rollout", "within_limits", "rollout_commands", "with_raw_ldj"]
+__all__ = ["FinishOptions", "finish_rollout", "retime_within_limits", "rollout_commands", "with_raw_ldj"]
 
 
 @dataclass
@@ -70,13 +70,13 @@ def finish_rollout(fabric: Any, seq: Any, goal: Any, dt: float, options: FinishO
     if seq.reached and options.goal_blend:
         t, q, qd = append_goal_blend(t, q, qd, qdd[-1], np.asarray(goal, dtype=np.float64), dt,
                                      np.asarray(robot.lower), np.asarray(robot.upper))
-    t, q, qd = within_limits(robot, t, q, qd, dt, options)
+    t, q, qd = retime_within_limits(robot, t, q, qd, dt, options)
     return (Trajectory(t, q, qd, raw_q=np.asarray(seq.q)), float(seq.cost), bool(seq.reached),
             np.asarray(seq.t_stars, dtype=np.float64))
 
 
-def within_limits(robot: Any, t: np.ndarray, q: np.ndarray, qd: np.ndarray, dt: float, options: FinishOptions,
-                  ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+def retime_within_limits(robot: Any, t: np.ndarray, q: np.ndarray, qd: np.ndarray, dt: float,
+                         options: FinishOptions) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, q, qd) re-timed along the same path within the velocity and acceleration limits ``options``
     keeps (:func:`gfcs.blend.limit_dynamics`); unchanged when it keeps none."""
     accel = None

@@ -19,7 +19,7 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from gfcs import metrics as _metrics
-from gfcs.planning.finish import FinishOptions, finish_rollout, with_raw_ldj, within_limits
+from gfcs.planning.finish import FinishOptions, finish_rollout, retime_within_limits, with_raw_ldj
 from gfcs.planning.gfcop import OptimResult
 from gfcs.planning.repair import RepairOptions, repair_path
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
@@ -161,7 +161,7 @@ def _repair(problem: Any, candidate: Candidate, mesh_checker: Any, options: Sele
         return None
     qd = traj.qd + np.gradient(moved - traj.q, traj.t, axis=0) if len(traj) > 1 else traj.qd.copy()
     qd[0], qd[-1] = traj.qd[0], traj.qd[-1]
-    t, q, qd = within_limits(problem.robot, traj.t, moved, qd, dt, finish)
+    t, q, qd = retime_within_limits(problem.robot, traj.t, moved, qd, dt, finish)
     repaired = Trajectory(t, q, qd, raw_q=traj.raw_q)
     met = _judge(problem, repaired, mesh_checker, options, deadline)
     if not met["success"]:
