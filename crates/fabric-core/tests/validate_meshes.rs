@@ -245,6 +245,24 @@ fn trajectory_matches_states_whatever_the_threads() {
         assert_eq!(*d, checker.clearance(&scene, &[*q]).unwrap());
     }
     assert!(one.iter().any(|d| d.is_infinite()) && one.iter().any(|d| *d < 0.0));
+    // One row per collision shape (one shape here): the same values whatever the threads; under a
+    // cutoff the values below it are kept and the others read at least the cutoff.
+    for threads in [Some(1), Some(2)] {
+        let rows = checker
+            .trajectory_shape_clearances(&scene, &qs, threads, f64::INFINITY)
+            .unwrap();
+        assert_eq!(rows, one);
+    }
+    let near = checker
+        .trajectory_shape_clearances(&scene, &qs, None, 0.05)
+        .unwrap();
+    for (d, n) in one.iter().zip(&near) {
+        if *d < 0.05 {
+            assert_eq!(d, n);
+        } else {
+            assert!(*n >= 0.05, "{d} read as {n}");
+        }
+    }
     // The trajectory minimum (two passes with a cutoff) equals the minimum of the states, for every
     // length (strides, a last state off the stride) and thread count.
     for n in [0, 1, 2, 9, 17, 101] {
@@ -482,6 +500,11 @@ fn self_clearance_closed_form() {
         .unwrap();
     assert!((d + 0.03).abs() < 1e-7, "{d}");
     let along = checker.trajectory_self_clearance(&qs, Some(2)).unwrap();
+    // the one pair's row is the self-clearance, penetration depths included
+    let pairs = checker
+        .trajectory_pair_clearances(&qs, Some(2), f64::INFINITY)
+        .unwrap();
+    assert_eq!(pairs, along);
     for (k, d) in along.iter().enumerate() {
         assert_eq!(*d, checker.self_clearance(&qs[2 * k..2 * k + 2]).unwrap());
     }
