@@ -102,12 +102,12 @@ def test_a_candidate_repaired_in_the_selection_succeeds_when_judged_in_full(touc
 
 
 def test_only_mesh_contact_failures_are_repaired():
-    assert selection._mesh_contact_only({"success": False, "sphere_success": True, "mesh_clearance": -0.001})
-    assert not selection._mesh_contact_only({"success": False, "sphere_success": False, "mesh_clearance": 0.1})
-    assert not selection._mesh_contact_only({"success": False, "sphere_success": True, "mesh_clearance": 0.0,
+    assert selection.mesh_contact_only({"success": False, "sphere_success": True, "mesh_clearance": -0.001})
+    assert not selection.mesh_contact_only({"success": False, "sphere_success": False, "mesh_clearance": 0.1})
+    assert not selection.mesh_contact_only({"success": False, "sphere_success": True, "mesh_clearance": 0.0,
                                              "mesh_check_complete": False})
-    assert not selection._mesh_contact_only({"success": True, "sphere_success": True, "mesh_clearance": 0.1})
-    assert not selection._mesh_contact_only({"success": False, "sphere_success": True})  # no meshes judged
+    assert not selection.mesh_contact_only({"success": True, "sphere_success": True, "mesh_clearance": 0.1})
+    assert not selection.mesh_contact_only({"success": False, "sphere_success": True})  # no meshes judged
 
 
 def test_the_presets_and_the_switch():

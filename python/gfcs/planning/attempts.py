@@ -21,7 +21,7 @@ from gfcs.planning.gfcop import BatchInfo, OptimResult, solve_gfcop
 from gfcs.planning.models import PlanningModel
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.planning.samplers import Sampler
-from gfcs.planning.selection import Candidate, SelectionOptions, select_candidate
+from gfcs.planning.selection import Candidate, SelectionOptions, mesh_contact_only, select_candidate
 from gfcs.results import SolveResult
 
 __all__ = ["Attempt", "AttemptRecord", "OptimOptions", "run_attempt", "combine_records", "combine_attempts"]
@@ -119,11 +119,9 @@ class AttemptRecord:
 
     @property
     def mesh_collision_only(self) -> bool:
-        """It failed only because a collision mesh came too near: judged with meshes, and a success under
-        the sphere model (goal reached, spheres clear, joint limits kept)."""
-        m = self.result.metrics if self.result is not None else {}
-        return ("mesh_clearance" in m and not self.success and bool(m.get("sphere_success"))
-                and m.get("mesh_check_complete", True))
+        """It failed only because a collision mesh came too near (:func:`gfcs.planning.selection.mesh_contact_only`
+        of its metrics)."""
+        return self.result is not None and mesh_contact_only(self.result.metrics)
 
     @property
     def outcome(self) -> str:

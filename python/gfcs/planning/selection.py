@@ -25,7 +25,7 @@ from gfcs.planning.repair import RepairOptions, repair_path
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.results import Trajectory
 
-__all__ = ["Candidate", "SelectionOptions", "select_candidate"]
+__all__ = ["Candidate", "SelectionOptions", "select_candidate", "mesh_contact_only"]
 
 
 @dataclass
@@ -140,9 +140,10 @@ def _judge(problem: Any, trajectory: Trajectory, mesh_checker: Any, options: Sel
                                        deadline=deadline)
 
 
-def _mesh_contact_only(metrics: Dict[str, Any]) -> bool:
-    """A judged candidate that failed only because a collision mesh came too near (its sphere criterion
-    holds and the mesh check finished)."""
+def mesh_contact_only(metrics: Dict[str, Any]) -> bool:
+    """Whether ``metrics`` (of :func:`gfcs.metrics.trajectory_metrics`) are those of a motion that failed only
+    because a collision mesh came too near: judged with meshes, a success under the sphere model (goal
+    reached, spheres clear, joint limits kept), and the mesh check finished."""
     return (not metrics.get("success") and bool(metrics.get("sphere_success"))
             and "mesh_clearance" in metrics and bool(metrics.get("mesh_check_complete", True)))
 
@@ -210,7 +211,7 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
     # a stand-in checker without per-part distances (duck-typed) is not repaired against
     repairable = all(hasattr(mesh_checker, m) for m in ("shape_clearances", "pair_clearances"))
     if chosen is None and options.repair is not None and repairable:
-        for candidate in [c for c in judged if _mesh_contact_only(c.metrics)][:options.repair.candidates]:
+        for candidate in [c for c in judged if mesh_contact_only(c.metrics)][:options.repair.candidates]:
             if _past(deadline):
                 break
             chosen = _repair(problem, candidate, mesh_checker, options, finish, settings.dt, deadline)
