@@ -197,14 +197,17 @@ def repair_path(robot: Any, scene: Any, mesh_checker: Any, t: np.ndarray, q: np.
     def constraint(x: np.ndarray) -> np.ndarray:
         return path_constraint(robot, scene, mesh_checker, x, mesh_margin, options.clearance, floor)
 
-    terms = path_constraint(robot, scene, mesh_checker, q[:1], mesh_margin, options.clearance, floor).shape[1]
-    known = np.full((length, terms), np.nan)  # the terms of h at visited samples, NaN where unknown or moved
+    known: Optional[np.ndarray] = None  # (T, terms) of h at visited samples, NaN where unknown or moved
     original = q.copy()
     record: Dict[str, Any] = {"iterations": 0, "states_moved": 0, "states_left": 0, "max_displacement": 0.0,
                               "min_h": np.nan}
     first_min = np.nan
     for it in range(options.iterations + 1):
         visit = _metrics.checked_indices(q)
+        if known is None:
+            values = constraint(q[visit])
+            known = np.full((length, values.shape[1]), np.nan)
+            known[visit] = values
         todo = visit[np.isnan(known[visit, 0])]
         if todo.size:
             known[todo] = constraint(q[todo])
