@@ -592,18 +592,17 @@ impl MeshChecker {
         Ok(())
     }
 
-    /// Distance of each self-collision pair ([`MeshChecker::self_pairs`]) at q into `out` (P,), exact below
-    /// min(`cutoff`, max distance) and +∞ beyond; a pair in contact reads parry's (negative) penetration
-    /// depth.
-    fn pair_clearances_in(
+    /// Distance of each self-collision pair ([`MeshChecker::self_pairs`]) at q into `out` (P,), exact up to
+    /// `max` (m) and +∞ beyond (pairs whose box gap or hull distance exceeds it are not measured); a pair
+    /// in contact reads parry's (negative) penetration depth.
+    fn pair_distances_within(
         &self,
         q: &[f64],
-        cutoff: f64,
+        max: f64,
         ws: &mut MeshWorkspace,
         out: &mut [f64],
     ) -> Result<()> {
         self.place(q, ws)?;
-        let max = self.max_distance.min(cutoff);
         for (k, &(i, j)) in self.self_pairs.iter().enumerate() {
             out[k] = f64::INFINITY;
             if aabb_gap(&ws.boxes[i], &ws.boxes[j]) - BOUND_SLACK > max {
@@ -680,8 +679,9 @@ impl MeshChecker {
         threads: Option<usize>,
         cutoff: f64,
     ) -> Result<Vec<f64>> {
+        let max = self.max_distance.min(cutoff);
         self.per_state_rows(qs, threads, self.self_pairs.len(), |ws, q, out| {
-            self.pair_clearances_in(q, cutoff, ws, out)
+            self.pair_distances_within(q, max, ws, out)
         })
     }
 
@@ -865,18 +865,15 @@ impl MeshChecker {
                 message: format!("must be a finite distance >= 0 m, got {within}"),
             });
         }
-        let mut ws = self.workspace();
-        self.place(q, &mut ws)?;
-        let mut out = Vec::new();
-        for &(i, j) in &self.self_pairs {
-            if aabb_gap(&ws.boxes[i], &ws.boxes[j]) - BOUND_SLACK > within {
-                continue;
-            }
-            let d = self.pair_exact((i, j), &ws.poses, &mut ws.stack, (within, true))?;
-            if d <= within {
-                out.push((i, j, d));
-            }
-        }
+        let mut distances = vec![f64::INFINITY; self.self_pairs.len()];
+        self.pair_distances_within(q, within, &mut self.workspace(), &mut distances)?;
+        let mut out: Vec<(usize, usize, f64)> = self
+            .self_pairs
+            .iter()
+            .zip(distances)
+            .filter(|&(_, d)| d <= within)
+            .map(|(&(i, j), d)| (i, j, d))
+            .collect();
         out.sort_by(|a, b| a.2.total_cmp(&b.2));
         Ok(out)
     }
