@@ -43,6 +43,15 @@ fn rows_output<'py>(
     }
 }
 
+/// The arguments of a per-state query, checked in this order: the thread count, the cutoff (m; None:
+/// +∞), and q (dof,) or (T, dof) as row-major states with the batch size T (None for one state).
+struct Query {
+    qs: Vec<f64>,
+    batch: Option<usize>,
+    threads: Option<usize>,
+    cutoff: f64,
+}
+
 fn scalar_or_array(py: Python<'_>, values: Vec<f64>, batch: Option<usize>) -> PyResult<Py<PyAny>> {
     match (batch, values.first()) {
         (None, Some(v)) => Ok(v.into_pyobject(py)?.into_any().unbind()),
@@ -70,6 +79,33 @@ fn scalar_or_array(py: Python<'_>, values: Vec<f64>, batch: Option<usize>) -> Py
 )]
 pub struct PyMeshChecker {
     inner: Arc<MeshChecker>,
+}
+
+impl PyMeshChecker {
+    /// The [`Query`] of a call's `q`, `threads` and `cutoff`.
+    fn query(
+        &self,
+        q: &Bound<'_, PyAny>,
+        threads: Option<&Bound<'_, PyAny>>,
+        cutoff: Option<f64>,
+    ) -> PyResult<Query> {
+        let threads = convert::threads(threads)?;
+        let cutoff = cutoff_arg(cutoff)?;
+        let (qs, batch) = convert::vector_or_rows(q, "q", self.inner.robot().dof())?;
+        Ok(Query {
+            qs,
+            batch,
+            threads,
+            cutoff,
+        })
+    }
+
+    /// The link names of the collision shapes `i` and `j`.
+    fn pair_links(&self, i: usize, j: usize) -> (String, String) {
+        let (names, shapes) = (self.inner.robot().link_names(), self.inner.shapes());
+        let name = |k: usize| names.get(shapes[k].link).cloned().unwrap_or_default();
+        (name(i), name(j))
+    }
 }
 
 #[pymethods]
@@ -149,15 +185,13 @@ impl PyMeshChecker {
         threads: Option<&Bound<'_, PyAny>>,
         cutoff: Option<f64>,
     ) -> PyResult<Py<PyAny>> {
-        let threads = convert::threads(threads)?;
-        let cutoff = cutoff_arg(cutoff)?;
+        let a = self.query(q, threads, cutoff)?;
         let checker = &self.inner;
-        let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let scene = &scene.inner;
         let values = detached(py, || {
-            checker.trajectory_clearance_within(scene, &qs, threads, cutoff)
+            checker.trajectory_clearance_within(scene, &a.qs, a.threads, a.cutoff)
         })?;
-        scalar_or_array(py, values, batch)
+        scalar_or_array(py, values, a.batch)
     }
 
     /// Self-clearance (m) over the checked shape pairs: float for q (dof,), (T,) array for q (T, dof);
@@ -171,14 +205,12 @@ impl PyMeshChecker {
         threads: Option<&Bound<'_, PyAny>>,
         cutoff: Option<f64>,
     ) -> PyResult<Py<PyAny>> {
-        let threads = convert::threads(threads)?;
-        let cutoff = cutoff_arg(cutoff)?;
+        let a = self.query(q, threads, cutoff)?;
         let checker = &self.inner;
-        let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let values = detached(py, || {
-            checker.trajectory_self_clearance_within(&qs, threads, cutoff)
+            checker.trajectory_self_clearance_within(&a.qs, a.threads, a.cutoff)
         })?;
-        scalar_or_array(py, values, batch)
+        scalar_or_array(py, values, a.batch)
     }
 
     /// Clearance (m) of each collision shape (`shape_links` order) to `scene`: (S,) for q (dof,), (T, S)
@@ -193,15 +225,13 @@ impl PyMeshChecker {
         threads: Option<&Bound<'_, PyAny>>,
         cutoff: Option<f64>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let threads = convert::threads(threads)?;
-        let cutoff = cutoff_arg(cutoff)?;
+        let a = self.query(q, threads, cutoff)?;
         let checker = &self.inner;
-        let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let scene = &scene.inner;
         let values = detached(py, || {
-            checker.trajectory_shape_clearances(scene, &qs, threads, cutoff)
+            checker.trajectory_shape_clearances(scene, &a.qs, a.threads, a.cutoff)
         })?;
-        rows_output(py, values, batch, checker.num_shapes())
+        rows_output(py, values, a.batch, checker.num_shapes())
     }
 
     /// Distance (m) of each checked self-collision shape pair (`self_pair_links` order): (P,) for q
@@ -215,27 +245,21 @@ impl PyMeshChecker {
         threads: Option<&Bound<'_, PyAny>>,
         cutoff: Option<f64>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let threads = convert::threads(threads)?;
-        let cutoff = cutoff_arg(cutoff)?;
+        let a = self.query(q, threads, cutoff)?;
         let checker = &self.inner;
-        let (qs, batch) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let values = detached(py, || {
-            checker.trajectory_pair_clearances(&qs, threads, cutoff)
+            checker.trajectory_pair_clearances(&a.qs, a.threads, a.cutoff)
         })?;
-        rows_output(py, values, batch, checker.self_pairs().len())
+        rows_output(py, values, a.batch, checker.self_pairs().len())
     }
 
     /// The links of each checked self-collision shape pair, in `pair_clearances` order: [(link a, link b)].
     #[getter]
     fn self_pair_links(&self) -> Vec<(String, String)> {
-        let (names, shapes) = (self.inner.robot().link_names(), self.inner.shapes());
         self.inner
             .self_pairs()
             .iter()
-            .map(|&(i, j)| {
-                let name = |k: usize| names.get(shapes[k].link).cloned().unwrap_or_default();
-                (name(i), name(j))
-            })
+            .map(|&(i, j)| self.pair_links(i, j))
             .collect()
     }
 
@@ -251,15 +275,11 @@ impl PyMeshChecker {
         let checker = &self.inner;
         let q = convert::vector(q, "q", checker.robot().dof())?;
         let contacts = guarded(py, || checker.self_contacts(&q, within))?;
-        let (names, shapes) = (checker.robot().link_names(), checker.shapes());
         Ok(contacts
             .into_iter()
             .map(|(i, j, d)| {
-                (
-                    names[shapes[i].link].clone(),
-                    names[shapes[j].link].clone(),
-                    d,
-                )
+                let (a, b) = self.pair_links(i, j);
+                (a, b, d)
             })
             .collect())
     }
@@ -278,13 +298,11 @@ impl PyMeshChecker {
         threads: Option<&Bound<'_, PyAny>>,
         cutoff: Option<f64>,
     ) -> PyResult<f64> {
-        let threads = convert::threads(threads)?;
-        let cutoff = cutoff_arg(cutoff)?;
+        let a = self.query(q, threads, cutoff)?;
         let checker = &self.inner;
-        let (qs, _) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         let scene = &scene.inner;
         detached(py, || {
-            checker.min_trajectory_clearance(scene, &qs, threads, cutoff)
+            checker.min_trajectory_clearance(scene, &a.qs, a.threads, a.cutoff)
         })
     }
 
@@ -298,12 +316,10 @@ impl PyMeshChecker {
         threads: Option<&Bound<'_, PyAny>>,
         cutoff: Option<f64>,
     ) -> PyResult<f64> {
-        let threads = convert::threads(threads)?;
-        let cutoff = cutoff_arg(cutoff)?;
+        let a = self.query(q, threads, cutoff)?;
         let checker = &self.inner;
-        let (qs, _) = convert::vector_or_rows(q, "q", checker.robot().dof())?;
         detached(py, || {
-            checker.min_trajectory_self_clearance(&qs, threads, cutoff)
+            checker.min_trajectory_self_clearance(&a.qs, a.threads, a.cutoff)
         })
     }
 
