@@ -230,6 +230,16 @@ def test_a_solve_above_the_thread_cap_warns_once():
     assert sum("exceeds 4 x" in str(w.message) for w in caught) == 1
 
 
+@pytest.mark.parametrize("seed", [None, -1, 1.5, "7"])
+def test_a_solve_names_a_seed_that_is_not_a_non_negative_integer(seed):
+    from gfcs import generators
+    from gfcs.planning import solve
+
+    problem = generators.generate("box", 1, seed=0, robot=gfcs.Robot.panda())[0]
+    with pytest.raises(gfcs.InvalidValueError, match=r"seed must be an integer ≥ 0, got"):
+        solve(problem, batches=1, population=4, seed=seed)
+
+
 # ----------------------------------------------------------------------------------- bench survival
 def test_bench_records_a_malformed_problem_and_goes_on(tmp_path, capsys):
     assert cli.main(["generate", "--out", str(tmp_path / "suite"), "--classes", "box", "--n", "2"]) == 0

@@ -152,6 +152,7 @@ def solve(
     if method not in ("gfcs", "gf"):
         raise InvalidValueError(f"method must be 'gfcs' or 'gf', got {method!r}")
     mesh_margin = non_negative("mesh_margin", mesh_margin, " [m]")
+    seed = integer_at_least("seed", seed, 0)
     threads = worker_threads(threads)
     if endpoint_check:
         check_endpoints(problem)
