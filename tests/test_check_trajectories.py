@@ -397,3 +397,13 @@ def test_speed_beyond_the_velocity_limit_is_invalid_and_a_rounded_start_on_a_bou
     assert rows[0]["speed_ratio"] == pytest.approx(2.5) and not rows[0]["valid"]
     assert rows[1]["start_error"] == 0.0 and rows[1]["valid"]
     assert rows[2]["start_error"] == pytest.approx(0.01) and not rows[2]["valid"]
+
+
+def test_the_verdict_without_speeds_judges_the_path_alone():
+    row = {"start_error": 0.0, "goal_reached": True, "limit_margin": 0.01, "speed_ratio": 3.5,
+           "clearance": 0.004, "self_clearance": 0.01}
+    assert not ct.is_valid(row) and ct.is_valid(row, speed=False)
+    assert ct.is_valid(dict(row, speed_ratio=1.0))
+    for key, bad in (("clearance", 0.0), ("self_clearance", -1e-4), ("goal_reached", False),
+                     ("limit_margin", -1e-3), ("start_error", 1e-3)):
+        assert not ct.is_valid(dict(row, **{key: bad}), speed=False), key

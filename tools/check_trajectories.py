@@ -528,6 +528,16 @@ def smallest(bounds: np.ndarray, exact: Any) -> Tuple[float, Tuple[int, ...]]:
     return best, where
 
 
+def is_valid(row: Dict[str, Any], speed: bool = True) -> bool:
+    """The verdict on one checked trajectory (a row of :func:`check_result`): it starts at the start, reaches
+    the goal, keeps the joint limits, the meshes clear the obstacles and each other, and (``speed``) no joint
+    exceeds its URDF velocity limit. ``speed=False`` judges the path alone (a planner that does not time its
+    motions to the robot's limits)."""
+    fast = speed and row["speed_ratio"] > 1.0 + 1e-6
+    return bool(row["start_error"] <= 1e-6 and row["goal_reached"] and row["limit_margin"] >= 0 and not fast
+                and row["clearance"] > 0 and row["self_clearance"] > 0)
+
+
 def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, request_path: Path,
                  goal_tol: float) -> Dict[str, Any]:
     """The independent verdict on one result (keys in the module docstring)."""
@@ -617,8 +627,7 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
         "cspace_length": float(np.linalg.norm(dq, axis=1).sum()),
         "fk_error": fk_error,
     }
-    out["valid"] = bool(out["start_error"] <= 1e-6 and out["goal_reached"] and out["limit_margin"] >= 0
-                        and speed_ratio <= 1.0 + 1e-6 and clear > 0 and self_clear > 0)
+    out["valid"] = is_valid(out)
     reported = result.get("metrics") or {}
     for key in ("ee_length", "cspace_length"):
         if isinstance(reported.get(key), (int, float)):
