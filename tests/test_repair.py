@@ -176,3 +176,36 @@ def test_the_command_line_switch(tmp_path):
     import json
 
     assert json.loads(out.read_text())["settings"]["mesh_repair"] is False
+
+
+def test_a_sweep_past_its_own_time_is_a_final_mesh_failure(touching):
+    """A path grazing the margin (its states 0.5 mm beyond it, within the interpolation allowance) needs the
+    continuous check; given no time for it the verdict is a final failure (repairable), given a deadline
+    that has passed it is an unfinished one."""
+    import time
+
+    problem, t, q = touching
+    margin = metrics.DEFAULT_MESH_MARGIN
+    checker, states = problem.mesh_checker, q[metrics.checked_indices(q)]
+    hand = problem.robot.link_poses(q[len(q) // 2])[problem.robot.link_index(problem.robot.ee_link)][:3, 3]
+
+    def scene_at(s):
+        scene = gfcs.Scene()
+        scene.add_sphere(hand + np.array([0.0, 0.0, s]), 0.03)
+        return scene
+
+    def path_clearance(s):
+        return float(checker.clearance(scene_at(s), states).min())
+
+    lo, hi = 0.0, 0.6
+    want = margin + 0.0005
+    for _ in range(60):  # the ball's height at which the path's closest state keeps `want`
+        s = 0.5 * (lo + hi)
+        lo, hi = (s, hi) if path_clearance(s) < want else (lo, s)
+    scene = scene_at(hi)
+    clear, _, ok, complete = metrics.mesh_check(checker, scene, q, margin)
+    assert margin < clear < margin + metrics.INTERPOLATION_ALLOWANCE and ok and complete  # the sweep certifies it
+    assert metrics.mesh_check(checker, scene, q, margin, sweep_time=1e-9)[2:] == (False, True)
+    assert metrics.mesh_check(checker, scene, q, margin, deadline=time.perf_counter() - 1.0,
+                              sweep_time=10.0)[2:] == (False, False)
+    assert metrics.mesh_check(checker, scene, q, margin, sweep_time=60.0)[2:] == (True, True)

@@ -338,7 +338,8 @@ def mesh_verdict(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_
 
 
 def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_MESH_MARGIN,
-               deadline: Optional[float] = None) -> Tuple[float, float, bool, bool]:
+               deadline: Optional[float] = None, sweep_time: Optional[float] = None,
+               ) -> Tuple[float, float, bool, bool]:
     """The mesh part of the success criterion over the samples of ``q`` (T, dof).
 
     The exact mesh distances are computed only up to :func:`mesh_report_cutoff` ``(margin)``: pairs of
@@ -354,7 +355,10 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
     A path whose checked states all keep more than ``margin`` + :data:`INTERPOLATION_ALLOWANCE` passes;
     one whose states keep more than ``margin``, but not all that much more, passes when the continuous
     check (:meth:`gfcs.MeshChecker.sweep`) certifies every configuration on the straight segments between
-    its rows, not only the states, beyond ``margin``.
+    its rows, not only the states, beyond ``margin``. A path that grazes the margin needs the sweep to halve
+    its segments many times (its bound must fall below the few micrometres the path keeps); with a
+    ``sweep_time`` [s] a sweep that has not certified the path within that time ends it with a final negative
+    verdict, the path counting as too near (the selection's repair then moves it clear).
 
     Returns:
         (min mesh clearance to the obstacles [m], min mesh clearance between links [m], the verdict,
@@ -377,9 +381,10 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
     if min(clear, self_clear) > margin + INTERPOLATION_ALLOWANCE:
         return clear, self_clear, True, True
     left = None if deadline is None else max(0.0, deadline - time.perf_counter())
+    capped = sweep_time is not None and (left is None or sweep_time < left)
     sweep = mesh_checker.sweep(scene, np.atleast_2d(np.asarray(q, dtype=np.float64)), margin=float(margin),
-                               time_limit=left)
-    return clear, self_clear, bool(sweep["ok"]), bool(sweep["complete"])
+                               time_limit=sweep_time if capped else left)
+    return clear, self_clear, bool(sweep["ok"]), bool(sweep["complete"]) or capped
 
 
 def link_path_lengths(robot: Any, q: Any, links: Sequence[str]) -> Dict[str, float]:
@@ -441,6 +446,7 @@ def trajectory_metrics(
     clearance_floor: float = 0.0,
     ee_links: Optional[Sequence[str]] = None,
     deadline: Optional[float] = None,
+    sweep_time: Optional[float] = None,
 ) -> Dict[str, Any]:
     """Everything GFCS Table I reports about one trajectory, plus the success criterion.
 
@@ -464,6 +470,8 @@ def trajectory_metrics(
             ``robot.ee_link``, when the robot has one), e.g. both hands of a two-arm group (``problem.meta["ee_links"]``).
         deadline: with a checker, a ``time.perf_counter()`` value at which the mesh check stops, the
             motion then counting as not validated (:func:`mesh_verdict`); None: no limit.
+        sweep_time: with a checker, the continuous check's own time [s] (:func:`mesh_check`); None: up to
+            the deadline.
 
     Returns:
         dict with keys ``success`` (bool: ``sphere_success`` and, with a checker, mesh clearances >
@@ -514,7 +522,8 @@ def trajectory_metrics(
     mesh_ok = True
     extra: Dict[str, Any] = {}
     if mesh_checker is not None:
-        mesh_clear, mesh_self, mesh_ok, complete = mesh_check(mesh_checker, scene, qa, mesh_margin, deadline)
+        mesh_clear, mesh_self, mesh_ok, complete = mesh_check(mesh_checker, scene, qa, mesh_margin, deadline,
+                                                             sweep_time)
         extra["mesh_check_complete"] = complete
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self

@@ -57,6 +57,8 @@ class Preset:
         stall_batches: early stop of the optimisation after this many stalled batches (0: every batch
             runs; :func:`gfcs.planning.gfcop.stalled`).
         repair: the repair of candidates that fail only on the meshes (None: none).
+        sweep_time: the time [s] the continuous mesh check of one candidate may take before the candidate
+            counts as too near (:attr:`gfcs.planning.selection.SelectionOptions.sweep_time`; None: no cap).
     """
 
     name: str
@@ -70,6 +72,7 @@ class Preset:
     fabric: Dict[str, Any] = field(default_factory=dict)
     stall_batches: int = 0
     repair: Optional[RepairOptions] = None
+    sweep_time: Optional[float] = None
 
 
 PRESETS: Dict[str, Preset] = {
@@ -81,7 +84,7 @@ PRESETS: Dict[str, Preset] = {
     "default": Preset("default", RolloutSettings(tol=0.02, collision_penalty=100.0, limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
-                      repair=RepairOptions()),
+                      repair=RepairOptions(), sweep_time=0.25),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,

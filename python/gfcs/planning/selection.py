@@ -67,6 +67,9 @@ class SelectionOptions:
         clearance_floor: how far [m, ≤ 0] the spheres may overlap obstacles (the goal-contact attempt).
         repair: with a mesh checker, how candidates that failed only on the meshes are repaired
             (:func:`gfcs.planning.repair.repair_path`) when no candidate succeeds; None: not at all.
+        sweep_time: with a mesh checker, the time [s] the continuous check of one candidate may take
+            (:func:`gfcs.metrics.mesh_check`): a candidate it cannot certify by then fails on the meshes
+            (and may be repaired); None: up to the attempt's deadline.
     """
 
     length_slack: float = 0.1
@@ -74,6 +77,7 @@ class SelectionOptions:
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN
     clearance_floor: float = 0.0
     repair: Optional[RepairOptions] = None
+    sweep_time: Optional[float] = None
 
 
 class _Rollouts:
@@ -137,7 +141,7 @@ def _judge(problem: Any, trajectory: Trajectory, mesh_checker: Any, options: Sel
                                        np.asarray(problem.goal, dtype=np.float64), mesh_checker=mesh_checker,
                                        mesh_margin=options.mesh_margin, clearance_floor=options.clearance_floor,
                                        ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
-                                       deadline=deadline)
+                                       deadline=deadline, sweep_time=options.sweep_time)
 
 
 def mesh_contact_only(metrics: Dict[str, Any]) -> bool:

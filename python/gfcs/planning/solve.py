@@ -174,10 +174,12 @@ def solve(
                                  chosen.stall_batches if stall_batches is None else stall_batches, 0)
         repair = chosen.repair if mesh_repair is None else (chosen.repair or RepairOptions()) if mesh_repair else None
         options = OptimOptions(batches, population, seed, threads, progress, top_m, sigma0, callback,
-                               SelectionOptions(slack, checks, mesh_margin, repair=repair), bool(record_first_batch),
+                               SelectionOptions(slack, checks, mesh_margin, repair=repair,
+                                                sweep_time=chosen.sweep_time), bool(record_first_batch),
                                stall, non_negative("stall_tol", stall_tol))
         recorded.update(batches=int(batches), population=int(population), sigma0=float(sigma0),
                         top_m=int(top_m), length_slack=slack, mesh_repair=repair is not None,
+                        sweep_time=chosen.sweep_time,
                         **({"stall_batches": stall, "stall_tol": float(stall_tol)} if stall else {}))
         models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres))
         planner = _Planner(problem, models, fabric, n_commands, sampler, chosen, settings, finish, options,
