@@ -76,7 +76,11 @@ def _checker() -> Any:
     """``tools/check_trajectories.py`` as a module (the one definition of a verdict)."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("check_trajectories", ROOT / "tools" / "check_trajectories.py")
+    path = ROOT / "tools" / "check_trajectories.py"
+    loaded = sys.modules.get(path.stem)
+    if loaded is not None and Path(getattr(loaded, "__file__", "")) == path:
+        return loaded
+    spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # its dataclasses look their module up there
     spec.loader.exec_module(module)

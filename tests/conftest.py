@@ -22,6 +22,9 @@ def load_script(relative: str) -> ModuleType:
     """Import the script ``<repo root>/<relative>`` (a tool or bench, not part of the package) as a module
     named after its file, registered in ``sys.modules`` (dataclasses and worker processes look it up)."""
     path = REPO_ROOT / relative
+    loaded = sys.modules.get(path.stem)
+    if loaded is not None and Path(getattr(loaded, "__file__", "")) == path:
+        return loaded  # one module object per script (pickling by reference needs it)
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules.setdefault(path.stem, module)
