@@ -16,7 +16,6 @@ Run ``python benches/report.py`` (``--check`` exits 1 when BENCHMARKS.md differs
 from __future__ import annotations
 
 import argparse
-import functools
 import json
 import math
 import statistics
@@ -71,20 +70,15 @@ def verdicts(path: Path) -> Dict[Tuple[str, str], Tuple[bool, bool]]:
     return out
 
 
-@functools.lru_cache(maxsize=1)
 def _checker() -> Any:
-    """``tools/check_trajectories.py`` as a module (the one definition of a verdict)."""
-    import importlib.util
+    """``tools/check_trajectories.py`` as a module (the one definition of a verdict), imported as the tools
+    import each other."""
+    tools = str(ROOT / "tools")
+    if tools not in sys.path:
+        sys.path.insert(0, tools)
+    import check_trajectories
 
-    path = ROOT / "tools" / "check_trajectories.py"
-    loaded = sys.modules.get(path.stem)
-    if loaded is not None and Path(getattr(loaded, "__file__", "")) == path:
-        return loaded
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+    return check_trajectories
 
 
 def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
