@@ -3,10 +3,11 @@
 
 * GFCS Table I per robot, from ``benches/results/table1/<robot>.<run>.jsonl`` (``benches/table1.py``): one
   table per class with GF, the sampling-based planners, GFCS with the ``paper`` and the ``default`` preset,
-  and, for the Panda, the paper's own rows (``benches/data/paper_table1.json``). Success of a returned
-  motion is the validator's verdict (``<robot>.<run>.validated.jsonl``) where it judged the motion; rows
-  whose motion was not returned (the first batch of a solve that went on) keep gfcs's own mesh-judged
-  success, marked †.
+  and, for the Panda, the paper's own rows (``benches/data/paper_table1.json``). A row's success is the
+  validator's verdict (``<robot>.<run>.validated.jsonl``) on the result file the row names (``result``:
+  every row of ``gfcs bench`` has one, the first batch's and the first attempt's motions included); rows
+  the validator did not judge (rows of an older run without file names, whose motion was not returned)
+  keep gfcs's own mesh-judged success, marked †.
 * Every other section is a fragment ``benches/results/<name>.md`` written by the bench script named in it,
   in the order of :data:`FRAGMENTS`.
 
@@ -93,13 +94,14 @@ def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
         provenance[run] = path.relative_to(ROOT).as_posix()
         valid = verdicts(path.with_name(f"{robot}.{run}.validated.jsonl"))
         run_rows = [r for r in read_jsonl(path) if "label" in r]
-        returned = {}  # the last row of a problem and method is the motion the solve returned
+        returned = {}  # rows without a file name: the last row of a problem and method is the returned motion
         for i, r in enumerate(run_rows):
             returned[(r["problem"], r["method"])] = i
         for i, r in enumerate(run_rows):
             r = dict(r)
-            key = (r["problem"], r["method"])
-            r["judged"] = returned[key] == i and key in valid
+            key = (r["problem"], r["result"]) if "result" in r else \
+                (r["problem"], r["method"]) if returned[(r["problem"], r["method"])] == i else None
+            r["judged"] = key in valid
             if r["judged"]:
                 r["path_success"] = valid[key][1]
                 r["success"] = bool(r["success"]) and valid[key][0]
@@ -205,10 +207,11 @@ def table1_section() -> List[str]:
     lines = ["## GFCS Table I: MotionBenchMaker", "",
              "Written by `python benches/table1.py` (then `python benches/report.py`). Mean ± std over the "
              "successful problems; time is the optimisation (GFCS) or planning time, the whole solve's in the "
-             "totals. Success of a returned motion is the independent validator's verdict "
+             "totals. Success is the independent validator's verdict "
              "(`tools/check_trajectories.py`: FCL on the robot's collision meshes and SRDF, limits, speeds, "
-             "goal); † marks rows with motions the solve did not return (the first batch of a solve that "
-             "went on), which keep gfcs's own mesh-judged success. \"Paths valid, speeds not checked\" counts, of the "
+             "goal), on the result file of each row, the first batch's and the first attempt's motions included; "
+             "† marks rows of runs that did not write those motions, which keep gfcs's own mesh-judged "
+             "success. \"Paths valid, speeds not checked\" counts, of the "
              "judged motions, those the validator passes on everything but the URDF velocity limits: the `paper` preset is "
              "GFCS as written, which does not time its motions to the robot's limits (the UR5's arm joints "
              "allow 0.5 rad/s). The paper's rows are its Table I "

@@ -148,7 +148,10 @@ def test_bench_rows_of_the_baselines(problem):
                                   planner_times=(0.3, 0.6))
     assert [r["label"] for r in rows] == ["RRTConnect (0.3 s)", "RRTConnect (0.6 s)", "BIT* (0.3 s)",
                                           "BIT* (0.6 s)"]
-    assert [r.settings["planner_time"] for r in results] == [0.3, 0.6, 0.3, 0.6]
+    assert [r.settings["planner_time"] for r in results.values()] == [0.3, 0.6, 0.3, 0.6]
+    # each planner time's motion has a result file of its own, named by its row
+    assert [r["result"] for r in rows] == list(results) == ["rrtconnect-0.3s", "rrtconnect-0.6s", "bitstar-0.3s",
+                                                            "bitstar-0.6s"]
     assert all(r["method"] in ("rrtconnect", "bitstar") and r["batches"] == 0 for r in rows)
     failed = error_rows(problem, ["gf", "biest"], 5, 0, "boom", planner_times=(1.2,))
     assert [r["label"] for r in failed] == ["GF", "Bi-EST"] and all(r["error"] == "boom" for r in failed)

@@ -127,3 +127,39 @@ def test_benchmarks_md_is_what_the_report_writes():
     report = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(report)
     assert (root / "BENCHMARKS.md").read_text() == report.render(), "run: python benches/report.py"
+
+
+def test_report_judges_each_row_on_the_result_file_it_names(tmp_path, monkeypatch):
+    """A row that names its result file gets the validator's verdict on that file (a first batch the solve
+    did not return included); a row of an older run without a name is judged only when its motion was the
+    one returned (the last row of its problem and method), else it keeps gfcs's own verdict."""
+    report = load_script(REPO_ROOT / "benches" / "report.py")
+    folder = tmp_path / "table1"
+    folder.mkdir()
+    checker = load_script(REPO_ROOT / "tools" / "check_trajectories.py")
+    monkeypatch.setattr(report, "RESULTS", tmp_path)
+    monkeypatch.setattr(report, "ROOT", tmp_path)
+    monkeypatch.setattr(report, "_checker", lambda: checker)
+
+    def row(label, result=None, success=True):
+        r = {"problem": "box/0001", "class": "box", "label": label, "method": "gfcs", "success": success}
+        return r if result is None else {**r, "result": result}
+
+    def verdict(name, valid):
+        return {"file": f"runs/{name}.json", "claimed_success": True, "valid": valid, "start_error": 0.0,
+                "goal_reached": valid, "limit_margin": 0.1, "speed_ratio": 0.5, "clearance": 0.01,
+                "self_clearance": 0.01}
+
+    def write(name, rows):
+        (folder / name).write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+    write("bot.new.jsonl", [row("Ours (1 b)", "gfcs-1b"), row("Ours (5 b)", "gfcs"), row("Ours (5 b, retry)", "gfcs")])
+    write("bot.new.validated.jsonl", [verdict("box_0001.gfcs-1b", False), verdict("box_0001.gfcs", True)])
+    write("bot.old.jsonl", [row("Ours (1 b)"), row("Ours (5 b)")])
+    write("bot.old.validated.jsonl", [verdict("box_0001.gfcs", False)])
+    rows, _ = report.judged_rows("bot")
+    got = {(r["label"].split(" (")[0], r["label"].split(" (")[1]): (r["judged"], r["success"]) for r in rows}
+    assert got[("GFCS new", "1 b)")] == (True, False)  # its own file, which the validator failed
+    assert got[("GFCS new", "5 b)")] == (True, True) and got[("GFCS new", "5 b, retry)")] == (True, True)
+    assert got[("GFCS old", "1 b)")] == (False, True)  # no file: gfcs's own verdict, marked †
+    assert got[("GFCS old", "5 b)")] == (True, False)

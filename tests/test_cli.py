@@ -248,7 +248,8 @@ def test_one_batch_row_is_a_one_batch_solve_sharing_the_first_batch():
     row = [r for r in rows if r["label"] == "Ours (1 b)"][0]
     assert row["cost"] == one.cost and row["success"] == one.success
     assert row["ee_length"] == one.metrics["ee_length"]
-    assert results[0].batch_best_costs[0] == one.batch_best_costs[0]  # the same first batch
+    assert results["gfcs"].batch_best_costs[0] == one.batch_best_costs[0]  # the same first batch
+    assert row["result"] == "gfcs-1b" and results["gfcs-1b"].metrics["ee_length"] == row["ee_length"]
 
 
 def test_missing_external_command_is_one_line(monkeypatch, capsys):

@@ -244,9 +244,19 @@ def test_bench_reads_its_rows_from_one_solve(retried_problem, monkeypatch):
     rows, results = bench.bench_problem(retried_problem, ["gfcs"], batches=2, population=4, seed=0, threads=1)
     assert calls == ["gfcs"]
     assert [r["label"] for r in rows] == ["Ours (1 b)", "Ours (2 b)", "Ours (2 b, retry)"]
-    first = results[0].attempt_records[0]
-    assert rows[1]["cost"] == first.result.cost and rows[2]["cost"] == results[0].cost
+    first = results["gfcs"].attempt_records[0]
+    assert rows[1]["cost"] == first.result.cost and rows[2]["cost"] == results["gfcs"].cost
     assert rows[0]["time"] == pytest.approx(first.result.batch_times[0])
-    paper, _ = bench.bench_problem(retried_problem, ["gfcs"], batches=2, population=4, seed=0, threads=1,
-                                 solve_options={"preset": "paper"})
+    # the first attempt's motion is the returned one: its row names the returned motion's file
+    assert len(results["gfcs"].attempt_records) == 1 and list(results) == ["gfcs-1b", "gfcs"]
+    assert [r["result"] for r in rows] == ["gfcs-1b", "gfcs", "gfcs"]
+    # a retry followed the first attempt: its motion goes to a file of its own, as the first batch's does
+    rows, results = bench.bench_problem(retried_problem, ["gfcs"], batches=2, population=4, seed=2, threads=1)
+    first = results["gfcs"].attempt_records[0]
+    assert len(results["gfcs"].attempt_records) > 1
+    assert [r["result"] for r in rows] == ["gfcs-1b", "gfcs-2b", "gfcs"]
+    assert results["gfcs-1b"] is first.first_batch and results["gfcs-2b"] is first.result
+    paper, kept = bench.bench_problem(retried_problem, ["gfcs"], batches=2, population=4, seed=0, threads=1,
+                                      solve_options={"preset": "paper"})
     assert [r["label"] for r in paper] == ["Ours (1 b)", "Ours (2 b)"]  # no policies: no retry row
+    assert [r["result"] for r in paper] == list(kept) == ["gfcs-1b", "gfcs"]

@@ -273,7 +273,10 @@ def test_ray_result_files_equal_local_ones(tmp_path, ray_executor):
                            results_dir=str(tmp_path / "r"), executor=ray_executor, **BENCH)
     assert not any("error" in r for r in rows)
     names = sorted(p.name for p in (tmp_path / "l").iterdir())
-    assert len(names) == 4 and names == sorted(p.name for p in (tmp_path / "r").iterdir())
+    # per problem: GF's, the first batch's and the returned motion (a retry adds the first attempt's)
+    assert len(names) >= 2 * 3 and {r["result"] for r in rows if "result" in r} == \
+        {n.split(".")[1] for n in names}
+    assert names == sorted(p.name for p in (tmp_path / "r").iterdir())
     for name in names:
         local, remote = (json.loads((tmp_path / side / name).read_text()) for side in ("l", "r"))
         assert untimed(local) == untimed(remote)

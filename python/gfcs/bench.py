@@ -73,7 +73,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
                   threads: Optional[int] = None, settings: Any = None,
                   retry: bool = True, solve_options: Optional[Dict[str, Any]] = None,
                   planner_times: Sequence[float] = (DEFAULT_PLANNER_TIME,),
-                  ) -> Tuple[List[Dict[str, Any]], List[Any]]:
+                  ) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
     """Rows (:func:`gfcs.results.bench_row`) and results of the methods on one problem, one solve each.
 
     GFCS yields the paper's Table I rows from the solve's attempt records: "Ours (1 b)" (what its first
@@ -85,6 +85,13 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     ignores the GFCS-only ones such as ``length_slack``). A sampling-based method (``rrtconnect``, ``biest``,
     ``bitstar``: :func:`gfcs.baselines.plan_ompl`) plans once per time in ``planner_times`` [s], one row each
     (:func:`_baseline_rows`).
+
+    Returns:
+        The rows, and the results by the name of their result file (``<problem>.<name>.json``, which each
+        row names under ``"result"``), so that a validator judges the motion behind every row: the
+        solves' returned results under their method (a sampling-based method with several planner times:
+        ``<method>-<time>s``), and the motions of GFCS rows that the solve did not return under
+        ``gfcs-1b`` (the first batch) and ``gfcs-<B>b`` (the first attempt, when a retry followed it).
     """
     from gfcs import planning
     from gfcs.baselines import is_ompl_method
@@ -94,55 +101,64 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     options = {"settings": settings, **(solve_options or {})}
     has_policies = bool(planning.get_preset(options.get("preset", "default")).policies())
     rows: List[Dict[str, Any]] = []
-    results: List[Any] = []
+    results: Dict[str, Any] = {}
+
+    def add(row: Dict[str, Any], name: str, result: Any) -> None:
+        rows.append({**row, "result": name})
+        results[name] = result
+
     for method in methods:
         if is_ompl_method(method):
-            new, done = _baseline_rows(problem, method, seed, planner_times, fabric_config, options)
-            rows.extend(new)
-            results.extend(done)
+            for row, name, res in _baseline_rows(problem, method, seed, planner_times, fabric_config, options):
+                add(row, name, res)
             continue
         gfcs_only = {"record_first_batch": batches > 1, **({} if retry else _no_retry())} if method == "gfcs" else {}
         res = planning.solve(problem, method=method, batches=batches, population=population, n_commands=n_commands,
                              seed=seed, sampler=sampler, fabric_config=fabric_config, threads=threads,
                              **gfcs_only, **options)
-        results.append(res)
         if method == "gf":
-            rows.append(bench_row(problem.name, problem.cls, "GF", "gf", 0, seed, res.solve_time,
-                                  res.cost, res.metrics, res.wall_time))
+            add(bench_row(problem.name, problem.cls, "GF", "gf", 0, seed, res.solve_time, res.cost, res.metrics,
+                          res.wall_time), "gf", res)
             continue
         first = res.attempt_records[0]
         if batches > 1:
             one = first.first_batch
-            rows.append(bench_row(problem.name, problem.cls, "Ours (1 b)", "gfcs", 1, seed,
-                                  one.solve_time, one.cost, one.metrics, one.wall_time))
-        rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b)", "gfcs", batches, seed,
-                              first.result.solve_time, first.result.cost, first.result.metrics, first.time))
+            add(bench_row(problem.name, problem.cls, "Ours (1 b)", "gfcs", 1, seed, one.solve_time, one.cost,
+                          one.metrics, one.wall_time), "gfcs-1b", one)
+        whole = bench_row(problem.name, problem.cls, f"Ours ({batches} b)", "gfcs", batches, seed,
+                          first.result.solve_time, first.result.cost, first.result.metrics, first.time)
+        if len(res.attempt_records) == 1:  # the first attempt's motion is the one returned
+            add(whole, "gfcs", res)
+        else:
+            add(whole, f"gfcs-{batches}b", first.result)
+            results["gfcs"] = res  # the returned motion is kept whether or not a row shows it
         if retry and has_policies:
-            rows.append(bench_row(problem.name, problem.cls, f"Ours ({batches} b, retry)", "gfcs", batches,
-                                  seed, res.solve_time, res.cost, res.metrics, res.wall_time))
+            add(bench_row(problem.name, problem.cls, f"Ours ({batches} b, retry)", "gfcs", batches, seed,
+                          res.solve_time, res.cost, res.metrics, res.wall_time), "gfcs", res)
     return rows, results
 
 
 def _baseline_rows(problem: Any, method: str, seed: int, planner_times: Sequence[float], fabric_config: Any,
-                   options: Dict[str, Any]) -> Tuple[List[Dict[str, Any]], List[Any]]:
-    """Rows and results of the sampling-based ``method`` on ``problem``, one per planner time, planned on the
-    preset's first sphere model with its fabric margin, timed within the same limits (``options["finish"]``)
-    and judged with the same mesh margin as GFCS. Labels: :func:`gfcs.baselines.planner_label`."""
+                   options: Dict[str, Any]) -> List[Tuple[Dict[str, Any], str, Any]]:
+    """(row, result file name, result) of the sampling-based ``method`` on ``problem``, one per planner time,
+    planned on the preset's first sphere model with its fabric margin, timed within the same limits
+    (``options["finish"]``) and judged with the same mesh margin as GFCS. Labels:
+    :func:`gfcs.baselines.planner_label`; file names: ``method``, with several times ``<method>-<time>s``."""
     from gfcs import metrics, planning
     from gfcs.baselines import plan_ompl, planner_label
     from gfcs.results import bench_row
 
     thin = planning.get_preset(options.get("preset", "default")).thin_spheres
-    rows, results = [], []
+    several = len(planner_times) > 1
+    out = []
     for t in planner_times:
         res = plan_ompl(problem, method, t, seed, thin_spheres=thin, fabric_config=fabric_config,
                         finish=options.get("finish"),
                         mesh_margin=options.get("mesh_margin", metrics.DEFAULT_MESH_MARGIN))
-        label = planner_label(method, t, with_time=len(planner_times) > 1)
-        rows.append(bench_row(problem.name, problem.cls, label, method, 0, seed, res.solve_time, res.cost,
-                              res.metrics, res.wall_time))
-        results.append(res)
-    return rows, results
+        row = bench_row(problem.name, problem.cls, planner_label(method, t, with_time=several), method, 0, seed,
+                        res.solve_time, res.cost, res.metrics, res.wall_time)
+        out.append((row, f"{method}-{t:g}s" if several else method, res))
+    return out
 
 
 def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, message: str,
@@ -247,7 +263,7 @@ class BenchJob:
         return (self.problems if self.problems is not None else suite_problems(self.suite, quiet=True))[name]
 
 
-def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]], List[Any]]:
+def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
     """One problem's task: :func:`bench_problem` (or :func:`error_rows` when the solve raised a user error,
     so that one bad problem does not end the bench)."""
     from gfcs.cli import _message, _user_error_types
@@ -259,15 +275,15 @@ def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]
         message = f"{type(e).__name__}: {_message(e)}"
         print(f"gfcs: bench: {problem.name}: {message}", file=sys.stderr)
         return error_rows(problem, job.methods, job.kwargs["batches"], seed, message,
-                          job.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,))), []
+                          job.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,))), {}
     if not job.keep_results:
-        return rows, []
+        return rows, {}
     if job.problems is not None:
         return rows, results
     from gfcs.results import SolveResult
 
     # what a result file holds (its JSON), without the in-memory objects that do not pickle (robot, attempts)
-    return rows, [SolveResult.from_json(r.to_json()) for r in results]
+    return rows, {name: SolveResult.from_json(r.to_json()) for name, r in results.items()}
 
 
 def resume_rows(jsonl: str, methods: Sequence[str]) -> Tuple[List[Dict[str, Any]], set]:
@@ -359,9 +375,10 @@ def run_bench(problems: Union[Sequence[Any], Suite], methods: Sequence[str], bat
     :class:`Suite`). Rows go to ``jsonl`` as each problem finishes; with ``resume`` the problems already in
     ``jsonl`` are kept and skipped (:func:`resume_rows`), else the file is started afresh. Each problem is
     solved with :func:`problem_seed` (``seed``, its name) (``seeding="run"``: with ``seed`` itself), so its
-    rows do not depend on the executor, the order or the worker. With ``results_dir``, the returned result
-    of every method on every problem (with its trajectory, as ``gfcs solve --json`` writes it) goes to
-    ``<results_dir>/<class>_<NNNN>.<method>.json``. ``left_out``: (name, reason) of the suite's problems
+    rows do not depend on the executor, the order or the worker. With ``results_dir``, the result behind
+    every row (with its trajectory, as ``gfcs solve --json`` writes it) goes to
+    ``<results_dir>/<class>_<NNNN>.<name>.json``, ``name`` being the row's ``result``
+    (:func:`bench_problem`). ``left_out``: (name, reason) of the suite's problems
     that were not run (:func:`load_mbm_suite`); each becomes a :func:`gfcs.results.left_out_row`.
     ``planner_times``: the planning times [s] of the sampling-based methods (:func:`bench_problem`).
 
@@ -413,13 +430,13 @@ def run_bench(problems: Union[Sequence[Any], Suite], methods: Sequence[str], bat
     return rows
 
 
-def _outcome(done: Any, problem: Any, job: BenchJob, seed: int) -> Tuple[List[Dict[str, Any]], List[Any]]:
+def _outcome(done: Any, problem: Any, job: BenchJob, seed: int) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
     """The rows and results of a finished task; error rows when the executor could not complete it."""
     if done.error is None:
         return done.value
     print(f"gfcs: bench: {problem.name}: {done.error}", file=sys.stderr)
     return error_rows(problem, job.methods, job.kwargs["batches"], seed, done.error,
-                      job.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,))), []
+                      job.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,))), {}
 
 
 def _write(out: Any, rows: List[Dict[str, Any]]) -> None:
@@ -429,13 +446,15 @@ def _write(out: Any, rows: List[Dict[str, Any]]) -> None:
         out.flush()
 
 
-def _keep(problem: Any, results: List[Any], rrd_dir: Optional[str], results_dir: Optional[str]) -> None:
-    """The recording and result files of one problem's results (when asked for)."""
+def _keep(problem: Any, results: Dict[str, Any], rrd_dir: Optional[str], results_dir: Optional[str]) -> None:
+    """The recording (the returned results) and the result files (every result, by its file name: see
+    :func:`bench_problem`) of one problem (when asked for)."""
     from gfcs.cli import _record
 
     stem = problem.name.replace("/", "_")
     if rrd_dir:
-        _record(problem, results, str(Path(rrd_dir) / (stem + ".rrd")))
+        returned = [r for name, r in results.items() if not name.startswith("gfcs-")]
+        _record(problem, returned, str(Path(rrd_dir) / (stem + ".rrd")))
     if results_dir:
-        for res in results:
-            (Path(results_dir) / f"{stem}.{res.method}.json").write_text(res.to_json())
+        for name, res in results.items():
+            (Path(results_dir) / f"{stem}.{name}.json").write_text(res.to_json())

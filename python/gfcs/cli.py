@@ -720,8 +720,8 @@ def _register_bench(sub: Any) -> None:
     out.add_argument("--markdown", metavar="TABLE.md", help="write the tables as markdown")
     out.add_argument("--rrd-dir", metavar="DIR", help="write one rerun recording per problem (viz extra)")
     out.add_argument("--results-dir", metavar="DIR",
-                     help="write every returned result with its trajectory (the JSON of gfcs solve --json) "
-                          "as DIR/<class>_<NNNN>.<method>.json")
+                     help="write the motion behind every row with its trajectory (the JSON of gfcs solve --json) "
+                          "as DIR/<class>_<NNNN>.<name>.json, the name in the row's 'result' (docs/moveit.md)")
     out.add_argument("--resume", action="store_true",
                      help="keep the problems already in --json (a row of every --method) and run the others, "
                           "appending their rows (with the same options as the first run)")

@@ -19,7 +19,9 @@ validated against collision meshes also ``mesh_clearance`` and ``mesh_self_clear
 mesh distance to the obstacles and between non-adjacent links; ``inf``: none within
 ``gfcs.metrics.mesh_report_cutoff(mesh margin)``); ``velocity_ratio`` (the largest finite-difference joint speed over its
 URDF velocity limit, ≤ 1 within the limits); for a robot with several end effectors (a group spanning two arms) also ``ee_lengths``
-({link: hand path [m]}, every hand; ``ee_length`` is the first's).
+({link: hand path [m]}, every hand; ``ee_length`` is the first's). Rows of :func:`gfcs.bench.bench_problem`
+also name the result file of their motion under ``result`` (``<class>_<NNNN>.<result>.json`` in
+``gfcs bench --results-dir``).
 
 A problem of the suite that was not run (its start or goal outside the robot's joint limits, see
 :func:`gfcs.bench.load_mbm_suite`) has one row of its own, :func:`left_out_row`: ``problem``, ``class`` and
