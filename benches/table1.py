@@ -6,7 +6,7 @@ meshes and its SRDF), into result files that ``benches/report.py`` turns into BE
 For each robot (``--robots``) and run (``--runs``) it calls ``gfcs bench`` once, writing
 
 * ``OUT/<robot>.<run>.jsonl``: the bench rows (``gfcs.results.bench_row``);
-* ``OUT/<robot>.<run>/``: every returned result with its trajectory;
+* ``OUT/<robot>.<run>/``: the motion behind every row with its trajectory (``result`` of the row);
 * ``OUT/<robot>.<run>.validated.jsonl``: the validator's verdict on each of them.
 
 Runs: ``default`` (GF and GFCS with the default preset: 1 b, 5 b, 5 b with the retry policies), ``paper``
