@@ -447,6 +447,7 @@ def trajectory_metrics(
     ee_links: Optional[Sequence[str]] = None,
     deadline: Optional[float] = None,
     sweep_time: Optional[float] = None,
+    self_clearance_floor: float = 0.0,
 ) -> Dict[str, Any]:
     """Everything GFCS Table I reports about one trajectory, plus the success criterion.
 
@@ -472,12 +473,16 @@ def trajectory_metrics(
             motion then counting as not validated (:func:`mesh_verdict`); None: no limit.
         sweep_time: with a checker, the continuous check's own time [s] (:func:`mesh_check`); None: up to
             the deadline.
+        self_clearance_floor: the spheres' clearance to each other (self-collision pairs) must stay ≥ this
+            [m], ≤ 0 (default 0). Below 0 only with a checker, whose link meshes then judge: for an endpoint
+            at which two links' spheres overlap while their meshes clear each other
+            (:func:`gfcs.planning.policies.endpoint_self_contact`).
 
     Returns:
         dict with keys ``success`` (bool: ``sphere_success`` and, with a checker, mesh clearances >
         ``mesh_margin``),
         ``sphere_success`` (bool: final error ≤ tol, min sphere clearance ≥ ``clearance_floor`` against
-        obstacles and ≥ 0 against the robot itself,
+        obstacles and ≥ ``self_clearance_floor`` against the robot itself,
         position and velocity limits respected: the verdict of the sphere model alone), ``final_error``
         [rad], ``velocity_ratio`` (:func:`velocity_ratio`, ≤ 1 within the velocity limits), ``min_clearance``
         [m] (obstacles, spheres), ``min_self_clearance`` [m], ``within_limits`` (bool), ``duration`` [s],
@@ -498,11 +503,13 @@ def trajectory_metrics(
         raise ShapeError("q: expected at least one sample, got shape (0, dof)")
     mesh_margin = _non_negative("mesh_margin", mesh_margin, " [m]")
     floor = float(clearance_floor)
-    if not (math.isfinite(floor) and floor <= 0):
-        raise InvalidValueError(f"clearance_floor must be a finite number ≤ 0 [m], got {clearance_floor}")
-    if floor < 0 and mesh_checker is None:
-        raise InvalidValueError(f"clearance_floor {floor} m < 0 needs a mesh_checker: the spheres alone cannot "
-                                "judge a contact")
+    self_floor = float(self_clearance_floor)
+    for name, value in (("clearance_floor", floor), ("self_clearance_floor", self_floor)):
+        if not (math.isfinite(value) and value <= 0):
+            raise InvalidValueError(f"{name} must be a finite number ≤ 0 [m], got {value}")
+        if value < 0 and mesh_checker is None:
+            raise InvalidValueError(f"{name} {value} m < 0 needs a mesh_checker: the spheres alone cannot "
+                                    "judge a contact")
     ee_a = (
         np.asarray(robot.ee_position(qa), dtype=np.float64).reshape(qa.shape[0], 3)
         if ee is None
@@ -535,7 +542,7 @@ def trajectory_metrics(
         rest = [h for h in hands if h not in known]
         known.update(link_path_lengths(robot, qa, rest) if rest else {})
         extra["ee_lengths"] = {str(h): known[h] for h in hands}
-    sphere_ok = bool(final_error <= tol and clear >= floor and self_clear >= 0.0 and limits_ok
+    sphere_ok = bool(final_error <= tol and clear >= floor and self_clear >= self_floor and limits_ok
                      and speed_ratio <= 1.0 + VELOCITY_RATIO_TOL)
     return {
         "success": sphere_ok and mesh_ok,

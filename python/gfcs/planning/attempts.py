@@ -43,6 +43,8 @@ class Attempt:
         self_margins: (P,) per-pair self-collision margins [m] of a cover attempt (in the order of
             ``robot.self_collision_pairs``), else None.
         clearance_floor: [m, ≤ 0] how far spheres may overlap obstacles for success (goal contact), else 0.
+        self_clearance_floor: [m, ≤ 0] how far spheres may overlap each other for success (an endpoint in
+            sphere self-contact, :func:`gfcs.planning.policies.endpoint_self_contact`), else 0.
         restart: k of the restart policy (:class:`gfcs.planning.policies.Restart`): the optimiser runs with
             its own seed and a population 2^k times the solve's (IPOP-CMA-ES); 0 for the solve's own.
     """
@@ -56,6 +58,7 @@ class Attempt:
     self_margins: Optional[tuple] = None
     clearance_floor: float = 0.0
     restart: int = 0
+    self_clearance_floor: float = 0.0
 
     @property
     def label(self) -> str:
@@ -243,21 +246,21 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
     ``common``: the SolveResult fields shared by every attempt of the solve (problem, start, goal, robot,
     fabric configuration, ...). ``recorded``: the result's ``settings`` besides the rollout settings (the
     attempt's own entries are added). ``budget``: the solve's :class:`gfcs.planning.budget.Budget`, or
-    None. A ``clearance_floor`` below 0 also raises ``settings.collision_tol`` to its overlap: what success
-    accepts is no collision in the cost either.
+    None. A ``clearance_floor`` or ``self_clearance_floor`` below 0 also raises ``settings.collision_tol`` to
+    its overlap: what success accepts is no collision in the cost either.
     """
     started = time.perf_counter()
     options = attempt.optim_options(options)
-    floor = float(attempt.clearance_floor)
-    if floor < 0.0:
-        settings = dataclasses.replace(settings, collision_tol=max(settings.collision_tol, -floor))
+    floor, self_floor = float(attempt.clearance_floor), float(attempt.self_clearance_floor)
+    if min(floor, self_floor) < 0.0:
+        settings = dataclasses.replace(settings, collision_tol=max(settings.collision_tol, -floor, -self_floor))
     n = int(attempt.n_commands)
     settings_dict = {**dataclasses.asdict(settings), **recorded}
     opt = _optimise(problem, fabric, common, n, sampler, settings, options,
                     None if budget is None else budget.optimiser_deadline())
     if budget is not None and len(opt.batch_times):
         budget.observe_first_batch(float(opt.batch_times[0]))
-    selection = dataclasses.replace(options.selection, clearance_floor=floor)
+    selection = dataclasses.replace(options.selection, clearance_floor=floor, self_clearance_floor=self_floor)
     select_deadline = None if budget is None else budget.selection_deadline()
     first_batch, measuring = None, 0.0
     if options.first_batch:  # measured apart: its time is not the attempt's
@@ -280,6 +283,9 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
         attempt.kind: {"clearance_floor": floor, "obstacle_margins": np.asarray(fabric.obstacle_margins).tolist(),
                        **({} if fabric.self_margins is None else
                           {"self_margins": np.asarray(fabric.self_margins).tolist()})}}
+    if self_floor < 0.0:  # an endpoint in sphere self-contact
+        contact["self_contact"] = {"self_clearance_floor": self_floor,
+                                   "self_margins": np.asarray(fabric.self_margins).tolist()}
     extra = {"n_commands": n, "sampler": type(sampler).__name__, **contact}
     if attempt.model.name == "thin":
         extra["sphere_model"] = "thin"

@@ -38,7 +38,8 @@ from gfcs.planning.attempts import Attempt, AttemptRecord
 from gfcs.planning.models import RobotModels
 
 __all__ = ["Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "MeshCover", "ModelCascade",
-           "Restart", "default_policies", "goal_contact", "cover_self_margins", "mesh_contacts"]
+           "Restart", "default_policies", "goal_contact", "endpoint_self_contact", "cover_self_margins",
+           "mesh_contacts", "SELF_CONTACT_SLACK"]
 
 
 @dataclass
@@ -161,6 +162,47 @@ def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
     if not _metrics.mesh_verdict(mesh_checker, scene, goal, mesh_margin)[2]:
         return None
     return margins, float(min(0.0, clearance.min()) - 2.0 * slack)
+
+
+#: The slack [m] of :func:`endpoint_self_contact`'s margins below the endpoints' sphere-pair clearances.
+SELF_CONTACT_SLACK = 0.002
+
+
+def endpoint_self_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
+                          mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN) -> Optional[Tuple[np.ndarray, float]]:
+    """Per-pair self-collision margins for a start or goal at which two links' collision spheres come nearer
+    each other than ``fabric``'s self-collision margin while the links' meshes clear each other (coarse
+    spheres of two arms side by side, a folded wrist): (margins (P,) m in the order of
+    ``robot.self_collision_pairs``, self-clearance floor m), or None when no pair does, without a mesh
+    checker, when such an endpoint's meshes keep no more than ``mesh_margin`` from each other, or when two
+    sphere centres lie within ``slack`` of each other's sphere.
+
+    With the configured margin the fabric's self-collision barrier keeps such a pair apart, so a goal where
+    it overlaps is never reached and a start where it does is pushed out of. margin_k = min(m, g_k − slack)
+    with m = ``self_collision.margin`` and g_k the pair's least clearance over the start and the goal;
+    floor = min(0, min_k g_k) − 2·``slack`` (:func:`goal_contact`'s floor, for pairs of spheres): below it
+    the spheres count as in collision, above it the meshes judge.
+    """
+    robot = problem.robot
+    pairs = np.asarray(robot.self_collision_pairs, dtype=np.int64).reshape(-1, 2)
+    if mesh_checker is None or len(pairs) == 0:
+        return None
+    margin = float(fabric.config.to_dict()["self_collision"]["margin"])
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    reach = radii[pairs[:, 0]] + radii[pairs[:, 1]]
+    gap = np.full(len(pairs), np.inf)
+    for q in (problem.q0, problem.goal):
+        q = np.asarray(q, dtype=np.float64)
+        c = np.asarray(robot.sphere_centers(q), dtype=np.float64)
+        g = np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1) - reach
+        if np.any(g < margin + slack):
+            if _metrics.mesh_verdict(mesh_checker, problem.scene, q[None], mesh_margin)[1] <= mesh_margin:
+                return None
+            gap = np.minimum(gap, g)
+    margins = np.minimum(margin, gap - slack)
+    if not np.any(margins < margin) or np.any(margins <= -reach):
+        return None
+    return margins, float(min(0.0, gap.min()) - 2.0 * slack)
 
 
 @dataclass

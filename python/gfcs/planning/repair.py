@@ -12,10 +12,10 @@ A configuration q is clear when every term of h(q) is ≥ 0 (:func:`path_constra
     d_i(q) − m − c  for each collision shape i (its mesh distance to the obstacles) and each checked
                     pair i of shapes (their distance; negative in contact),
     s_j(q) − f      for each collision sphere j (its clearance to the obstacles),
-    s_self(q)       the least clearance between the self-collision sphere pairs,
+    s_self(q) − f_s the least clearance between the self-collision sphere pairs,
 
 with m the mesh margin of success, c the clearance the repair aims for beyond it
-(:attr:`RepairOptions.clearance`) and f the clearance floor of the success criterion
+(:attr:`RepairOptions.clearance`) and f, f_s the clearance floors of the success criterion
 (:func:`gfcs.metrics.trajectory_metrics` judges the spheres too). One term per part lets one step move two
 links off two obstacles at once. Each iteration:
 
@@ -95,7 +95,7 @@ class RepairOptions:
 
 
 def path_constraint(robot: Any, scene: Any, mesh_checker: Any, q: np.ndarray, mesh_margin: float,
-                    clearance: float, floor: float) -> np.ndarray:
+                    clearance: float, floor: float, self_floor: float = 0.0) -> np.ndarray:
     """The terms (N, terms) of h (module docstring) at the configurations ``q`` (N, dof) [m], one per
     collision shape (mesh to obstacles), per checked pair of shapes (mesh to mesh), per collision sphere
     (to obstacles) and one for the sphere pairs; h is their minimum, ≥ 0 where a state is clear. One term
@@ -109,7 +109,7 @@ def path_constraint(robot: Any, scene: Any, mesh_checker: Any, q: np.ndarray, me
         np.asarray(mesh_checker.shape_clearances(scene, q, cutoff=cutoff), dtype=np.float64).reshape(n, -1) - target,
         np.asarray(mesh_checker.pair_clearances(q, cutoff=cutoff), dtype=np.float64).reshape(n, -1) - target,
         _metrics.sphere_clearances(robot, scene, q) - floor,
-        _metrics.self_clearance(robot, q)[:, None],
+        _metrics.self_clearance(robot, q)[:, None] - self_floor,
     ], axis=1)
 
 
@@ -173,7 +173,8 @@ def _spread(steps: np.ndarray, at: np.ndarray, length: int, sigma: float) -> np.
 
 def repair_path(robot: Any, scene: Any, mesh_checker: Any, t: np.ndarray, q: np.ndarray, options: RepairOptions,
                 mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN, floor: float = 0.0,
-                deadline: Optional[float] = None) -> Tuple[Optional[np.ndarray], Dict[str, Any]]:
+                deadline: Optional[float] = None, self_floor: float = 0.0,
+                ) -> Tuple[Optional[np.ndarray], Dict[str, Any]]:
     """Move the path ``q`` (T, dof), sampled at times ``t`` (T,) [s], off its mesh contacts (see the module
     docstring).
 
@@ -195,7 +196,7 @@ def repair_path(robot: Any, scene: Any, mesh_checker: Any, t: np.ndarray, q: np.
     stride = max(1, int(sigma / 3))
 
     def constraint(x: np.ndarray) -> np.ndarray:
-        return path_constraint(robot, scene, mesh_checker, x, mesh_margin, options.clearance, floor)
+        return path_constraint(robot, scene, mesh_checker, x, mesh_margin, options.clearance, floor, self_floor)
 
     known: Optional[np.ndarray] = None  # (T, terms) of h at visited samples, NaN where unknown or moved
     original = q.copy()

@@ -70,6 +70,8 @@ class SelectionOptions:
         sweep_time: with a mesh checker, the time [s] the continuous check of one candidate may take
             (:func:`gfcs.metrics.mesh_check`): a candidate it cannot certify by then fails on the meshes
             (and may be repaired); None: up to the attempt's deadline.
+        self_clearance_floor: how far [m, ≤ 0] the spheres may overlap each other (an endpoint in sphere
+            self-contact that the meshes clear: :func:`gfcs.planning.policies.endpoint_self_contact`).
     """
 
     length_slack: float = 0.1
@@ -78,6 +80,7 @@ class SelectionOptions:
     clearance_floor: float = 0.0
     repair: Optional[RepairOptions] = None
     sweep_time: Optional[float] = None
+    self_clearance_floor: float = 0.0
 
 
 class _Rollouts:
@@ -141,7 +144,8 @@ def _judge(problem: Any, trajectory: Trajectory, mesh_checker: Any, options: Sel
                                        np.asarray(problem.goal, dtype=np.float64), mesh_checker=mesh_checker,
                                        mesh_margin=options.mesh_margin, clearance_floor=options.clearance_floor,
                                        ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
-                                       deadline=deadline, sweep_time=options.sweep_time)
+                                       deadline=deadline, sweep_time=options.sweep_time,
+                                       self_clearance_floor=options.self_clearance_floor)
 
 
 def mesh_contact_only(metrics: Dict[str, Any]) -> bool:
@@ -160,7 +164,8 @@ def _repair(problem: Any, candidate: Candidate, mesh_checker: Any, options: Sele
     assert options.repair is not None
     traj = candidate.trajectory
     moved, record = repair_path(problem.robot, problem.scene, mesh_checker, traj.t, traj.q, options.repair,
-                                options.mesh_margin, options.clearance_floor, deadline)
+                                options.mesh_margin, options.clearance_floor, deadline,
+                                options.self_clearance_floor)
     candidate.metrics["mesh_repair"] = record
     if moved is None or _past(deadline):
         return None

@@ -37,7 +37,8 @@ from gfcs.planning.budget import Budget
 from gfcs.planning.finish import FinishOptions, rollout_commands, with_raw_ldj
 from gfcs.planning.gfcop import BatchInfo
 from gfcs.planning.models import PlanningModel, RobotModels, model_named, models_for, with_robot
-from gfcs.planning.policies import MoreCommands, PlanContext, default_policies
+from gfcs.planning.policies import (SELF_CONTACT_SLACK, MoreCommands, PlanContext, default_policies,
+                                    endpoint_self_contact)
 from gfcs.planning.presets import Preset, get_preset
 from gfcs.planning.endpoints import check_endpoints
 from gfcs.planning.rollout import RolloutSettings, make_fabric
@@ -275,6 +276,7 @@ class _Planner:
         self.options, self.recorded, self.budget = options, recorded, budget
         self.base_margin = float(fabric.config.to_dict()["obstacles"]["margin"])
         self._fabrics: Dict[Tuple[str, int], Any] = {}
+        self._contact: Dict[str, Any] = {}
         self.context = PlanContext(problem, models, n_commands, options.selection.mesh_margin,
                                    lambda model: self.fabric_for(Attempt(model, n_commands)), self.problem_for)
 
@@ -305,7 +307,30 @@ class _Planner:
             return self.sampler
         return ApproachSampler(n) if self.preset.sampler == "approach" else UniformSampler(n)
 
+    def endpoint_contact(self, attempt: Attempt) -> Attempt:
+        """``attempt`` with its model's endpoint self-contact margins and floor (the preset's
+        ``endpoint_self_contact``; :func:`gfcs.planning.policies.endpoint_self_contact`), the lower of them
+        and its own margins per pair; unchanged when the endpoints bring no sphere pair that near."""
+        name = attempt.model.name
+        if name not in self._contact:
+            found = None
+            if self.preset.endpoint_self_contact:
+                found = endpoint_self_contact(self.problem_for(attempt.model),
+                                              self.fabric_for(Attempt(attempt.model, self.n_commands)),
+                                              SELF_CONTACT_SLACK, self.models.validator,
+                                              self.options.selection.mesh_margin)
+            self._contact[name] = found
+        found = self._contact[name]
+        if found is None:
+            return attempt
+        margins, floor = found
+        if attempt.self_margins is not None:
+            margins = np.minimum(margins, np.asarray(attempt.self_margins, dtype=np.float64))
+        return dataclasses.replace(attempt, self_margins=tuple(float(m) for m in margins),
+                                   self_clearance_floor=min(floor, attempt.self_clearance_floor))
+
     def attempt(self, attempt: Attempt, policy: str) -> AttemptRecord:
+        attempt = self.endpoint_contact(attempt)
         fabric = self.fabric_for(attempt)
         model_fabric = self.fabric_for(dataclasses.replace(attempt, obstacle_margins=None, self_margins=None))
         common = _common(self.problem, attempt.model.robot, model_fabric, self.options.seed)
