@@ -75,3 +75,52 @@ def test_retract_configurations_pull_the_hand_in_at_the_goal_height(robot):
 def test_retract_configurations_reject_bad_input(robot, args, match):
     with pytest.raises(ValueError, match=match):
         retract_configurations(robot, *args, np.random.default_rng(0))
+
+
+@pytest.fixture(scope="module")
+def two_arms():
+    """The two-arm Panda (one base, 14 joints), its hands and a goal of both arms."""
+    from gfcs import generators
+
+    robot, tips = generators.two_arm_robot()
+    problem = generators.two_arm_problems(1, seed=0)[0]
+    return robot, tips, np.asarray(problem.q0), np.asarray(problem.goal)
+
+
+def link_pose(robot, q, link):
+    return np.asarray(robot.link_poses(q))[robot.link_index(link)]
+
+
+def test_every_hand_of_a_two_arm_group_backs_off_along_its_axis(two_arms):
+    robot, tips, _, goal = two_arms
+    other = next(t for t in tips if t != robot.ee_link)
+    distances = (0.0, 0.05, 0.1)
+    qs = approach_configurations(robot, goal, distances, axis=(0.0, 0.0, 1.0), links=[(other, (0.0, 0.0, 1.0))])
+    assert qs.shape == (3, 14)
+    for link in tips:
+        g = link_pose(robot, goal, link)
+        for d, q in zip(distances, qs):
+            pose = link_pose(robot, q, link)
+            np.testing.assert_allclose(pose[:3, 3], g[:3, 3] - d * g[:3, 2], atol=1e-4)
+            np.testing.assert_allclose(pose[:3, :3], g[:3, :3], atol=1e-3)
+    # one hand only: the other arm keeps its goal joints
+    one = approach_configurations(robot, goal, (0.1,))[0]
+    np.testing.assert_allclose(link_pose(robot, one, other), link_pose(robot, goal, other), atol=1e-12)
+    with pytest.raises(ValueError, match=f"axis of {other}"):
+        approach_configurations(robot, goal, (0.1,), links=[(other, (0.0, 0.0, 0.0))])
+
+
+def test_every_hand_of_a_two_arm_group_is_pulled_in(two_arms):
+    robot, tips, q0, goal = two_arms
+    other = next(t for t in tips if t != robot.ee_link)
+    qs = retract_configurations(robot, q0, goal, 20, np.random.default_rng(1), links=[other])
+    one = retract_configurations(robot, q0, goal, 20, np.random.default_rng(1))
+    for link in tips:
+        ends = [link_pose(robot, q, link)[:3, 3] for q in (q0, goal)]
+        hands = np.array([link_pose(robot, q, link)[:3, 3] for q in qs])
+        reach = RETRACT_SCALE[1] * max(np.linalg.norm(p[:2]) for p in ends) + 0.01
+        assert np.linalg.norm(hands[:, :2], axis=1).max() < reach, link
+    # the second hand draws its own height after the first's: the first hand's targets differ from a
+    # one-hand draw only from the second row on, so the first row's first hand is the same
+    np.testing.assert_allclose(link_pose(robot, qs[0], robot.ee_link), link_pose(robot, one[0], robot.ee_link),
+                               atol=1e-12)

@@ -20,7 +20,7 @@ alone, all rows in one parallel call.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Sequence, Tuple
 
 import numpy as np
 
@@ -59,6 +59,7 @@ def approach_configurations(
     distances: Sequence[float],
     axis: Sequence[float] = (0.0, 0.0, 1.0),
     iterations: int = 30,
+    links: Sequence[Tuple[str, Sequence[float]]] = (),
 ) -> np.ndarray:
     """Configurations whose end effector keeps the goal's orientation and backs off along ``axis``.
 
@@ -70,6 +71,9 @@ def approach_configurations(
         axis: approach direction in the end-effector frame (unit vector after normalisation; default its z
             axis, the Panda gripper's). The target position is p_goal − d · R_goal · axis.
         iterations: damped least-squares steps per distance (fewer when the task error falls below 1e-5).
+        links: further end effectors backed off the same way, (link, its approach axis in its own frame)
+            each (a group spanning two arms: the second hand), solved after ``robot.ee_link`` at each
+            distance, each from the configuration the one before it left.
 
     Returns:
         (len(distances), dof) configurations inside the joint limits. Where the target cannot be reached
@@ -83,17 +87,22 @@ def approach_configurations(
     d = np.asarray(distances, dtype=np.float64).reshape(-1)
     if not (np.all(np.isfinite(d)) and np.all(d >= 0)):
         raise InvalidValueError(f"distances must be finite and >= 0, got {d.tolist()}")
-    a = np.asarray(axis, dtype=np.float64).reshape(-1)
-    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
-        raise InvalidValueError(f"axis: expected a non-zero 3-vector, got {np.asarray(axis).tolist()}")
-    a = a / np.linalg.norm(a)
-    goal_pose = np.asarray(robot.link_poses(q))[robot.link_index(robot.ee_link)]
-    axes = np.stack([goal_pose[:3, 0], goal_pose[:3, 2]])
+    poses = np.asarray(robot.link_poses(q))
+    hands = []  # (link or None for the end effector, goal pose, unit axis)
+    for link, ax in [(None, axis), *links]:
+        a = np.asarray(ax, dtype=np.float64).reshape(-1)
+        if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
+            raise InvalidValueError(f"axis{'' if link is None else f' of {link}'}: expected a non-zero 3-vector, "
+                                    f"got {np.asarray(ax).tolist()}")
+        hands.append((link, poses[robot.link_index(robot.ee_link if link is None else link)], a / np.linalg.norm(a)))
     out = np.empty((d.shape[0], q.shape[0]))
     for row, dist in enumerate(d):
-        target = goal_pose[:3, 3] - dist * (goal_pose[:3, :3] @ a)
-        q = robot.inverse_kinematics(q, target, axes=axes, iterations=int(iterations), damping=_DAMPING,
-                                     tolerance=_TOL, axis_weight=AXIS_WEIGHT)
+        for link, goal_pose, a in hands:
+            target = goal_pose[:3, 3] - dist * (goal_pose[:3, :3] @ a)
+            axes = np.stack([goal_pose[:3, 0], goal_pose[:3, 2]])
+            q = robot.inverse_kinematics(q, target, axes=axes, iterations=int(iterations), damping=_DAMPING,
+                                         tolerance=_TOL, axis_weight=AXIS_WEIGHT,
+                                         **({} if link is None else {"link": link}))
         out[row] = q
     return out
 
@@ -105,6 +114,7 @@ def retract_configurations(
     n: int,
     rng: np.random.Generator,
     iterations: int = 15,
+    links: Sequence[str] = (),
 ) -> np.ndarray:
     """``n`` configurations with the end effector pulled in toward the base axis at about the goal's height.
 
@@ -119,6 +129,8 @@ def retract_configurations(
         n: number of configurations (≥ 0).
         rng: numpy Generator (the draws: a, s and the height per row, in that order).
         iterations: damped least-squares steps per row (fewer when within 1 mm of the target).
+        links: further end effectors pulled in the same way, each after the one before (a group spanning
+            two arms: the second hand), with the same a and s as the end effector and a height of their own.
 
     Returns:
         (n, dof) configurations inside the joint limits; where a target is out of reach, the closest
@@ -130,16 +142,22 @@ def retract_configurations(
     ends = [_configuration(robot, "q_start", q_start), _configuration(robot, "q_goal", q_goal)]
     if int(n) < 0:
         raise InvalidValueError(f"n must be >= 0, got {n}")
-    (q0, q1), (p0, p1) = ends, np.asarray(robot.ee_position(np.stack(ends)))
-    blends, targets = np.empty(int(n)), np.empty((int(n), 3))
+    q0, q1 = ends
+    hands = [None, *links]  # None: the end effector
+    positions = [np.asarray(robot.ee_position(np.stack(ends))) if link is None else
+                 np.asarray(robot.link_poses(np.stack(ends)))[:, robot.link_index(link), :3, 3] for link in hands]
+    blends, targets = np.empty(int(n)), np.empty((len(hands), int(n), 3))
     for row in range(int(n)):
         blends[row] = rng.uniform(*RETRACT_BLEND)
         scale = rng.uniform(*RETRACT_SCALE)
-        height = p1[2] + rng.normal(0.0, RETRACT_HEIGHT_SIGMA)
-        blend = (1.0 - blends[row]) * p0 + blends[row] * p1
-        targets[row] = [scale * blend[0], scale * blend[1], height]
+        for h, (p0, p1) in enumerate(positions):
+            height = p1[2] + rng.normal(0.0, RETRACT_HEIGHT_SIGMA)
+            blend = (1.0 - blends[row]) * p0 + blends[row] * p1
+            targets[h, row] = [scale * blend[0], scale * blend[1], height]
     if int(n) == 0:
         return np.empty((0, ends[0].shape[0]))
-    starts = (1.0 - blends[:, None]) * q0 + blends[:, None] * q1
-    return np.asarray(robot.inverse_kinematics(starts, targets, iterations=int(iterations),
-                                               damping=_RETRACT_DAMPING, tolerance=_RETRACT_TOL))
+    q = (1.0 - blends[:, None]) * q0 + blends[:, None] * q1
+    for h, link in enumerate(hands):
+        q = np.asarray(robot.inverse_kinematics(q, targets[h], iterations=int(iterations), damping=_RETRACT_DAMPING,
+                                                tolerance=_RETRACT_TOL, **({} if link is None else {"link": link})))
+    return q

@@ -157,11 +157,12 @@ def _data_profile(robot: Any) -> RobotProfile:
                 RobotProfile(name="derived", source="derived from the robot"))
 
 
-def _rigid_with_ee(robot: Any, rng: np.random.Generator, samples: int = 3) -> np.ndarray:
-    """Boolean (links,) mask of the links rigidly attached to the end-effector link (the same pose relative
-    to it at ``samples`` random configurations), the end-effector link included."""
+def _rigid_with_ee(robot: Any, rng: np.random.Generator, samples: int = 3, link: Optional[str] = None) -> np.ndarray:
+    """Boolean (links,) mask of the links rigidly attached to the end-effector link (``link``, default
+    ``robot.ee_link``: the same pose relative to it at ``samples`` random configurations), that link
+    included."""
     lo, up = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
-    ee = int(robot.link_index(robot.ee_link))
+    ee = int(robot.link_index(robot.ee_link if link is None else link))
     rigid = np.ones(len(robot.link_names), dtype=bool)
     reference = None
     for _ in range(samples):
@@ -174,14 +175,16 @@ def _rigid_with_ee(robot: Any, rng: np.random.Generator, samples: int = 3) -> np
     return rigid
 
 
-def derive_approach_axis(robot: Any) -> Tuple[float, float, float]:
-    """The gripper's approach direction in the end-effector frame, from the robot's collision spheres: the
-    direction from the origin of the last moving body (the child link of the last joint that moves the end
-    effector) to the volume-weighted centroid of the spheres rigidly attached to the end effector (a gripper
-    extends from the wrist along its approach direction), snapped to the nearest axis of the end-effector
-    frame when within 25° of it. The z axis when the robot has no spheres there."""
+def derive_approach_axis(robot: Any, link: Optional[str] = None) -> Tuple[float, float, float]:
+    """The gripper's approach direction in the frame of the end-effector link ``link`` (default
+    ``robot.ee_link``; another for the second hand of a two-arm group), from the robot's collision spheres:
+    the direction from the origin of the last moving body (the child link of the last joint that moves the
+    end effector) to the volume-weighted centroid of the spheres rigidly attached to the end effector (a
+    gripper extends from the wrist along its approach direction), snapped to the nearest axis of the
+    end-effector frame when within 25° of it. The z axis when the robot has no spheres there."""
+    link = robot.ee_link if link is None else link
     rng = np.random.default_rng(0)
-    rigid = _rigid_with_ee(robot, rng)
+    rigid = _rigid_with_ee(robot, rng, link=link)
     names = list(robot.link_names)
     on_body = np.array([rigid[names.index(link)] for link in robot.sphere_links], dtype=bool)
     if not on_body.any():
@@ -193,7 +196,7 @@ def derive_approach_axis(robot: Any) -> Tuple[float, float, float]:
     centroid = weights @ centres / weights.sum()
     # the body's origin: among the rigidly attached links, the one nearest the base in the link order
     body_origin = poses[int(np.flatnonzero(rigid)[0]), :3, 3]
-    ee_rot = poses[int(robot.link_index(robot.ee_link)), :3, :3]
+    ee_rot = poses[int(robot.link_index(link)), :3, :3]
     d = ee_rot.T @ (centroid - body_origin)
     if np.linalg.norm(d) < 1e-9:
         return (0.0, 0.0, 1.0)

@@ -81,7 +81,9 @@ class ApproachSampler:
         spacings: extra back-off (m, ≥ 0) of each earlier command over the next one (n ≥ 2 only).
         sigma: joint noise around the approach configurations as a fraction of each joint range, ≥ 0.
         axis: approach direction in the end-effector frame; None: the robot profile's
-            (:func:`gfcs.profile.profile_for`: a data file's, else derived from the gripper's spheres).
+            (:func:`gfcs.profile.profile_for`: a data file's, else derived from the gripper's spheres), and
+            for the other hands of a group spanning several arms (``problem.meta["ee_links"]``) each derived
+            from its own gripper's spheres (:func:`gfcs.profile.derive_approach_axis`).
     """
 
     n_commands: int = 1
@@ -126,11 +128,16 @@ class ApproachSampler:
         back = last[:, None] + step[:, None] * np.arange(m - 1, -1, -1)[None, :]
         levels, index = np.unique(back, return_inverse=True)
         axis = self.axis if self.axis is not None else _profile.profile_for(robot).approach_axis
-        approach = approach_configurations(robot, problem.goal, levels, axis)
+        # the other hands of a group spanning several arms back off and pull in likewise
+        others = [link for link in ((getattr(problem, "meta", None) or {}).get("ee_links") or ())
+                  if link != robot.ee_link]
+        axes = [(link, self.axis if self.axis is not None else _profile.derive_approach_axis(robot, link))
+                for link in others]
+        approach = approach_configurations(robot, problem.goal, levels, axis, links=axes)
         rows = approach[index.reshape(k + r, m)]  # (k + r, m, dof)
         noise = rng.standard_normal((k + r, m, dof)) * (float(self.sigma) * (up - lo))
         rows = np.clip(rows + noise, lo, up)
         if r:
-            rows[k:, 0] = retract_configurations(robot, problem.q0, problem.goal, r, rng)
+            rows[k:, 0] = retract_configurations(robot, problem.q0, problem.goal, r, rng, links=others)
         y[: k + r] = rows.reshape(k + r, m * dof)
         return y
