@@ -407,3 +407,18 @@ def test_the_verdict_without_speeds_judges_the_path_alone():
     for key, bad in (("clearance", 0.0), ("self_clearance", -1e-4), ("goal_reached", False),
                      ("limit_margin", -1e-3), ("start_error", 1e-3)):
         assert not ct.is_valid(dict(row, **{key: bad}), speed=False), key
+
+
+def test_links_of_one_rigid_body_are_not_checked_against_each_other(tmp_path):
+    # the post split into two touching boxes joined by a fixed joint (as some URDFs split a part's meshes)
+    split = URDF.replace("</robot>", """<link name="post_2"><collision><origin xyz="0 0 0.1"/>
+      <geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+      <joint name="fix2" type="fixed"><parent link="post"/><child link="post_2"/></joint></robot>""")
+    (tmp_path / "split.urdf").write_text(split)
+    robot = yourdfpy.URDF.load(str(tmp_path / "split.urdf"), load_meshes=False).robot
+    assert ct.rigid_link_pairs(robot.joints) == {frozenset(p) for p in
+                                                 (("base", "post"), ("base", "post_2"), ("post", "post_2"))}
+    default = ct.RobotModel(tmp_path / "split.urdf", None, "link")
+    assert frozenset(("post", "post_2")) in default.disabled and frozenset(("link", "post")) not in default.disabled
+    strict = ct.RobotModel(tmp_path / "split.urdf", None, "link", rigid_pairs=True)
+    assert frozenset(("post", "post_2")) not in strict.disabled

@@ -34,7 +34,9 @@ state of its trajectory:
 * obstacles: the smallest FCL distance between a link's collision geometry and an obstacle [m]
   (≤ 0: contact);
 * self-collision: the smallest FCL distance between two links' collision geometry [m], over the link
-  pairs not disabled by the SRDF nor allowed by the scene's collision matrix;
+  pairs not disabled by the SRDF nor allowed by the scene's collision matrix, nor joined through fixed
+  joints only (one rigid body: its pieces touch where a part is split into several links; ``--rigid-pairs``
+  checks those too);
 * end-effector and joint-space path lengths [m, rad], recomputed.
 
 A state in contact is a collision (FCL reports 0 or less for touching or overlapping shapes). The verdict
@@ -330,10 +332,31 @@ def allowed_pairs(scene_path: Path) -> set:
 
 
 # --------------------------------------------------------------------------------------------- robot
+def rigid_link_pairs(joints: Iterable[Any]) -> set:
+    """Pairs of distinct links joined through fixed joints only (one rigid body), as frozensets: such links
+    never move relative to each other, and a part modelled as several links (a pedestal or a finger split
+    into two meshes) touches itself wherever the pieces meet."""
+    parent = {}  # union-find over the fixed joints
+
+    def root(link: str) -> str:
+        while parent.get(link, link) != link:
+            link = parent[link]
+        return link
+
+    for j in joints:
+        if j.type == "fixed":
+            parent[root(j.child)] = root(j.parent)
+    bodies: Dict[str, List[str]] = {}
+    for link in {j.child for j in joints if j.type == "fixed"} | {j.parent for j in joints if j.type == "fixed"}:
+        bodies.setdefault(root(link), []).append(link)
+    return {frozenset(pair) for links in bodies.values() for pair in itertools.combinations(sorted(links), 2)}
+
+
 class RobotModel:
     """The URDF read by yourdfpy: joint chain, limits and collision geometry as FCL objects per link."""
 
-    def __init__(self, urdf: Path, srdf: Optional[Path], ee_link: str, mesh_dir: Optional[Path] = None):
+    def __init__(self, urdf: Path, srdf: Optional[Path], ee_link: str, mesh_dir: Optional[Path] = None,
+                 rigid_pairs: bool = False):
         self.path = urdf
         root = mesh_dir or urdf.parent
         self.urdf = yourdfpy.URDF.load(str(urdf), load_meshes=False, build_scene_graph=True,
@@ -352,6 +375,8 @@ class RobotModel:
         if srdf is not None:
             for e in ET.parse(srdf).getroot().iter("disable_collisions"):
                 disabled.add(frozenset((e.get("link1"), e.get("link2"))))
+        if not rigid_pairs:
+            disabled |= rigid_link_pairs(robot.joints)
         self.disabled = disabled
 
     def parts_links(self) -> List[str]:
@@ -661,7 +686,7 @@ def _init(args: argparse.Namespace) -> None:
     global _MODEL, _ARGS
     _ARGS = args
     _MODEL = RobotModel(Path(args.urdf), Path(args.srdf) if args.srdf else None, args.ee_link,
-                        Path(args.mesh_dir) if args.mesh_dir else None)
+                        Path(args.mesh_dir) if args.mesh_dir else None, rigid_pairs=args.rigid_pairs)
 
 
 def _check_file(path: str) -> Dict[str, Any]:
@@ -726,6 +751,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--problems", required=True, help="MotionBenchMaker folder (<class>/sceneNNNN.yaml, requestNNNN.yaml)")
     p.add_argument("--urdf", required=True, help="URDF whose collision geometry is checked")
     p.add_argument("--srdf", help="SRDF whose disabled collisions are not checked")
+    p.add_argument("--rigid-pairs", action="store_true",
+                   help="also check pairs of links joined by fixed joints only (one rigid body), as MoveIt does "
+                        "unless the SRDF disables them")
     p.add_argument("--mesh-dir", help="folder resolving package:// mesh paths (default: the URDF's folder)")
     p.add_argument("--ee-link", default="panda_hand", help="end-effector link (default panda_hand)")
     p.add_argument("--goal-tol", type=float, default=0.01, help="joint goal tolerance, rad (default 0.01)")
