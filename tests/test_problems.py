@@ -2,6 +2,8 @@
 
 import math
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -308,3 +310,15 @@ goal_constraints:
     with pytest.warns(gfcs.GfcsWarning, match="planned on the bound: start j = .* -> 3.14159; goal j"):
         p = problems.load_mbm(tmp_path / "scene0001.yaml", tmp_path / "request0001.yaml", robot=rev)
     assert p.q0.tolist() == [3.14159] and p.goal.tolist() == [-3.14159]
+
+    # a folder of such requests: one warning that counts them, not one per request
+    for k in (2, 3):
+        (tmp_path / f"scene000{k}.yaml").write_text((tmp_path / "scene0001.yaml").read_text())
+        (tmp_path / f"request000{k}.yaml").write_text((tmp_path / "request0001.yaml").read_text())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        loaded = problems.load_mbm_dir(tmp_path, robot=rev)
+    assert len(loaded) == 3 and all(q.q0.tolist() == [3.14159] for q in loaded)
+    bound = [str(w.message) for w in caught if "joint bounds" in str(w.message)]
+    assert len(bound) == 1 and "3 requests hold values just outside their joint bounds" in bound[0]
+    assert "request0001.yaml" in bound[0]

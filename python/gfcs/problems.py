@@ -298,8 +298,8 @@ def _mbm_fields(scene_yaml: PathLike, request_yaml: PathLike, robot: Any, name: 
         values[part], shifts = snap_to_bounds(robot, values[part])
         moved += [f"{part} {m}" for m in shifts]
     if moved:
-        warnings.warn(f"{request_path}: values just outside their joint bounds (by at most {BOUNDS_TOLERANCE} "
-                      f"rad or m) are planned on the bound: {'; '.join(moved)}", gfcs.errors.GfcsWarning, stacklevel=3)
+        warnings.warn(f"{request_path}: {_ON_BOUND} (by at most {BOUNDS_TOLERANCE} rad or m) are planned on the "
+                      f"bound: {'; '.join(moved)}", gfcs.errors.GfcsWarning, stacklevel=3)
     if "goal" in values:  # continuous joints turn the short way to the goal's orientation
         values["goal"] = unwrap_goal(values["start"], values["goal"], continuous_mask(robot))
     meta = {"scene_file": str(scene_path), "request_file": str(request_path),
@@ -367,6 +367,11 @@ def _class_dirs(directory: Path) -> List[Path]:
                   if p.is_dir() and any(_SCENE_RE.match(f.name) for f in p.iterdir()))
 
 
+#: What the warning of a request says whose values lie just outside their joint bounds (:func:`load_mbm_dir`
+#: gathers these warnings into one).
+_ON_BOUND = "values just outside their joint bounds"
+
+
 def load_mbm_dir(
     directory: PathLike,
     classes: Optional[Sequence[str]] = None,
@@ -415,6 +420,45 @@ def load_mbm_dir(
             except ValueError:
                 pass
     robot = gfcs.Robot.panda() if robot is None else robot
+    caught: List[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            problems, left_out = _load_classes(root, wanted, skip, limit, robot, mesh_checker, invalid)
+    finally:  # outside the recording: the warnings reach the caller's filters
+        _rewarn_gathered(caught, root)
+    if not problems and left_out:
+        raise InvalidValueError(f"every MotionBenchMaker problem under {root} has its start or goal outside the joint "
+                                f"limits of robot '{robot.name}', or a pose goal it cannot take ({len(left_out)} "
+                                f"problem(s); first: {left_out[0]})")
+    if not problems:
+        raise InvalidValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
+                                + (f" for classes {sorted(wanted)}" if wanted else ""))
+    return problems
+
+
+def _rewarn_gathered(caught: List[warnings.WarningMessage], root: Path) -> None:
+    """Issue the warnings ``caught`` while loading the folder ``root`` again, those of requests with values
+    just outside their joint bounds as one warning that counts them (a robot whose bounds are ±3.14159 gets
+    one for most requests of MoveIt's rounding)."""
+    import gfcs
+
+    on_bound = [w for w in caught if issubclass(w.category, gfcs.errors.GfcsWarning) and _ON_BOUND in str(w.message)]
+    for w in caught:
+        if not any(w is b for b in on_bound):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if len(on_bound) == 1:
+        warnings.warn_explicit(on_bound[0].message, on_bound[0].category, on_bound[0].filename, on_bound[0].lineno)
+    elif on_bound:
+        warnings.warn(f"{root}: {len(on_bound)} requests hold {_ON_BOUND} (by at most {BOUNDS_TOLERANCE} rad or m), "
+                      f"planned on the bound; the first: {on_bound[0].message}", gfcs.errors.GfcsWarning, stacklevel=3)
+
+
+def _load_classes(root: Path, wanted: Optional[set], skip: int, limit: Optional[int], robot: Any, mesh_checker: Any,
+                  invalid: Optional[List[Tuple[str, str]]]) -> Tuple[List[Problem], List[str]]:
+    """(problems, messages of those left out) of the class folders under ``root`` (see :func:`load_mbm_dir`)."""
+    import gfcs
+
     problems: List[Problem] = []
     left_out: List[str] = []
     for class_dir in _class_dirs(root):
@@ -438,14 +482,7 @@ def load_mbm_dir(
                     raise
                 invalid.append((f"{class_dir.name}/{digits}", str(e)))
                 left_out.append(str(e))
-    if not problems and left_out:
-        raise InvalidValueError(f"every MotionBenchMaker problem under {root} has its start or goal outside the joint "
-                                f"limits of robot '{robot.name}', or a pose goal it cannot take ({len(left_out)} "
-                                f"problem(s); first: {left_out[0]})")
-    if not problems:
-        raise InvalidValueError(f"no MotionBenchMaker problems (sceneNNNN.yaml + requestNNNN.yaml) under {root}"
-                                + (f" for classes {sorted(wanted)}" if wanted else ""))
-    return problems
+    return problems, left_out
 
 
 def _mbm_folder(path: Optional[PathLike]) -> Path:
