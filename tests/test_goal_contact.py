@@ -1,11 +1,14 @@
 """A goal at which conservative collision spheres overlap an obstacle that the meshes clear: per-sphere
 obstacle margins, the clearance floor of the success criterion, and solve's goal-contact attempt."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 import gfcs
-from gfcs import metrics, optimize, problems
+from gfcs import metrics, optimize, planning, problems
+from gfcs.planning.policies import endpoint_contact
 from gfcs.problems import Problem
 
 Q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
@@ -74,9 +77,11 @@ def test_goal_contact_margins(robot, checker):
 def test_solve_reaches_a_goal_in_contact_only_with_the_goal_contact_attempt(robot, checker):
     scene, _ = touching(robot)
     problem = Problem("touch", robot, scene, q0=Q0, goal=GOAL, mesh_checker=checker)
-    without = optimize.solve(problem, goal_contact_slack=0.0, **SMALL)
+    # the preset's endpoint contact off: the plan attempts fail, the goal-contact retry reaches the goal
+    off = dataclasses.replace(planning.get_preset("default"), endpoint_contact=False)
+    without = optimize.solve(problem, goal_contact_slack=0.0, preset=off, **SMALL)
     assert not without.success and "goal_contact" not in without.settings
-    res = optimize.solve(problem, **SMALL)
+    res = optimize.solve(problem, preset=off, **SMALL)
     assert res.success and res.settings["commands_tried"] == [1, 2, 1]
     contact = res.settings["goal_contact"]
     assert contact["clearance_floor"] == pytest.approx(-0.005)
@@ -87,3 +92,20 @@ def test_solve_reaches_a_goal_in_contact_only_with_the_goal_contact_attempt(robo
     assert res.cost == pytest.approx(float(np.sum(res.t_stars)))
     with pytest.raises(ValueError, match="goal_contact_slack"):
         optimize.solve(problem, goal_contact_slack=-1.0, **SMALL)
+
+
+def test_a_goal_sunk_into_an_obstacle_is_planned_with_its_contact_from_the_first_attempt(robot, checker):
+    scene, k = touching(robot)
+    problem = Problem("touch", robot, scene, q0=Q0, goal=GOAL, mesh_checker=checker)
+    fabric = gfcs.Fabric(robot, scene)
+    contact = endpoint_contact(problem, fabric, 0.002, checker)
+    # only the overlapping sphere is capped, at its goal clearance minus the slack; the others keep any margin
+    assert contact.obstacle_caps[k] == pytest.approx(-0.003) and contact.floor == pytest.approx(-0.005)
+    assert np.isinf(np.delete(contact.obstacle_caps, k)).all() and contact.self_margins is None
+    res = optimize.solve(problem, **SMALL)
+    assert res.success and len(res.attempts) == 1
+    assert res.settings["goal_contact"]["clearance_floor"] == pytest.approx(-0.005)
+    # a goal within the margin but clear of the obstacle is left to the GoalContact retry
+    near, _ = touching(robot, overlap=-0.001)
+    assert endpoint_contact(Problem("near", robot, near, q0=Q0, goal=GOAL, mesh_checker=checker), fabric, 0.002,
+                            checker) is None

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -43,7 +44,10 @@ CASES: Dict[str, Tuple[Tuple[Any, ...], Dict[str, Any]]] = {
     "mbm_cage_0001_no_repair": (("mbm", "cage", 1, "shipped"), {"batches": 1, "mesh_repair": False}),
     "mbm_cage_0006": (("mbm", "cage", 6, "shipped"), {"batches": 1}),
     "mbm_cage_0006_no_repair": (("mbm", "cage", 6, "shipped"), {"batches": 1, "mesh_repair": False}),
-    "mbm_table_pick_0041": (("mbm", "table_pick", 41, "mbm"), {"batches": 1}),
+    # a goal whose spheres sink into the table: planned with its contact from the first attempt, and without
+    # the preset's endpoint contact by the goal-contact retry
+    "mbm_table_pick_0041": (("mbm", "table_pick", 41, "mbm"), {"batches": 1, "endpoint_contact": False}),
+    "mbm_table_pick_0041_endpoint": (("mbm", "table_pick", 41, "mbm"), {"batches": 1}),
 }
 
 #: Rows of the trajectory recorded in the fixture (fractions of its length), besides its length and sums.
@@ -77,6 +81,10 @@ def solve_recorded(problem: Any, options: Dict[str, Any]) -> Tuple[Any, List[Dic
     options = dict(options)
     if options.get("sampler") == "uniform":
         options["sampler"] = optimize.UniformSampler(options.get("n_commands", 1))
+    if not options.pop("endpoint_contact", True):
+        from gfcs import planning
+
+        options["preset"] = dataclasses.replace(planning.get_preset("default"), endpoint_contact=False)
     result = optimize.solve(problem, **options)
     attempts: List[Dict[str, Any]] = []
     for record in result.attempt_records:
@@ -173,8 +181,8 @@ def test_solve_makes_the_pinned_attempts_and_returns_the_pinned_motion(name: str
 
 def test_the_cases_exercise_every_retry_path(golden: Dict[str, Any]) -> None:
     """The fixture covers what it claims: a thin-then-covering cascade, a second command, a mesh retry that
-    succeeds, and a goal-contact attempt that succeeds (with the mesh repair off), and mesh contacts that
-    the repair undoes in the first attempt."""
+    succeeds, and a goal-contact attempt that succeeds (with the mesh repair off; with the endpoint contact,
+    the same margins in the first attempt), and mesh contacts that the repair undoes in the first attempt."""
     attempts = [a for entry in golden.values() for a in entry["attempts"]]
     assert {"thin", "own"} <= {a["model"] for a in attempts}
     assert any(a["n_commands"] == 2 for a in attempts)
@@ -182,6 +190,8 @@ def test_the_cases_exercise_every_retry_path(golden: Dict[str, Any]) -> None:
     assert cage6[-1]["success"] and cage6[-1]["obstacle_margin"] > cage6[0]["obstacle_margin"]
     contact = golden["mbm_table_pick_0041"]["attempts"]
     assert contact[-1]["success"] and contact[-1]["goal_contact_margins"] is not None
+    first = golden["mbm_table_pick_0041_endpoint"]["attempts"]
+    assert len(first) == 1 and first[0]["success"] and first[0]["goal_contact_margins"] == contact[-1]["goal_contact_margins"]
     cascade = [a["model"] for a in golden["mbm_cage_0001_no_repair"]["attempts"]]
     assert cascade[0] == "thin" and cascade[-1] == "own"
     for name in ("mbm_cage_0001", "mbm_cage_0006"):  # both failed the first attempt on the meshes

@@ -84,8 +84,8 @@ def test_solve_reaches_a_goal_in_sphere_self_contact_with_the_default_preset(pro
     assert res.success and res.metrics["final_error"] == 0.0
     assert res.metrics["min_self_clearance"] == pytest.approx(-0.02)
     assert res.settings["self_contact"]["self_clearance_floor"] == pytest.approx(-0.024)
-    off = dataclasses.replace(planning.get_preset("default"), endpoint_self_contact=False)
+    off = dataclasses.replace(planning.get_preset("default"), endpoint_contact=False)
     without = planning.solve(problem, preset=off, **SMALL)
     # the self-collision barrier holds the spheres apart: the arms stop short of the goal
     assert not without.success and without.metrics["final_error"] > 0.1 and "self_contact" not in without.settings
-    assert not planning.get_preset("paper").endpoint_self_contact
+    assert not planning.get_preset("paper").endpoint_contact

@@ -38,8 +38,8 @@ from gfcs.planning.attempts import Attempt, AttemptRecord
 from gfcs.planning.models import RobotModels
 
 __all__ = ["Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "MeshCover", "ModelCascade",
-           "Restart", "default_policies", "goal_contact", "endpoint_self_contact", "cover_self_margins",
-           "mesh_contacts", "SELF_CONTACT_SLACK"]
+           "Restart", "default_policies", "goal_contact", "endpoint_self_contact", "endpoint_contact",
+           "EndpointContact", "cover_self_margins", "mesh_contacts", "SELF_CONTACT_SLACK"]
 
 
 @dataclass
@@ -164,7 +164,7 @@ def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
     return margins, float(min(0.0, clearance.min()) - 2.0 * slack)
 
 
-#: The slack [m] of :func:`endpoint_self_contact`'s margins below the endpoints' sphere-pair clearances.
+#: The slack [m] of :func:`endpoint_contact`'s margins below the endpoints' sphere clearances.
 SELF_CONTACT_SLACK = 0.002
 
 
@@ -205,6 +205,51 @@ def endpoint_self_contact(problem: Any, fabric: Any, slack: float, mesh_checker:
     return margins, float(min(0.0, gap.min()) - 2.0 * slack)
 
 
+@dataclass(frozen=True)
+class EndpointContact:
+    """The sphere contacts of a problem's endpoints that its meshes clear (:func:`endpoint_contact`), which
+    every attempt on one planning model plans with.
+
+    Attributes:
+        self_margins: (P,) self-collision margins [m] (:func:`endpoint_self_contact`), or None.
+        self_floor: how far [m, ≤ 0] spheres may overlap each other for success.
+        obstacle_caps: (S,) upper bounds [m] on the spheres' obstacle margins (+inf for spheres the goal
+            keeps clear; :func:`goal_contact`), or None.
+        floor: how far [m, ≤ 0] spheres may overlap obstacles for success.
+    """
+
+    self_margins: Optional[np.ndarray] = None
+    self_floor: float = 0.0
+    obstacle_caps: Optional[np.ndarray] = None
+    floor: float = 0.0
+
+
+def endpoint_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
+                     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN) -> Optional[EndpointContact]:
+    """The endpoint contacts that no attempt with the configured margins can end in, or None: sphere pairs
+    the start or the goal brings nearer than the self-collision margin (:func:`endpoint_self_contact`), and
+    spheres the goal sinks into an obstacle while the meshes clear it (:func:`goal_contact`: a motion ending
+    there counts as a collision on the spheres). A goal whose spheres come within the obstacle margin
+    without overlapping is left to the :class:`GoalContact` retry."""
+    own = endpoint_self_contact(problem, fabric, slack, mesh_checker, mesh_margin)
+    goal = None
+    if mesh_checker is not None and len(problem.scene):
+        clearance = _metrics.sphere_clearances(problem.robot, problem.scene,
+                                               np.asarray(problem.goal, dtype=np.float64)[None])[0]
+        if clearance.min() < 0.0:
+            goal = goal_contact(problem, fabric, slack, mesh_checker, mesh_margin)
+    if own is None and goal is None:
+        return None
+    contact = EndpointContact()
+    if own is not None:
+        contact = dataclasses.replace(contact, self_margins=own[0], self_floor=own[1])
+    if goal is not None:
+        margin = float(fabric.config.to_dict()["obstacles"]["margin"])
+        caps = np.where(goal[0] < margin, goal[0], np.inf)
+        contact = dataclasses.replace(contact, obstacle_caps=caps, floor=goal[1])
+    return contact
+
+
 @dataclass
 class GoalContact:
     """Once per model, after its plan attempts failed: if the goal is in sphere contact that the meshes
@@ -223,8 +268,8 @@ class GoalContact:
         validator = context.models.validator
         if self.slack == 0 or validator is None or last.kind not in _ROUND_KINDS:
             return None
-        if any(r.attempt.kind == "goal_contact" for r in _same_model(records)):
-            return None
+        if any(r.attempt.kind == "goal_contact" for r in _same_model(records)) or last.clearance_floor < 0:
+            return None  # tried, or every attempt plans with the goal's contact (endpoint_contact)
         found = goal_contact(context.model_problem(last.model), context.model_fabric(last.model), self.slack,
                              validator, context.mesh_margin)
         if found is None:

@@ -59,9 +59,10 @@ class Preset:
         repair: the repair of candidates that fail only on the meshes (None: none).
         sweep_time: the time [s] the continuous mesh check of one candidate may take before the candidate
             counts as too near (:attr:`gfcs.planning.selection.SelectionOptions.sweep_time`; None: no cap).
-        endpoint_self_contact: every attempt lowers the self-collision margins of the sphere pairs that the
-            start or the goal brings nearer than the margin while the link meshes clear each other, and the
-            meshes judge those pairs (:func:`gfcs.planning.policies.endpoint_self_contact`).
+        endpoint_contact: every attempt plans with the endpoints' sphere contacts that the meshes clear: the
+            self-collision margins of the sphere pairs the start or the goal brings nearer than the margin
+            lowered, and the obstacle margins of the spheres the goal sinks into an obstacle, and the meshes
+            judge those contacts (:func:`gfcs.planning.policies.endpoint_contact`).
     """
 
     name: str
@@ -76,7 +77,7 @@ class Preset:
     stall_batches: int = 0
     repair: Optional[RepairOptions] = None
     sweep_time: Optional[float] = None
-    endpoint_self_contact: bool = False
+    endpoint_contact: bool = False
 
 
 PRESETS: Dict[str, Preset] = {
@@ -88,7 +89,7 @@ PRESETS: Dict[str, Preset] = {
     "default": Preset("default", RolloutSettings(tol=0.02, collision_penalty=100.0, limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
-                      repair=RepairOptions(), sweep_time=0.25, endpoint_self_contact=True),
+                      repair=RepairOptions(), sweep_time=0.25, endpoint_contact=True),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,

@@ -38,7 +38,7 @@ from gfcs.planning.finish import FinishOptions, rollout_commands, with_raw_ldj
 from gfcs.planning.gfcop import BatchInfo
 from gfcs.planning.models import PlanningModel, RobotModels, model_named, models_for, with_robot
 from gfcs.planning.policies import (SELF_CONTACT_SLACK, MoreCommands, PlanContext, default_policies,
-                                    endpoint_self_contact)
+                                    endpoint_contact)
 from gfcs.planning.presets import Preset, get_preset
 from gfcs.planning.endpoints import check_endpoints
 from gfcs.planning.rollout import RolloutSettings, make_fabric
@@ -308,26 +308,29 @@ class _Planner:
         return ApproachSampler(n) if self.preset.sampler == "approach" else UniformSampler(n)
 
     def endpoint_contact(self, attempt: Attempt) -> Attempt:
-        """``attempt`` with its model's endpoint self-contact margins and floor (the preset's
-        ``endpoint_self_contact``; :func:`gfcs.planning.policies.endpoint_self_contact`), the lower of them
-        and its own margins per pair; unchanged when the endpoints bring no sphere pair that near."""
+        """``attempt`` with its model's endpoint contacts (the preset's ``endpoint_contact``;
+        :func:`gfcs.planning.policies.endpoint_contact`): each pair's and each sphere's margin the lower of
+        the contact's and the attempt's own, and the lower floors; unchanged without such contacts."""
         name = attempt.model.name
         if name not in self._contact:
-            found = None
-            if self.preset.endpoint_self_contact:
-                found = endpoint_self_contact(self.problem_for(attempt.model),
-                                              self.fabric_for(Attempt(attempt.model, self.n_commands)),
-                                              SELF_CONTACT_SLACK, self.models.validator,
-                                              self.options.selection.mesh_margin)
-            self._contact[name] = found
-        found = self._contact[name]
-        if found is None:
+            self._contact[name] = None if not self.preset.endpoint_contact else endpoint_contact(
+                self.problem_for(attempt.model), self.fabric_for(Attempt(attempt.model, self.n_commands)),
+                SELF_CONTACT_SLACK, self.models.validator, self.options.selection.mesh_margin)
+        contact = self._contact[name]
+        if contact is None:
             return attempt
-        margins, floor = found
-        if attempt.self_margins is not None:
-            margins = np.minimum(margins, np.asarray(attempt.self_margins, dtype=np.float64))
-        return dataclasses.replace(attempt, self_margins=tuple(float(m) for m in margins),
-                                   self_clearance_floor=min(floor, attempt.self_clearance_floor))
+        changes: Dict[str, Any] = {}
+        if contact.self_margins is not None:
+            own = contact.self_margins if attempt.self_margins is None else \
+                np.minimum(contact.self_margins, np.asarray(attempt.self_margins, dtype=np.float64))
+            changes.update(self_margins=tuple(float(m) for m in own),
+                           self_clearance_floor=min(contact.self_floor, attempt.self_clearance_floor))
+        if contact.obstacle_caps is not None:
+            current = np.full(len(contact.obstacle_caps), attempt.obstacle_margin(self.base_margin)) \
+                if attempt.obstacle_margins is None else np.asarray(attempt.obstacle_margins, dtype=np.float64)
+            changes.update(obstacle_margins=tuple(float(m) for m in np.minimum(current, contact.obstacle_caps)),
+                           clearance_floor=min(contact.floor, attempt.clearance_floor))
+        return dataclasses.replace(attempt, **changes)
 
     def attempt(self, attempt: Attempt, policy: str) -> AttemptRecord:
         attempt = self.endpoint_contact(attempt)
