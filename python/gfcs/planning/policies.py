@@ -39,7 +39,7 @@ from gfcs.planning.models import RobotModels
 
 __all__ = ["Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "MeshCover", "ModelCascade",
            "Restart", "default_policies", "goal_contact", "endpoint_self_contact", "endpoint_contact",
-           "EndpointContact", "cover_self_margins", "mesh_contacts", "SELF_CONTACT_SLACK"]
+           "EndpointContact", "cover_self_margins", "mesh_contacts", "CONTACT_SLACK"]
 
 
 @dataclass
@@ -165,7 +165,7 @@ def goal_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,
 
 
 #: The slack [m] of :func:`endpoint_contact`'s margins below the endpoints' sphere clearances.
-SELF_CONTACT_SLACK = 0.002
+CONTACT_SLACK = 0.002
 
 
 def endpoint_self_contact(problem: Any, fabric: Any, slack: float, mesh_checker: Any,

@@ -37,7 +37,7 @@ from gfcs.planning.budget import Budget
 from gfcs.planning.finish import FinishOptions, rollout_commands, with_raw_ldj
 from gfcs.planning.gfcop import BatchInfo
 from gfcs.planning.models import PlanningModel, RobotModels, model_named, models_for, with_robot
-from gfcs.planning.policies import (SELF_CONTACT_SLACK, MoreCommands, PlanContext, default_policies,
+from gfcs.planning.policies import (CONTACT_SLACK, MoreCommands, PlanContext, default_policies,
                                     endpoint_contact)
 from gfcs.planning.presets import Preset, get_preset
 from gfcs.planning.endpoints import check_endpoints
@@ -315,7 +315,7 @@ class _Planner:
         if name not in self._contact:
             self._contact[name] = None if not self.preset.endpoint_contact else endpoint_contact(
                 self.problem_for(attempt.model), self.fabric_for(Attempt(attempt.model, self.n_commands)),
-                SELF_CONTACT_SLACK, self.models.validator, self.options.selection.mesh_margin)
+                CONTACT_SLACK, self.models.validator, self.options.selection.mesh_margin)
         contact = self._contact[name]
         if contact is None:
             return attempt
