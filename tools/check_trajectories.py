@@ -343,11 +343,11 @@ def rigid_link_pairs(joints: Iterable[Any]) -> set:
             link = parent[link]
         return link
 
-    for j in joints:
-        if j.type == "fixed":
-            parent[root(j.child)] = root(j.parent)
+    fixed = [j for j in joints if j.type == "fixed"]
+    for j in fixed:
+        parent[root(j.child)] = root(j.parent)
     bodies: Dict[str, List[str]] = {}
-    for link in {j.child for j in joints if j.type == "fixed"} | {j.parent for j in joints if j.type == "fixed"}:
+    for link in {j.child for j in fixed} | {j.parent for j in fixed}:
         bodies.setdefault(root(link), []).append(link)
     return {frozenset(pair) for links in bodies.values() for pair in itertools.combinations(sorted(links), 2)}
 

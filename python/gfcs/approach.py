@@ -88,21 +88,19 @@ def approach_configurations(
     if not (np.all(np.isfinite(d)) and np.all(d >= 0)):
         raise InvalidValueError(f"distances must be finite and >= 0, got {d.tolist()}")
     poses = np.asarray(robot.link_poses(q))
-    hands = []  # (link or None for the end effector, goal pose, unit axis)
-    for link, ax in [(None, axis), *links]:
+    hands = []  # (link, its goal position, its goal x and z axes, its unit approach axis in the world frame)
+    for link, ax in [(robot.ee_link, axis), *links]:
         a = np.asarray(ax, dtype=np.float64).reshape(-1)
         if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
-            raise InvalidValueError(f"axis{'' if link is None else f' of {link}'}: expected a non-zero 3-vector, "
-                                    f"got {np.asarray(ax).tolist()}")
-        hands.append((link, poses[robot.link_index(robot.ee_link if link is None else link)], a / np.linalg.norm(a)))
+            raise InvalidValueError(f"axis{'' if link == robot.ee_link else f' of {link}'}: expected a non-zero "
+                                    f"3-vector, got {np.asarray(ax).tolist()}")
+        pose = poses[robot.link_index(link)]
+        hands.append((link, pose[:3, 3], np.stack([pose[:3, 0], pose[:3, 2]]), pose[:3, :3] @ (a / np.linalg.norm(a))))
     out = np.empty((d.shape[0], q.shape[0]))
     for row, dist in enumerate(d):
-        for link, goal_pose, a in hands:
-            target = goal_pose[:3, 3] - dist * (goal_pose[:3, :3] @ a)
-            axes = np.stack([goal_pose[:3, 0], goal_pose[:3, 2]])
-            q = robot.inverse_kinematics(q, target, axes=axes, iterations=int(iterations), damping=_DAMPING,
-                                         tolerance=_TOL, axis_weight=AXIS_WEIGHT,
-                                         **({} if link is None else {"link": link}))
+        for link, position, axes, away in hands:
+            q = robot.inverse_kinematics(q, position - dist * away, link=link, axes=axes, iterations=int(iterations),
+                                         damping=_DAMPING, tolerance=_TOL, axis_weight=AXIS_WEIGHT)
         out[row] = q
     return out
 
@@ -143,9 +141,9 @@ def retract_configurations(
     if int(n) < 0:
         raise InvalidValueError(f"n must be >= 0, got {n}")
     q0, q1 = ends
-    hands = [None, *links]  # None: the end effector
-    positions = [np.asarray(robot.ee_position(np.stack(ends))) if link is None else
-                 np.asarray(robot.link_poses(np.stack(ends)))[:, robot.link_index(link), :3, 3] for link in hands]
+    hands = [robot.ee_link, *links]
+    positions = [np.asarray(robot.ee_position(np.stack(ends)))] + [
+        np.asarray(robot.link_poses(np.stack(ends)))[:, robot.link_index(link), :3, 3] for link in links]
     blends, targets = np.empty(int(n)), np.empty((len(hands), int(n), 3))
     for row in range(int(n)):
         blends[row] = rng.uniform(*RETRACT_BLEND)
@@ -158,6 +156,6 @@ def retract_configurations(
         return np.empty((0, ends[0].shape[0]))
     q = (1.0 - blends[:, None]) * q0 + blends[:, None] * q1
     for h, link in enumerate(hands):
-        q = np.asarray(robot.inverse_kinematics(q, targets[h], iterations=int(iterations), damping=_RETRACT_DAMPING,
-                                                tolerance=_RETRACT_TOL, **({} if link is None else {"link": link})))
+        q = np.asarray(robot.inverse_kinematics(q, targets[h], link=link, iterations=int(iterations),
+                                                damping=_RETRACT_DAMPING, tolerance=_RETRACT_TOL))
     return q

@@ -68,6 +68,11 @@ def load_problems(args: argparse.Namespace, robot: Any,
     return suite
 
 
+#: Result file names of the GFCS motions behind rows that the solve did not return start with this
+#: (``gfcs-1b``, ``gfcs-<B>b``: :func:`bench_problem`); recordings show the returned motions only.
+UNRETURNED = "gfcs-"
+
+
 def bench_problem(problem: Any, methods: Sequence[str], batches: int, population: int, seed: int,
                   n_commands: int = 1, sampler: Any = None, fabric_config: Any = None,
                   threads: Optional[int] = None, settings: Any = None,
@@ -124,13 +129,13 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
         if batches > 1:
             one = first.first_batch
             add(bench_row(problem.name, problem.cls, "Ours (1 b)", "gfcs", 1, seed, one.solve_time, one.cost,
-                          one.metrics, one.wall_time), "gfcs-1b", one)
+                          one.metrics, one.wall_time), f"{UNRETURNED}1b", one)
         whole = bench_row(problem.name, problem.cls, f"Ours ({batches} b)", "gfcs", batches, seed,
                           first.result.solve_time, first.result.cost, first.result.metrics, first.time)
         if len(res.attempt_records) == 1:  # the first attempt's motion is the one returned
             add(whole, "gfcs", res)
         else:
-            add(whole, f"gfcs-{batches}b", first.result)
+            add(whole, f"{UNRETURNED}{batches}b", first.result)
             results["gfcs"] = res  # the returned motion is kept whether or not a row shows it
         if retry and has_policies:
             add(bench_row(problem.name, problem.cls, f"Ours ({batches} b, retry)", "gfcs", batches, seed,
@@ -453,7 +458,7 @@ def _keep(problem: Any, results: Dict[str, Any], rrd_dir: Optional[str], results
 
     stem = problem.name.replace("/", "_")
     if rrd_dir:
-        returned = [r for name, r in results.items() if not name.startswith("gfcs-")]
+        returned = [r for name, r in results.items() if not name.startswith(UNRETURNED)]
         _record(problem, returned, str(Path(rrd_dir) / (stem + ".rrd")))
     if results_dir:
         for name, res in results.items():

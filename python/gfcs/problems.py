@@ -443,9 +443,11 @@ def _rewarn_gathered(caught: List[warnings.WarningMessage], root: Path) -> None:
     one for most requests of MoveIt's rounding)."""
     import gfcs
 
-    on_bound = [w for w in caught if issubclass(w.category, gfcs.errors.GfcsWarning) and _ON_BOUND in str(w.message)]
+    on_bound = []
     for w in caught:
-        if not any(w is b for b in on_bound):
+        if issubclass(w.category, gfcs.errors.GfcsWarning) and _ON_BOUND in str(w.message):
+            on_bound.append(w)
+        else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if len(on_bound) == 1:
         warnings.warn_explicit(on_bound[0].message, on_bound[0].category, on_bound[0].filename, on_bound[0].lineno)

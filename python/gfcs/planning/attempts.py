@@ -279,14 +279,15 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
     if budget is not None:
         budget.observe_selection(time.perf_counter() - chosen_at)
     # per-sphere (and per-pair) margins are recorded under the attempt's kind ("goal_contact" or "cover"; a
-    # plan attempt's are the goal's contact, gfcs.planning.policies.endpoint_contact)
+    # plan attempt's are the goal's contact, gfcs.planning.policies.endpoint_contact), per-pair margins of an
+    # endpoint in sphere self-contact under "self_contact" (once)
+    pairs = {} if fabric.self_margins is None else {"self_margins": np.asarray(fabric.self_margins).tolist()}
     contact = {} if fabric.obstacle_margins is None else {
         "goal_contact" if attempt.kind == "plan" else attempt.kind: {
             "clearance_floor": floor, "obstacle_margins": np.asarray(fabric.obstacle_margins).tolist(),
-            **({} if fabric.self_margins is None else {"self_margins": np.asarray(fabric.self_margins).tolist()})}}
-    if self_floor < 0.0:  # an endpoint in sphere self-contact
-        contact["self_contact"] = {"self_clearance_floor": self_floor,
-                                   "self_margins": np.asarray(fabric.self_margins).tolist()}
+            **({} if self_floor < 0.0 else pairs)}}
+    if self_floor < 0.0:
+        contact["self_contact"] = {"self_clearance_floor": self_floor, **pairs}
     extra = {"n_commands": n, "sampler": type(sampler).__name__, **contact}
     if attempt.model.name == "thin":
         extra["sphere_model"] = "thin"
