@@ -74,3 +74,31 @@ def test_solve_plans_a_prismatic_and_a_continuous_joint_within_their_semantics(r
     assert np.all(q[:, 0] >= -1e-9) and np.all(q[:, 0] <= 0.4 + 1e-9)  # metres, within the lift's range
     # the C-space length mixes metres and radians as the paper's metric does; recomputed here
     assert r.metrics["cspace_length"] == pytest.approx(np.linalg.norm(np.diff(q, axis=0), axis=1).sum())
+
+
+def test_onto_bounds_moves_rounding_past_a_bound_onto_it_and_nothing_else(robot):
+    from gfcs.planning.finish import onto_bounds
+
+    q = np.zeros((4, 4))
+    q[0] = [-1e-10, 0.0, 0.0, 0.0]  # the robot's state: kept whatever it is
+    q[1] = [-1e-10, 2.5 + 1e-9, -2.0 - 1e-12, 7.0]  # rounding past three bounds; the wrist is continuous
+    q[2] = [-1e-3, 0.0, 0.0, -7.0]  # 1 mm below the lift's bound: a real violation, left for the check
+    q[3] = [0.4 + 5e-7, 0.0, 0.0, math.pi]
+    out = onto_bounds(robot, q)
+    np.testing.assert_array_equal(out[0], q[0])
+    np.testing.assert_array_equal(out[1], [0.0, 2.5, -2.0, 7.0])
+    np.testing.assert_array_equal(out[2], q[2])
+    np.testing.assert_array_equal(out[3], [0.4, 0.0, 0.0, math.pi])
+    inside = np.array([[0.1, 0.2, 0.3, 0.4]] * 2)
+    assert onto_bounds(robot, inside) is inside  # nothing to move: the same array
+
+
+def test_a_motion_to_a_goal_on_a_bound_keeps_every_state_within_the_bounds_exactly(robot):
+    q0 = np.array([0.2, -1.0, 0.5, 0.0])
+    goal = np.array([0.0, 2.5, -0.5, 0.5])  # the lift at its lower bound, the shoulder at its upper one
+    p = problems.Problem("kinds-bound", robot, gfcs.Scene(), q0, goal)
+    r = optimize.solve(p, batches=2, population=16, seed=0)
+    assert r.success, r.metrics
+    q = r.trajectory.q
+    assert np.all(q[:, :3] >= robot.lower[:3]) and np.all(q[:, :3] <= robot.upper[:3])
+    np.testing.assert_array_equal(q[-1], goal)

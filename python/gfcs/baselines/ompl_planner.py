@@ -21,7 +21,9 @@ The set-up follows what MoveIt does with OMPL, so that the rows compare with Mov
   shortcutting, B-spline smoothing) in the planner time left, or ``simplifyMax`` when none is left.
 * Time parameterisation (:func:`gfcs.baselines.timing.time_path`): the path at the velocity limits, from
   rest to rest, re-timed by :func:`gfcs.blend.limit_dynamics` within the acceleration limits where known,
-  the limits being those GFCS's trajectories keep (:class:`gfcs.planning.finish.FinishOptions`).
+  the limits being those GFCS's trajectories keep (:class:`gfcs.planning.finish.FinishOptions`), and
+  moved onto the position bounds where re-timing crossed them by rounding
+  (:func:`gfcs.planning.finish.onto_bounds`).
 
 The returned :class:`gfcs.results.SolveResult` carries :func:`gfcs.metrics.trajectory_metrics` of that
 trajectory on the planning model and the problem's mesh checker, the same success criterion, rows and JSON
@@ -336,6 +338,7 @@ def _result(problem: Any, planner: str, seed: int, model: Any, models: Any, wayp
             record: Dict[str, Any], finish: Any, mesh_margin: float, dt: float, started: float) -> Any:
     """The :class:`gfcs.results.SolveResult` of a plan: the timed trajectory (the start alone without a path)
     and its metrics."""
+    from gfcs.planning.finish import onto_bounds
     from gfcs.results import SolveResult, Trajectory
 
     robot = model.robot
@@ -345,6 +348,7 @@ def _result(problem: Any, planner: str, seed: int, model: Any, models: Any, wayp
     else:
         velocity, accel = _limits(robot, finish)
         traj = time_path(waypoints, np.full(q0.shape[0], np.inf) if velocity is None else velocity, accel, dt)
+        traj = Trajectory(traj.t, onto_bounds(robot, traj.q), traj.qd)
         record["waypoints"] = waypoints.tolist()
     meta = getattr(problem, "meta", None) or {}
     met = _metrics.trajectory_metrics(robot, problem.scene, traj.t, traj.q, problem.goal,

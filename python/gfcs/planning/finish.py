@@ -4,8 +4,9 @@ The fabric's own trajectory starts with a jump of acceleration, converges to the
 and ignores the robot's speed and acceleration limits. :func:`finish_rollout` therefore, as
 :class:`FinishOptions` says: re-times the start from rest along the same path, appends a quintic blend
 that ends exactly at the goal, at rest (when the goal was reached), and re-times the whole path within the
-URDF velocity limits and the robot profile's acceleration limits. None of this changes the cost of eq. 4,
-which is the fabric's own time. The ``paper`` preset turns every step off.
+URDF velocity limits and the robot profile's acceleration limits, and moves the rounding-sized excursions
+past a position bound that re-timing leaves onto the bound (:func:`onto_bounds`). None of this changes the
+cost of eq. 4, which is the fabric's own time. The ``paper`` preset turns every step off but the last.
 """
 
 from __future__ import annotations
@@ -18,11 +19,12 @@ import numpy as np
 
 from gfcs import metrics as _metrics
 from gfcs import profile as _profile
+from gfcs.joints import continuous_mask
 from gfcs.blend import append_goal_blend, limit_dynamics, retime_start
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.results import Trajectory
 
-__all__ = ["FinishOptions", "finish_rollout", "retime_within_limits", "rollout_commands", "with_raw_ldj"]
+__all__ = ["FinishOptions", "finish_rollout", "onto_bounds", "retime_within_limits", "rollout_commands", "with_raw_ldj"]
 
 
 @dataclass
@@ -71,6 +73,7 @@ def finish_rollout(fabric: Any, seq: Any, goal: Any, dt: float, options: FinishO
         t, q, qd = append_goal_blend(t, q, qd, qdd[-1], np.asarray(goal, dtype=np.float64), dt,
                                      np.asarray(robot.lower), np.asarray(robot.upper))
     t, q, qd = retime_within_limits(robot, t, q, qd, dt, options)
+    q = onto_bounds(robot, q)
     return (Trajectory(t, q, qd, raw_q=np.asarray(seq.q)), float(seq.cost), bool(seq.reached),
             np.asarray(seq.t_stars, dtype=np.float64))
 
@@ -89,6 +92,26 @@ def retime_within_limits(robot: Any, t: np.ndarray, q: np.ndarray, qd: np.ndarra
     if velocity is not None or accel is not None:
         t, q, qd = limit_dynamics(t, q, qd, dt, velocity=velocity, acceleration=accel)
     return t, q, qd
+
+
+def onto_bounds(robot: Any, q: np.ndarray, tol: float = _metrics.DEFAULT_LIMIT_TOL) -> np.ndarray:
+    """``q`` (T, dof) with every value of a bounded joint that lies outside its position bounds by at most
+    ``tol`` [rad or m] moved onto the bound, its first row (the robot's state) kept.
+
+    A path that ends on a bound (a goal at a joint's limit) or touches one is resampled by the re-timing's
+    cubic Hermite curve, which crosses the bound by rounding amounts (10⁻¹⁰ rad); a validator that compares
+    each state with the bounds exactly counts that as a limit violation. Values farther outside are left as
+    they are, for the limit check to reject. Continuous joints have no bounds and are not touched."""
+    lower = np.asarray(robot.lower, dtype=np.float64)
+    upper = np.asarray(robot.upper, dtype=np.float64)
+    bounded = ~continuous_mask(robot)
+    rest = q[1:]
+    low = bounded & (rest < lower) & (rest >= lower - tol)
+    high = bounded & (rest > upper) & (rest <= upper + tol)
+    if not (low.any() or high.any()):
+        return q
+    rest = np.where(low, lower, np.where(high, upper, rest))
+    return np.vstack([q[:1], rest])
 
 
 def with_raw_ldj(metrics: Dict[str, Any], robot: Any, trajectory: Trajectory, dt: float) -> Dict[str, Any]:
