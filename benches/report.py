@@ -7,7 +7,9 @@
   validator's verdict (``<robot>.<run>.validated.jsonl``) on the result file the row names (``result``:
   every row of ``gfcs bench`` has one, the first batch's and the first attempt's motions included); rows
   the validator did not judge (rows of an older run without file names, whose motion was not returned)
-  keep gfcs's own mesh-judged success, marked †.
+  keep gfcs's own mesh-judged success, marked †. Problems that gfcs refused before planning (rows with an
+  ``error``: a start or goal in collision, which no motion can leave or reach) count in no row of their run
+  and are listed under the robot's totals, so that every row of a run has the same problems.
 * Every other section is a fragment ``benches/results/<name>.md`` written by the bench script named in it,
   in the order of :data:`FRAGMENTS`.
 
@@ -82,11 +84,14 @@ def _checker() -> Any:
     return check_trajectories
 
 
-def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
+def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any], Dict[str, str]]:
     """Every row of a robot's runs with ``label`` as the table shows it and ``success`` as judged (see the
-    module docstring; ``judged`` False where gfcs's own verdict stands); and the runs' provenance."""
+    module docstring; ``judged`` False where gfcs's own verdict stands), the runs' provenance, and the
+    problems gfcs refused before planning (problem -> the error of its first such row), whose rows are
+    left out of every run that refused them."""
     rows: List[Dict[str, Any]] = []
     provenance: Dict[str, Any] = {}
+    refused: Dict[str, str] = {}
     for path in sorted((RESULTS / "table1").glob(f"{robot}.*.jsonl")):
         run = path.name[len(robot) + 1:-len(".jsonl")]
         if run.endswith(".validated"):
@@ -94,6 +99,10 @@ def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
         provenance[run] = path.relative_to(ROOT).as_posix()
         valid = verdicts(path.with_name(f"{robot}.{run}.validated.jsonl"))
         run_rows = [r for r in read_jsonl(path) if "label" in r]
+        errors = {r["problem"]: r["error"] for r in run_rows if "error" in r}
+        for problem, error in errors.items():
+            refused.setdefault(problem, error)
+        run_rows = [r for r in run_rows if r["problem"] not in errors]
         returned = {}  # rows without a file name: the last row of a problem and method is the returned motion
         for i, r in enumerate(run_rows):
             returned[(r["problem"], r["method"])] = i
@@ -108,7 +117,7 @@ def judged_rows(robot: str) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
             if r["method"] == "gfcs":
                 r["label"] = r["label"].replace("Ours", RUN_PREFIX.get(run, f"GFCS {run}"))
             rows.append(r)
-    return rows, provenance
+    return rows, provenance, refused
 
 
 def escape(label: str) -> str:
@@ -222,13 +231,22 @@ def table1_section() -> List[str]:
         lines += [f"| {stem} | {m['cpu']}, {m['cores']} cores | {m['commit']} | {m['date']} | {m['load']:.1f} |"
                   for stem, m in sorted(runs.items())] + [""]
     for robot, title in ROBOT_TITLES.items():
-        rows, provenance = judged_rows(robot)
+        rows, provenance, refused = judged_rows(robot)
         if not rows:
             lines += [f"### {title}", "", "Not measured at the current code (`python benches/table1.py "
                       f"--robots {robot}`).", ""]
             continue
         lines += [f"### {title}", "", "Result files: " + ", ".join(f"`{p}`" for p in provenance.values()), ""]
-        lines += totals(rows) + ldj_table(rows)
+        lines += totals(rows)
+        if refused:
+            kinds: Dict[str, int] = {}
+            for error in refused.values():
+                kinds[error.split(":")[0]] = kinds.get(error.split(":")[0], 0) + 1
+            lines += [f"Refused before planning, in no row: {len(refused)} problem(s) ("
+                      + ", ".join(sorted(refused)) + "; " + ", ".join(f"{k} ×{n}" for k, n in sorted(kinds.items()))
+                      + ")" + (": a start or goal in collision, which no motion leaves or reaches" if
+                               set(kinds) == {"CollisionError"} else "") + ".", ""]
+        lines += ldj_table(rows)
         for cls in [c for c in CLASSES if any(r["class"] == c for r in rows)]:
             lines += class_table(cls, [r for r in rows if r["class"] == cls],
                                  paper.get(cls) if robot == "mbm_panda" else None)

@@ -155,6 +155,10 @@ def test_bench_rows_of_the_baselines(problem):
     assert all(r["method"] in ("rrtconnect", "bitstar") and r["batches"] == 0 for r in rows)
     failed = error_rows(problem, ["gf", "biest"], 5, 0, "boom", planner_times=(1.2,))
     assert [r["label"] for r in failed] == ["GF", "Bi-EST"] and all(r["error"] == "boom" for r in failed)
+    # a refused GFCS solve fails every row a solve would have written, so each row counts the same problems
+    failed = error_rows(problem, ["gfcs"], 5, 0, "boom", retry_row=True)
+    assert [r["label"] for r in failed] == ["Ours (1 b)", "Ours (5 b)", "Ours (5 b, retry)"]
+    assert [r["label"] for r in error_rows(problem, ["gfcs"], 1, 0, "boom")] == ["Ours (1 b)"]
 
 
 def test_cli_solve_and_bench_with_a_baseline(tmp_path):

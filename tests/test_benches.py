@@ -157,9 +157,29 @@ def test_report_judges_each_row_on_the_result_file_it_names(tmp_path, monkeypatc
     write("bot.new.validated.jsonl", [verdict("box_0001.gfcs-1b", False), verdict("box_0001.gfcs", True)])
     write("bot.old.jsonl", [row("Ours (1 b)"), row("Ours (5 b)")])
     write("bot.old.validated.jsonl", [verdict("box_0001.gfcs", False)])
-    rows, _ = report.judged_rows("bot")
+    rows, _, _ = report.judged_rows("bot")
     got = {(r["label"].split(" (")[0], r["label"].split(" (")[1]): (r["judged"], r["success"]) for r in rows}
     assert got[("GFCS new", "1 b)")] == (True, False)  # its own file, which the validator failed
     assert got[("GFCS new", "5 b)")] == (True, True) and got[("GFCS new", "5 b, retry)")] == (True, True)
     assert got[("GFCS old", "1 b)")] == (False, True)  # no file: gfcs's own verdict, marked †
     assert got[("GFCS old", "5 b)")] == (True, False)
+
+
+def test_report_leaves_a_refused_problem_out_of_every_row_of_its_run(tmp_path, monkeypatch):
+    """A problem whose solve was refused (an error row, written for some labels only) counts in no row of that
+    run, so every row of the run has the same denominator, and the report lists it."""
+    report = load_script(REPO_ROOT / "benches" / "report.py")
+    folder = tmp_path / "table1"
+    folder.mkdir()
+    monkeypatch.setattr(report, "RESULTS", tmp_path)
+    monkeypatch.setattr(report, "ROOT", tmp_path)
+    rows = [{"problem": f"box/000{i}", "class": "box", "label": label, "method": "gfcs", "success": True,
+             "time": 0.1, "wall_time": 0.2}
+            for i in (1, 2) for label in ("Ours (1 b)", "Ours (5 b)")]
+    rows[3] = {**rows[3], "success": False, "error": "CollisionError: the goal state is in collision"}
+    del rows[2]  # as `gfcs bench` wrote them: the refused problem has its 5 b row only
+    (folder / "bot.new.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    judged, _, refused = report.judged_rows("bot")
+    assert sorted((r["problem"], r["label"]) for r in judged) == [("box/0001", "GFCS new (1 b)"),
+                                                                  ("box/0001", "GFCS new (5 b)")]
+    assert list(refused) == ["box/0002"] and "collision" in refused["box/0002"]

@@ -162,7 +162,9 @@ def test_an_executor_error_becomes_error_rows(tmp_path):
     suite = generated_suite(["box"], 2)
     out = tmp_path / "rows.jsonl"
     rows = bench.run_bench(suite, ["gf", "gfcs"], jsonl=str(out), executor=Failing(), **BENCH)
-    assert len(rows) == 4 and all(not r["success"] and "WorkerCrashedError" in r["error"] for r in rows)
+    # per problem every row a solve writes: GF, and GFCS's 1 b, 2 b and 2 b with retries
+    assert [r["label"] for r in rows[:4]] == ["GF", "Ours (1 b)", "Ours (2 b)", "Ours (2 b, retry)"]
+    assert len(rows) == 8 and all(not r["success"] and "WorkerCrashedError" in r["error"] for r in rows)
     assert by_key(rows_of(out)) == by_key(rows)
 
 

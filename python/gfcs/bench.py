@@ -104,7 +104,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     from gfcs.results import bench_row
 
     options = {"settings": settings, **(solve_options or {})}
-    has_policies = bool(planning.get_preset(options.get("preset", "default")).policies())
+    retry_row = _retry_row({"retry": retry, "solve_options": options})
     rows: List[Dict[str, Any]] = []
     results: Dict[str, Any] = {}
 
@@ -137,7 +137,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
         else:
             add(whole, f"{UNRETURNED}{batches}b", first.result)
             results["gfcs"] = res  # the returned motion is kept whether or not a row shows it
-        if retry and has_policies:
+        if retry_row:
             add(bench_row(problem.name, problem.cls, f"Ours ({batches} b, retry)", "gfcs", batches, seed,
                           res.solve_time, res.cost, res.metrics, res.wall_time), "gfcs", res)
     return rows, results
@@ -167,10 +167,12 @@ def _baseline_rows(problem: Any, method: str, seed: int, planner_times: Sequence
 
 
 def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, message: str,
-               planner_times: Sequence[float] = (DEFAULT_PLANNER_TIME,)) -> List[Dict[str, Any]]:
-    """The rows of a problem whose solve raised ``message``: one failed row per method (the labels of
-    :func:`bench_problem`'s final rows; a sampling-based method one per planner time), every measure NaN,
-    with the error under ``"error"``."""
+               planner_times: Sequence[float] = (DEFAULT_PLANNER_TIME,),
+               retry_row: bool = False) -> List[Dict[str, Any]]:
+    """The rows of a problem whose solve raised ``message``: one failed row per row :func:`bench_problem`
+    would have written (GFCS: "Ours (1 b)" when ``batches`` > 1, "Ours (B b)", and "Ours (B b, retry)" with
+    ``retry_row``; a sampling-based method one per planner time), every measure NaN, with the error under
+    ``"error"``."""
     from gfcs.baselines import is_ompl_method, planner_label
     from gfcs.results import bench_row
 
@@ -181,8 +183,11 @@ def error_rows(problem: Any, methods: Sequence[str], batches: int, seed: int, me
     for method in methods:
         if is_ompl_method(method):
             labels = [(planner_label(method, t, len(planner_times) > 1), 0) for t in planner_times]
+        elif method == "gf":
+            labels = [("GF", 0)]
         else:
-            labels = [("GF", 0) if method == "gf" else (f"Ours ({batches} b)", batches)]
+            labels = ([("Ours (1 b)", 1)] if batches > 1 else []) + [(f"Ours ({batches} b)", batches)]
+            labels += [(f"Ours ({batches} b, retry)", batches)] if retry_row else []
         for label, n in labels:
             row = bench_row(problem.name, problem.cls, label, method, n, seed, math.nan, math.inf, metrics,
                             math.nan)
@@ -240,6 +245,15 @@ def _by_name(problems: Sequence[Any]) -> Dict[str, Any]:
     return out
 
 
+def _retry_row(kwargs: Dict[str, Any]) -> bool:
+    """Whether :func:`bench_problem` with these keyword arguments writes a GFCS "retry" row: with ``retry``
+    and a preset that has retry policies."""
+    from gfcs import planning
+
+    preset = (kwargs.get("solve_options") or {}).get("preset", "default")
+    return bool(kwargs.get("retry", True)) and bool(planning.get_preset(preset).policies())
+
+
 def problem_seed(seed: int, name: str) -> int:
     """The seed of problem ``name`` in a run seeded ``seed``: a 31-bit integer from numpy's
     ``SeedSequence`` over ``seed`` and the SHA-256 of the name, so it depends on nothing but the two (not on
@@ -267,6 +281,11 @@ class BenchJob:
     def problem(self, name: str) -> Any:
         return (self.problems if self.problems is not None else suite_problems(self.suite, quiet=True))[name]
 
+    def error_rows(self, problem: Any, seed: int, message: str) -> List[Dict[str, Any]]:
+        """:func:`error_rows` of ``problem`` under this run's methods and options."""
+        return error_rows(problem, self.methods, self.kwargs["batches"], seed, message,
+                          self.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,)), _retry_row(self.kwargs))
+
 
 def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
     """One problem's task: :func:`bench_problem` (or :func:`error_rows` when the solve raised a user error,
@@ -279,8 +298,7 @@ def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]
     except _user_error_types() as e:
         message = f"{type(e).__name__}: {_message(e)}"
         print(f"gfcs: bench: {problem.name}: {message}", file=sys.stderr)
-        return error_rows(problem, job.methods, job.kwargs["batches"], seed, message,
-                          job.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,))), {}
+        return job.error_rows(problem, seed, message), {}
     if not job.keep_results:
         return rows, {}
     if job.problems is not None:
@@ -440,8 +458,7 @@ def _outcome(done: Any, problem: Any, job: BenchJob, seed: int) -> Tuple[List[Di
     if done.error is None:
         return done.value
     print(f"gfcs: bench: {problem.name}: {done.error}", file=sys.stderr)
-    return error_rows(problem, job.methods, job.kwargs["batches"], seed, done.error,
-                      job.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,))), {}
+    return job.error_rows(problem, seed, done.error), {}
 
 
 def _write(out: Any, rows: List[Dict[str, Any]]) -> None:
