@@ -222,3 +222,29 @@ def test_limit_dynamics_keeps_a_moving_start_state_and_rejects_an_impossible_one
     assert velocity_ratio(t2[15:], q2[15:], limits) <= 1.0
     with pytest.raises(ValueError, match="start velocity .* exceeds its velocity limit"):
         limit_dynamics(t, q, qd, 0.01, velocity=np.abs(qd[0]) / 2)
+
+
+@pytest.mark.parametrize("speed", [0.05, 0.5, 1.5])
+@pytest.mark.parametrize("seed", range(4))
+def test_the_blend_stays_within_the_ball_around_the_goal_through_its_first_state(speed, seed):
+    """A rollout that reaches its tolerance at speed, in any direction: the blend moves no state farther from
+    the goal than the state it starts from (a quintic of the unshortened duration coasts past it)."""
+    rng = np.random.default_rng(seed)
+    dt, dof = 0.01, 7
+    goal = rng.normal(size=dof)
+    gap = rng.normal(size=dof)
+    q_end = goal + 0.04 * gap / np.linalg.norm(gap)
+    v = rng.normal(size=dof)
+    qd = np.vstack([np.zeros(dof), speed * v / np.linalg.norm(v)])
+    q = np.vstack([q_end - dt * qd[1], q_end])
+    t2, q2, qd2 = append_goal_blend(np.array([0.0, dt]), q, qd, np.zeros(dof), goal, dt)
+    assert np.linalg.norm(q2[2:] - goal, axis=1).max() <= 0.04 * (1 + 1e-9)
+    np.testing.assert_array_equal(q2[-1], goal)
+    np.testing.assert_array_equal(qd2[-1], 0.0)
+    if speed >= 0.5:  # the quintic of the first duration leaves the ball: the blend was shortened
+        from gfcs.blend import blend_duration
+
+        T = blend_duration(q_end, qd[1], goal, dt)
+        free, _ = quintic_to_rest(q_end, qd[1], np.zeros(dof), goal, T, dt * np.arange(1, int(round(T / dt)) + 1))
+        assert np.linalg.norm(free - goal, axis=1).max() > 0.05
+        assert t2[-1] - t2[1] < T

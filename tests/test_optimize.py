@@ -312,7 +312,7 @@ def test_solve_end_to_end(shelf_problem, solved):
     assert r.success and r.reached and r.method == "gfcs" and r.problem == p.name and r.cls == p.cls
     assert r.commands.shape == (1, 7) and r.t_stars.shape == (2,)
     np.testing.assert_array_equal(r.trajectory.q[0], p.q0)
-    # the rollout stops within ε (0.02 rad) and the blend ends the trajectory exactly at the goal, at rest,
+    # the rollout stops within ε (0.05 rad) and the blend ends the trajectory exactly at the goal, at rest,
     # so success is judged at the tighter metrics tolerance (0.01 rad) on the returned trajectory
     np.testing.assert_array_equal(r.trajectory.q[-1], p.goal)
     np.testing.assert_array_equal(r.trajectory.qd[-1], np.zeros(7))

@@ -57,17 +57,18 @@ def test_thin_model_is_for_the_shipped_panda_only():
 @pytest.fixture(scope="module")
 def cage32(mbm_dir):
     """MotionBenchMaker cage 32 with the shipped Panda: its covering spheres find no mesh-clear motion
-    into the cage (5 batches, seed 0, every retry, without the endpoint contact), its thin spheres do."""
+    into the cage with the configured margins (5 batches, seed 0, without the endpoint contact), its thin
+    spheres do."""
     return problems.load_mbm_dir(mbm_dir / "cage", limit=32)[-1]
 
 
 def test_solve_runs_on_the_thin_spheres(cage32):
     assert cage32.name.endswith("0032") and cage32.mesh_checker is not None
     # the goal sinks covering spheres into the cage's bars that the polytopes clear: without the endpoint
-    # contact no attempt on them can end there
+    # contact no attempt with the configured margins can end there; only the goal-contact retry does
     no_contact = dataclasses.replace(gfcs.planning.get_preset("default"), endpoint_contact=False)
     covering = optimize.solve(cage32, thin_spheres=False, preset=no_contact)
-    assert not covering.success
+    assert not any(a.success for a in covering.attempt_records if "goal contact" not in a.attempt.label)
     assert "sphere_model" not in covering.settings
     result = optimize.solve(cage32)
     assert result.success

@@ -82,24 +82,31 @@ def append_goal_blend(t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd_last: np
                       upper: Optional[np.ndarray] = None) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Append the blend to a trajectory sampled every ``dt``.
 
+    The blend stays in the ball around the goal through its first state (C-space, radius ‖q_T − q_g‖ ≤ ε):
+    a quintic of duration T from velocity v₀ coasts about 0.2 ‖v₀‖ T past the straight way to the goal
+    (along v₀, it overshoots the goal once ‖v₀‖ T > 2.5 ‖q_g − q_T‖), and a rollout that reaches ε at
+    1 rad/s beside an obstacle would carry the arm into it. The blend is therefore shortened (×0.8 at a
+    time, down to 2 steps) until every state lies within that ball and within the joint limits; a short
+    blend is a steep stop, which :func:`limit_dynamics` then spreads over the path before it where
+    acceleration limits are known.
+
     Args:
         t: (T,) times [s]; q, qd: (T, dof); qdd_last: (dof,) acceleration at the last row; goal: (dof,).
         lower, upper: (dof,) joint limits [rad] the blend must keep, or None. A quintic that arrives with
-            speed toward a goal at a limit passes it before it comes back (by a few mrad); the blend is
-            then shortened (×0.8 at a time,
-            down to 2 steps) until it stays within the limits, which steepens its stop (the acceleration
-            re-timing of :func:`limit_dynamics` then slows the path before it instead).
+            speed toward a goal at a limit passes it before it comes back (by a few mrad).
 
     Returns:
         (t, q, qd) extended so that the last row is exactly (goal, 0) at rest.
     """
     duration = blend_duration(q[-1], qd[-1], goal, dt)
+    radius = float(np.linalg.norm(np.asarray(goal) - q[-1])) * (1.0 + 1e-9) + 1e-12
     while True:
         k = int(round(duration / dt))
         s = dt * np.arange(1, k + 1)
         pos, vel = quintic_to_rest(q[-1], qd[-1], qdd_last, goal, duration, s)
         within = ((lower is None or np.all(pos >= np.minimum(lower, q[-1])))
-                  and (upper is None or np.all(pos <= np.maximum(upper, q[-1]))))
+                  and (upper is None or np.all(pos <= np.maximum(upper, q[-1])))
+                  and np.all(np.linalg.norm(pos - goal, axis=1) <= radius))
         if within or k <= 2:
             break
         duration = max(2 * dt, float(np.floor(0.8 * duration / dt + 1e-9) * dt))
