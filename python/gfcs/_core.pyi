@@ -534,6 +534,9 @@ class RolloutOptions(TypedDict, total=False):
     window [s] (0: off)"""
     stall_progress: Optional[float]
     """progress a window must make [rad]"""
+    capture_tol: Optional[float]
+    """goal capture [rad] (0: off): a stall within this distance of the command counts as reached, t* the
+    time it stalled (a command tolerance looser than it, as a waypoint's, is not affected)"""
     integrator: Optional[str]
     """``"euler"`` (semi-implicit, the papers') or ``"rk4"``"""
 

@@ -197,6 +197,9 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
     r.add_argument("--t-max", type=float, default=None, help="time budget per command, s")
     r.add_argument("--tol", type=float, default=None, help="goal tolerance, rad")
     r.add_argument("--waypoint-tol", type=float, default=None, help="tolerance of intermediate commands, rad")
+    r.add_argument("--capture-tol", type=float, default=None, metavar="RAD",
+                   help="goal capture: a rollout that comes to rest this near the goal counts as reached and is "
+                        "blended onto it, rad (0: off, the paper preset's)")
     r.add_argument("--limit-hold-off", type=float, default=None, metavar="RAD",
                    help="a goal joint nearer its limit than the barrier margin plus this is commanded that far "
                         "off it and blended onto the goal, rad (the paper preset commands every goal as it is)")
@@ -241,7 +244,8 @@ def _settings(args: argparse.Namespace) -> Any:
     from gfcs.planning import get_preset
 
     given = {"dt": args.dt, "t_max": args.t_max, "integrator": args.integrator, "tol": args.tol,
-             "waypoint_tol": args.waypoint_tol, "limit_hold_off": args.limit_hold_off}
+             "waypoint_tol": args.waypoint_tol, "capture_tol": args.capture_tol,
+             "limit_hold_off": args.limit_hold_off}
     return dataclasses.replace(get_preset(args.preset).settings, **{k: v for k, v in given.items() if v is not None})
 
 

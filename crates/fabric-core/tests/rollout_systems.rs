@@ -152,6 +152,7 @@ fn opts(dt: f64, t_max: f64, tol: f64) -> RolloutOptions {
         record: true,
         stall_window: 0.0,
         stall_progress: 0.0,
+        capture_tol: 0.0,
     }
 }
 
@@ -995,6 +996,7 @@ fn invalid_inputs_name_the_culprit() {
 /// Stall detection: a system creeping toward its command at 0.005 rad/s gains less than
 /// `stall_progress` = 0.01 rad per `stall_window` = 1 s and stops after one window
 /// (t = 1 s, t* = t_max); at 0.02 rad/s it keeps going until the budget; with the window 0 it never stalls.
+/// Goal capture turns a stall near the command into an arrival.
 #[test]
 fn stall_detection_stops_rollouts_without_progress() {
     let dt = 0.01;
@@ -1038,6 +1040,34 @@ fn stall_detection_stops_rollouts_without_progress() {
         "stopped after {} steps",
         r.steps
     );
+    // goal capture: the same wall 0.02 from a command at (0.05, 0) holds the system off it; a stall
+    // within capture_tol of the command counts as reached at the time it stalled, one outside it does
+    // not, and neither does a stall when capture_tol is not looser than tol
+    let near = [0.05, 0.0];
+    let walled_run = |o: &RolloutOptions| {
+        rollout_system(&walled, &mut (), &[0.0, 0.0], &[0.0, 0.0], &near, o).unwrap()
+    };
+    let captured = walled_run(&RolloutOptions {
+        capture_tol: 0.025,
+        ..stalling.clone()
+    });
+    assert_eq!(captured.reason, StopReason::Reached);
+    assert_eq!(captured.t_star, captured.t_end);
+    assert!((2.0..=2.03).contains(&captured.t_star), "t* = {}", captured.t_star);
+    for capture_tol in [0.015, 0.0] {
+        let held = walled_run(&RolloutOptions {
+            capture_tol,
+            ..stalling.clone()
+        });
+        assert_eq!(held.reason, StopReason::Stalled);
+        assert_eq!(held.t_star, 5.0);
+    }
+    let loose_tol = walled_run(&RolloutOptions {
+        capture_tol: 0.025,
+        tol: 0.03,
+        ..stalling.clone()
+    });
+    assert_eq!(loose_tol.reason, StopReason::Reached); // within tol itself: reached on arrival
     let off = RolloutOptions {
         stall_window: 0.0,
         ..stalling.clone()

@@ -460,7 +460,8 @@ impl PyFabric {
 
     /// rollout_t (GFCS eq. 1–3): integrate from (q0, qd0) toward `command` until ‖q − command‖ < tol or
     /// t_max. `qd0` None = rest. `**options`: dt [s], t_max [s], tol [rad], stall_window [s],
-    /// stall_progress [rad], integrator ("euler", the papers' semi-implicit scheme, or "rk4"); defaults:
+    /// stall_progress [rad], capture_tol [rad], integrator ("euler", the papers' semi-implicit scheme, or
+    /// "rk4"); defaults:
     /// `rollout_option_defaults()`. GIL released.
     #[pyo3(signature = (q0, qd0, command, record=true, **options))]
     fn rollout(

@@ -61,12 +61,13 @@ pub fn rollout_options(k: &RolloutKwargs<'_>, record: bool) -> PyResult<RolloutO
 }
 
 /// The options of one rollout (`Fabric.rollout`, GFCS eq. 1–3), by their Python keyword names.
-pub const ROLLOUT_OPTIONS: [&str; 6] = [
+pub const ROLLOUT_OPTIONS: [&str; 7] = [
     "dt",
     "t_max",
     "tol",
     "stall_window",
     "stall_progress",
+    "capture_tol",
     "integrator",
 ];
 
@@ -107,6 +108,7 @@ fn set_option(o: &mut SequenceOptions, name: &str, value: &Bound<'_, PyAny>) -> 
         "tol" => &mut o.rollout.tol,
         "stall_window" => &mut o.rollout.stall_window,
         "stall_progress" => &mut o.rollout.stall_progress,
+        "capture_tol" => &mut o.rollout.capture_tol,
         "waypoint_tol" => &mut o.waypoint_tol,
         "penalty" => &mut o.penalty,
         "collision_penalty" => &mut o.collision_penalty,
@@ -183,6 +185,7 @@ pub fn rollout_option_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         ("tol", d.rollout.tol),
         ("stall_window", d.rollout.stall_window),
         ("stall_progress", d.rollout.stall_progress),
+        ("capture_tol", d.rollout.capture_tol),
         ("waypoint_tol", d.waypoint_tol),
         ("penalty", d.penalty),
         ("collision_penalty", d.collision_penalty),

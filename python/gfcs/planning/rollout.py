@@ -32,7 +32,8 @@ class RolloutSettings:
     """Rollout parameters of GFCS eq. 1-8: the keyword options of ``gfcs.Fabric.rollout_sequence`` /
     ``evaluate`` (the same names, tested) and ``limit_hold_off``. Every default is the core's
     (:data:`CORE_DEFAULTS`); the ``default`` preset (:mod:`gfcs.planning.presets`) changes ``tol``,
-    ``collision_penalty`` and ``limit_hold_off``, the ``paper`` preset ``blend_time`` and ``stall_window``.
+    ``capture_tol``, ``collision_penalty`` and ``limit_hold_off``, the ``paper`` preset ``blend_time`` and
+    ``stall_window``.
     Start from a preset's settings to change one option: ``dataclasses.replace(get_preset("default").settings,
     t_max=3.0)``.
 
@@ -56,6 +57,11 @@ class RolloutSettings:
         stall_window, stall_progress: a rollout stops as "stalled" (t* = t_max, not reached) when its
             distance to the command has not shrunk by ``stall_progress`` [rad] over ``stall_window`` [s]
             (0 = off): it saves the steps of candidates stuck at a local minimum.
+        capture_tol: goal capture [rad] (0 = off, the paper's rule): a rollout that stalls within this
+            distance of the goal has come to rest where the barriers of nearby obstacles hold it off the goal
+            (a hand 7-10 mm from a shelf's boards rests 0.02-0.05 rad off it); it counts as reached, t* the
+            time it stalled, and the goal blend (checked with the rest of the motion) covers the rest.
+            Needs stall detection.
         limit_hold_off: a goal joint nearer a limit than the fabric's joint-limit margin plus this [rad] is
             commanded that far off the limit instead (:func:`fabric_goal`), and the goal blend covers the
             rest: the limit barrier holds the fabric off a goal at its limit. None: every goal is commanded
@@ -74,6 +80,7 @@ class RolloutSettings:
     integrator: str = CORE_DEFAULTS["integrator"]
     stall_window: float = CORE_DEFAULTS["stall_window"]
     stall_progress: float = CORE_DEFAULTS["stall_progress"]
+    capture_tol: float = CORE_DEFAULTS["capture_tol"]
     limit_hold_off: Optional[float] = None
 
     def as_kwargs(self) -> Dict[str, Any]:

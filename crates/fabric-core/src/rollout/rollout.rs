@@ -39,6 +39,13 @@ pub struct RolloutOptions {
     pub stall_window: f64,
     /// See `stall_window` (rad), ≥ 0.
     pub stall_progress: f64,
+    /// Goal capture (rad, ≥ 0; 0 = off, the papers' rule): a rollout that stalls (see `stall_window`)
+    /// while ‖q − q_g‖ < `capture_tol` has come to rest where the barriers of nearby obstacles hold it
+    /// off its command (a goal 7-10 mm from a shelf's boards: 0.02-0.05 rad off). It stops as
+    /// [`StopReason::Reached`] with t* = the time it stalled, and the caller's finishing carries it the
+    /// rest of the way (a blend checked for collisions). Only a command tolerance below `capture_tol`
+    /// is affected: the looser waypoint tolerance of a sequence is not. Needs stall detection.
+    pub capture_tol: f64,
 }
 
 impl Default for RolloutOptions {
@@ -51,6 +58,7 @@ impl Default for RolloutOptions {
             record: false,
             stall_window: 0.5,
             stall_progress: 0.005,
+            capture_tol: 0.0,
         }
     }
 }
@@ -76,6 +84,7 @@ impl RolloutOptions {
         for (what, v) in [
             ("stall_window", self.stall_window),
             ("stall_progress", self.stall_progress),
+            ("capture_tol", self.capture_tol),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(FabricError::Value {
@@ -106,7 +115,7 @@ impl RolloutOptions {
 /// Why a rollout stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum StopReason {
-    /// ‖q − q_g‖ < tol (eq. 3) at some step t ≤ t_max.
+    /// ‖q − q_g‖ < tol (eq. 3) at some step t ≤ t_max, or a stall within [`RolloutOptions::capture_tol`].
     Reached,
     /// The budget t_max was spent without reaching the command.
     Timeout,
@@ -114,7 +123,7 @@ pub enum StopReason {
     /// finite state.
     NonFinite,
     /// No progress toward the command over a stall window (see [`RolloutOptions::stall_window`]); counted as
-    /// not reached, t* = t_max.
+    /// not reached, t* = t_max (within [`RolloutOptions::capture_tol`] of the command: `Reached`).
     Stalled,
 }
 
@@ -318,6 +327,12 @@ pub(crate) fn run<S: System>(
     b.qd.copy_from_slice(qd0);
     let n_max = opts.max_steps();
     let tol2 = tol * tol;
+    // goal capture applies to a command tolerance tighter than it (the goal's, not a waypoint's)
+    let capture2 = if opts.capture_tol > tol {
+        opts.capture_tol * opts.capture_tol
+    } else {
+        0.0
+    };
     let mut trajectory = opts
         .record
         .then(|| Trajectory::with_capacity(dof, (n_max + 1).min(RECORD_RESERVE)));
@@ -361,7 +376,11 @@ pub(crate) fn run<S: System>(
             // the slot of step k − window (+∞ during the first window)
             let slot = &mut b.best_history[k % window];
             if best > *slot - opts.stall_progress {
-                break StopReason::Stalled;
+                break if d2 < capture2 {
+                    StopReason::Reached
+                } else {
+                    StopReason::Stalled
+                };
             }
             *slot = best;
         }
