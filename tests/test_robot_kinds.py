@@ -102,3 +102,15 @@ def test_a_motion_to_a_goal_on_a_bound_keeps_every_state_within_the_bounds_exact
     q = r.trajectory.q
     assert np.all(q[:, :3] >= robot.lower[:3]) and np.all(q[:, :3] <= robot.upper[:3])
     np.testing.assert_array_equal(q[-1], goal)
+
+
+def test_every_re_timing_leaves_the_path_within_the_bounds(robot):
+    """retime_within_limits, which finishing and the mesh repair both end with, moves rounding past a bound
+    onto it whatever re-timing it does (none here: no limits kept)."""
+    from gfcs.planning.finish import FinishOptions, retime_within_limits
+
+    t = np.array([0.0, 0.01, 0.02])
+    q = np.array([[0.1, 0.0, 0.0, 0.0], [-1e-10, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
+    none = FinishOptions(limit_velocity=False, limit_acceleration=False)
+    _, out, _ = retime_within_limits(robot, t, q, np.zeros_like(q), 0.01, none)
+    assert out[1, 0] == 0.0

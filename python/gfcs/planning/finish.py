@@ -73,7 +73,6 @@ def finish_rollout(fabric: Any, seq: Any, goal: Any, dt: float, options: FinishO
         t, q, qd = append_goal_blend(t, q, qd, qdd[-1], np.asarray(goal, dtype=np.float64), dt,
                                      np.asarray(robot.lower), np.asarray(robot.upper))
     t, q, qd = retime_within_limits(robot, t, q, qd, dt, options)
-    q = onto_bounds(robot, q)
     return (Trajectory(t, q, qd, raw_q=np.asarray(seq.q)), float(seq.cost), bool(seq.reached),
             np.asarray(seq.t_stars, dtype=np.float64))
 
@@ -81,7 +80,9 @@ def finish_rollout(fabric: Any, seq: Any, goal: Any, dt: float, options: FinishO
 def retime_within_limits(robot: Any, t: np.ndarray, q: np.ndarray, qd: np.ndarray, dt: float,
                          options: FinishOptions) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, q, qd) re-timed along the same path within the velocity and acceleration limits ``options``
-    keeps (:func:`gfcs.blend.limit_dynamics`); unchanged when it keeps none."""
+    keeps (:func:`gfcs.blend.limit_dynamics`; unchanged when it keeps none), then moved onto the position
+    bounds where it crosses them by rounding (:func:`onto_bounds`): every returned trajectory, a repaired
+    one too, passes here."""
     accel = None
     if options.limit_acceleration:
         accel = options.acceleration_limits
@@ -91,7 +92,7 @@ def retime_within_limits(robot: Any, t: np.ndarray, q: np.ndarray, qd: np.ndarra
         velocity = np.minimum(velocity, np.asarray(options.velocity_limits, dtype=np.float64))
     if velocity is not None or accel is not None:
         t, q, qd = limit_dynamics(t, q, qd, dt, velocity=velocity, acceleration=accel)
-    return t, q, qd
+    return t, onto_bounds(robot, q), qd
 
 
 def onto_bounds(robot: Any, q: np.ndarray, tol: float = _metrics.DEFAULT_LIMIT_TOL) -> np.ndarray:
