@@ -65,7 +65,10 @@ def validate(shared: Path, robot: str, run: str, out: Path, jobs: int) -> None:
            "--urdf", str(shared / folder / mesh_urdf), "--srdf", str(shared / folder / srdf),
            "--ee-link", ee_link, "--jobs", str(jobs), "--json", f"{stem}.validated.jsonl"]
     print("$", " ".join(cmd), file=sys.stderr)
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    # exit code 1: some claimed successes are not valid, which the verdicts record; the table goes on
+    code = subprocess.run(cmd, stdout=subprocess.DEVNULL).returncode
+    if code not in (0, 1):
+        raise SystemExit(f"table1: the validator failed on {stem} (exit code {code})")
 
 
 def write_machine(out: Path, stem: str) -> None:
