@@ -19,6 +19,7 @@ Run ``python benches/report.py`` (``--check`` exits 1 when BENCHMARKS.md differs
 from __future__ import annotations
 
 import argparse
+import collections
 import json
 import math
 import statistics
@@ -239,9 +240,7 @@ def table1_section() -> List[str]:
         lines += [f"### {title}", "", "Result files: " + ", ".join(f"`{p}`" for p in provenance.values()), ""]
         lines += totals(rows)
         if refused:
-            kinds: Dict[str, int] = {}
-            for error in refused.values():
-                kinds[error.split(":")[0]] = kinds.get(error.split(":")[0], 0) + 1
+            kinds = collections.Counter(error.split(":")[0] for error in refused.values())
             lines += [f"Refused before planning, in no row: {len(refused)} problem(s) ("
                       + ", ".join(sorted(refused)) + "; " + ", ".join(f"{k} ×{n}" for k, n in sorted(kinds.items()))
                       + ")" + (": a start or goal in collision, which no motion leaves or reaches" if

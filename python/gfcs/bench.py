@@ -104,7 +104,7 @@ def bench_problem(problem: Any, methods: Sequence[str], batches: int, population
     from gfcs.results import bench_row
 
     options = {"settings": settings, **(solve_options or {})}
-    retry_row = _retry_row({"retry": retry, "solve_options": options})
+    retry_row = _retry_row(retry, options)
     rows: List[Dict[str, Any]] = []
     results: Dict[str, Any] = {}
 
@@ -245,13 +245,13 @@ def _by_name(problems: Sequence[Any]) -> Dict[str, Any]:
     return out
 
 
-def _retry_row(kwargs: Dict[str, Any]) -> bool:
-    """Whether :func:`bench_problem` with these keyword arguments writes a GFCS "retry" row: with ``retry``
-    and a preset that has retry policies."""
+def _retry_row(retry: bool, solve_options: Optional[Dict[str, Any]]) -> bool:
+    """Whether :func:`bench_problem` writes a GFCS "retry" row: with ``retry`` and a preset (of
+    ``solve_options``, default "default") that has retry policies."""
     from gfcs import planning
 
-    preset = (kwargs.get("solve_options") or {}).get("preset", "default")
-    return bool(kwargs.get("retry", True)) and bool(planning.get_preset(preset).policies())
+    preset = (solve_options or {}).get("preset", "default")
+    return bool(retry) and bool(planning.get_preset(preset).policies())
 
 
 def problem_seed(seed: int, name: str) -> int:
@@ -284,7 +284,8 @@ class BenchJob:
     def error_rows(self, problem: Any, seed: int, message: str) -> List[Dict[str, Any]]:
         """:func:`error_rows` of ``problem`` under this run's methods and options."""
         return error_rows(problem, self.methods, self.kwargs["batches"], seed, message,
-                          self.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,)), _retry_row(self.kwargs))
+                          self.kwargs.get("planner_times", (DEFAULT_PLANNER_TIME,)),
+                          _retry_row(self.kwargs.get("retry", True), self.kwargs.get("solve_options")))
 
 
 def bench_task(job: BenchJob, name: str, seed: int) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:

@@ -19,12 +19,13 @@ import numpy as np
 
 from gfcs import metrics as _metrics
 from gfcs import profile as _profile
-from gfcs.joints import continuous_mask
 from gfcs.blend import append_goal_blend, limit_dynamics, retime_start
+from gfcs.joints import continuous_mask
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.results import Trajectory
 
-__all__ = ["FinishOptions", "finish_rollout", "onto_bounds", "retime_within_limits", "rollout_commands", "with_raw_ldj"]
+__all__ = ["FinishOptions", "finish_rollout", "onto_bounds", "retime_within_limits", "rollout_commands",
+           "with_raw_ldj"]
 
 
 @dataclass

@@ -86,8 +86,8 @@ PRESETS: Dict[str, Preset] = {
     # ε, and the looser ε spares the slow last approach; capture_tol 0.05: a rollout that comes to rest
     # within 0.05 rad of the goal, held off by the barriers of nearby obstacles (a hand deep in a shelf),
     # counts as reached and the blend covers the rest. Success is judged at metrics.DEFAULT_SUCCESS_TOL
-    # (0.01 rad) on the finished trajectory, spheres and meshes included. collision_penalty 100 s: success requires a collision-free
-    # motion, so colliding candidates rank behind collision-free ones.
+    # (0.01 rad) on the finished trajectory, spheres and meshes included. collision_penalty 100 s: success
+    # requires a collision-free motion, so colliding candidates rank behind collision-free ones.
     "default": Preset("default", RolloutSettings(tol=0.02, capture_tol=0.05, collision_penalty=100.0,
                                                  limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
