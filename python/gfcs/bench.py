@@ -153,11 +153,12 @@ def _baseline_rows(problem: Any, method: str, seed: int, planner_times: Sequence
     from gfcs.baselines import plan_ompl, planner_label
     from gfcs.results import bench_row
 
-    thin = planning.get_preset(options.get("preset", "default")).thin_spheres
+    preset = planning.get_preset(options.get("preset", "default"))
     several = len(planner_times) > 1
     out = []
     for t in planner_times:
-        res = plan_ompl(problem, method, t, seed, thin_spheres=thin, fabric_config=fabric_config,
+        res = plan_ompl(problem, method, t, seed, thin_spheres=preset.thin_spheres,
+                        element_spheres=preset.element_spheres, fabric_config=fabric_config,
                         finish=options.get("finish"),
                         mesh_margin=options.get("mesh_margin", metrics.DEFAULT_MESH_MARGIN))
         row = bench_row(problem.name, problem.cls, planner_label(method, t, with_time=several), method, 0, seed,

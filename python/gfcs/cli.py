@@ -579,8 +579,9 @@ def _plan_baseline(args: argparse.Namespace, problem: Any) -> Any:
     options = _solve_options(args, problem.robot)
     extra = {"mesh_margin": options["mesh_margin"]} if "mesh_margin" in options else {}
     try:
-        return plan_ompl(problem, args.method, args.planner_time, args.seed,
-                         thin_spheres=planning.get_preset(args.preset).thin_spheres, fabric_config=args.config,
+        preset = planning.get_preset(args.preset)
+        return plan_ompl(problem, args.method, args.planner_time, args.seed, thin_spheres=preset.thin_spheres,
+                         element_spheres=preset.element_spheres, fabric_config=args.config,
                          finish=options["finish"], **extra)
     except ImportError as e:
         raise _MissingExtra(str(e)) from e

@@ -252,6 +252,7 @@ def plan_ompl(
     simplify: bool = True,
     segment_fraction: float = MOVEIT_SEGMENT_FRACTION,
     thin_spheres: bool = True,
+    element_spheres: bool = True,
     fabric_config: Any = None,
     finish: Any = None,
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
@@ -271,6 +272,8 @@ def plan_ompl(
             (MoveIt's ``longest_valid_segment_fraction``, default 0.005).
         thin_spheres: check on the thin sphere model first, as GFCS plans, where the robot has one and the
             problem a mesh checker (False: the robot's own spheres).
+        element_spheres: check on the validator's collision spheres where its robot description has any, as
+            GFCS plans (:func:`gfcs.planning.models.models_for`).
         fabric_config: the fabric configuration whose obstacle margin the spheres keep (None: defaults).
         finish: :class:`gfcs.planning.finish.FinishOptions` whose limits the trajectory keeps (None:
             defaults: URDF velocity limits, the profile's acceleration limits).
@@ -293,7 +296,7 @@ def plan_ompl(
     seconds, fraction = _check_arguments(problem, planner, planner_time, segment_fraction)
     finish, margin_base = _finish_and_margin(finish, fabric_config)
     _, _, ou = _ompl()
-    models = models_for(problem, thin_spheres=bool(thin_spheres))
+    models = models_for(problem, thin_spheres=bool(thin_spheres), element_spheres=bool(element_spheres))
     model = models.planning[0]
     q0 = np.asarray(problem.q0, dtype=np.float64)
     lower, upper, goal = _bounds(model.robot, q0, np.asarray(problem.goal, dtype=np.float64))
@@ -305,7 +308,7 @@ def plan_ompl(
         space = _Space(validity, fraction)
         record: Dict[str, Any] = {"planner": PLANNERS[planner], "planner_time": seconds, "simplify": bool(simplify),
                                   "segment_fraction": fraction, "state_space_extent": space.extent,
-                                  "check_step": validity.step, "sphere_model": model.name,
+                                  "check_step": validity.step, "sphere_model": model.name, **model.settings(),
                                   "obstacle_margin": validity.margin, "mesh_margin": float(mesh_margin),
                                   "plan_time": 0.0, "simplify_time": 0.0, **finish.to_dict()}
         invalid = validity.why_invalid(q0, "start") or validity.why_invalid(goal, "goal")

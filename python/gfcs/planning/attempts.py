@@ -289,8 +289,7 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
     if self_floor < 0.0:
         contact["self_contact"] = {"self_clearance_floor": self_floor, **pairs}
     extra = {"n_commands": n, "sampler": type(sampler).__name__, **contact}
-    if attempt.model.name == "thin":
-        extra["sphere_model"] = "thin"
+    extra.update(attempt.model.settings())
     result = _result(candidate, opt, common, {**settings_dict, **extra})
     record = AttemptRecord(attempt, result=result, time=time.perf_counter() - started - measuring,
                            first_batch=first_batch, measuring_time=measuring)

@@ -5,6 +5,10 @@ and the robot's limits and profile.
   sphere model on record and a collision-mesh validator (the shipped Panda and Franka descriptions given
   its spheres, :func:`gfcs.problems.thin_sphere_model`), first the thin spheres with a wider obstacle
   margin, then the robot's own (covering) spheres; for any other robot, its own spheres.
+* Element spheres: where the validator's robot description models a part by a collision sphere (a
+  head, a sensor dome), every planning model carries that sphere exactly in place of its own spheres inside
+  it (:func:`gfcs.coverage.with_element_spheres`; ``element_spheres=False``, the ``paper`` preset: the
+  robot's spheres as given).
 * The validator: the problem's mesh checker (collision meshes or polytopes), or None (spheres only).
 * Limits and profile: the URDF's joint and velocity limits, the profile's acceleration limits and approach
   axis (:mod:`gfcs.profile`).
@@ -18,10 +22,11 @@ from __future__ import annotations
 import copy
 import dataclasses
 from dataclasses import dataclass
-from typing import Any, Optional, Tuple
+from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
+from gfcs import coverage as _coverage
 from gfcs import problems as _problems
 from gfcs import profile as _profile
 from gfcs.errors import InvalidValueError
@@ -45,11 +50,23 @@ class PlanningModel:
             ``"spheres"`` (the robot's own spheres).
         robot: the ``gfcs.Robot`` carrying those spheres.
         margin_offset: added to the fabric's obstacle margin when planning with it [m].
+        element_spheres: the validator's collision spheres the model carries (link, centre m, radius m;
+            :func:`gfcs.coverage.element_spheres`), () when none.
     """
 
     name: str
     robot: Any
     margin_offset: float = 0.0
+    element_spheres: Tuple[Tuple[str, Tuple[float, ...], float], ...] = ()
+
+    def settings(self) -> Dict[str, Any]:
+        """What a result records of the model so that :func:`model_named` rebuilds it: ``sphere_model``
+        ("thin" only) and ``element_spheres`` ([{link, center, radius}], when it carries any)."""
+        out: Dict[str, Any] = {"sphere_model": "thin"} if self.name == "thin" else {}
+        if self.element_spheres:
+            out["element_spheres"] = [{"link": link, "center": list(c), "radius": r}
+                                      for link, c, r in self.element_spheres]
+        return out
 
 
 @dataclass(frozen=True)
@@ -86,15 +103,26 @@ class RobotModels:
         raise InvalidValueError(f"no planning model {name!r}; this robot has {[m.name for m in self.planning]}")
 
 
-def models_for(problem: Any, thin_spheres: bool = True) -> RobotModels:
+def models_for(problem: Any, thin_spheres: bool = True, element_spheres: bool = True) -> RobotModels:
     """The :class:`RobotModels` of ``problem`` (its robot and mesh checker). ``thin_spheres``: plan on a thin
     model first when the robot has one and the problem a validator to judge it (False: own spheres only,
-    the ``paper`` preset)."""
+    the ``paper`` preset). ``element_spheres``: every planning model carries the validator's collision
+    spheres (module docstring; False: the ``paper`` preset)."""
     robot = problem.robot
     validator = getattr(problem, "mesh_checker", None)
-    own = PlanningModel("spheres", robot)
+    exact: Tuple[Tuple[str, Tuple[float, ...], float], ...] = ()
+    if element_spheres and validator is not None and hasattr(validator, "robot"):
+        known = set(robot.link_names)
+        exact = tuple((link, tuple(c), r) for link, c, r in _coverage.element_spheres(validator.robot)
+                      if link in known)
+
+    def model(name: str, spheres: Any, offset: float = 0.0) -> PlanningModel:
+        carried = _coverage.with_element_spheres(spheres, exact)
+        return PlanningModel(name, carried, offset, exact if carried is not spheres else ())
+
+    own = model("spheres", robot)
     thin = _problems.thin_sphere_model(robot) if thin_spheres and validator is not None else None
-    planning = (PlanningModel("thin", thin, THIN_SPHERE_MARGIN), own) if thin is not None else (own,)
+    planning = (model("thin", thin, THIN_SPHERE_MARGIN), own) if thin is not None else (own,)
     return RobotModels(robot, planning, validator, _profile.profile_for(robot))
 
 
@@ -109,12 +137,15 @@ def with_robot(problem: Any, robot: Any) -> Any:
     return other
 
 
-def model_named(robot: Any, name: Optional[str]) -> Any:
-    """``robot`` as the planning model ``name`` carries it: its thin model for ``"thin"`` (``robot`` itself
-    when it has none, e.g. when it already is that model), else ``robot``."""
-    if name == "thin":
-        return _problems.thin_sphere_model(robot) or robot
-    return robot
+def model_named(robot: Any, settings: Optional[Dict[str, Any]]) -> Any:
+    """``robot`` as the planning model a result's ``settings`` name (:meth:`PlanningModel.settings`)
+    carries it: its thin model for ``sphere_model == "thin"`` (``robot`` itself when it has none, e.g. when
+    it already is that model), with the ``element_spheres`` recorded there."""
+    settings = settings or {}
+    if settings.get("sphere_model") == "thin":
+        robot = _problems.thin_sphere_model(robot) or robot
+    recorded = settings.get("element_spheres") or []
+    return _coverage.with_element_spheres(robot, [(e["link"], e["center"], e["radius"]) for e in recorded])
 
 
 def planned_robot(result: Any, problem: Any) -> Any:
@@ -124,4 +155,4 @@ def planned_robot(result: Any, problem: Any) -> Any:
     robot = getattr(result, "robot", None)
     if robot is not None:
         return robot
-    return model_named(problem.robot, (getattr(result, "settings", None) or {}).get("sphere_model"))
+    return model_named(problem.robot, getattr(result, "settings", None))

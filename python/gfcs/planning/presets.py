@@ -52,6 +52,8 @@ class Preset:
         mesh_candidates: at most this many candidates judged on the meshes (1: the lowest-cost one only).
         sampler: the first batch without a sampler given: ``"approach"`` or ``"uniform"``.
         thin_spheres: plan on a thinner sphere model first when the robot has one.
+        element_spheres: every planning model carries the validator's collision spheres in place of its own
+            spheres inside them (:func:`gfcs.planning.models.models_for`).
         policies: ``policies()`` -> the retry policies, in order.
         fabric: configuration overrides applied over the fabric configuration given to the solve.
         stall_batches: early stop of the optimisation after this many stalled batches (0: every batch
@@ -78,6 +80,7 @@ class Preset:
     repair: Optional[RepairOptions] = None
     sweep_time: Optional[float] = None
     endpoint_contact: bool = False
+    element_spheres: bool = False
 
 
 PRESETS: Dict[str, Preset] = {
@@ -92,7 +95,7 @@ PRESETS: Dict[str, Preset] = {
                                                  limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
-                      repair=RepairOptions(), sweep_time=0.25, endpoint_contact=True),
+                      repair=RepairOptions(), sweep_time=0.25, endpoint_contact=True, element_spheres=True),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,

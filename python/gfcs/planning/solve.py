@@ -74,6 +74,7 @@ def solve(
     callback: Optional[Callable[[BatchInfo], Optional[bool]]] = None,
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
     thin_spheres: Optional[bool] = None,
+    element_spheres: Optional[bool] = None,
     record_first_batch: bool = False,
     max_commands: Optional[int] = None,
     mesh_retry_margin: Optional[float] = None,
@@ -119,6 +120,9 @@ def solve(
         mesh_margin: clearance [m] the collision meshes must keep for success.
         thin_spheres: plan on the robot's thinner sphere model first, when it has one and the problem a
             mesh checker (None: the preset's).
+        element_spheres: plan on the validator's collision spheres where its robot description has any, in
+            place of the sphere model's spheres inside them (:func:`gfcs.planning.models.models_for`; None:
+            the preset's, on / off).
         record_first_batch: also select and judge what each attempt held after its first batch
             (``attempt_records[i].first_batch``; ``gfcs bench``'s "1 b" row). That work counts neither in
             the attempts' times nor in ``wall_time``.
@@ -182,7 +186,8 @@ def solve(
                         top_m=int(top_m), length_slack=slack, mesh_repair=repair is not None,
                         sweep_time=chosen.sweep_time,
                         **({"stall_batches": stall, "stall_tol": float(stall_tol)} if stall else {}))
-        models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres))
+        models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres),
+                            chosen.element_spheres if element_spheres is None else bool(element_spheres))
         planner = _Planner(problem, models, fabric, n_commands, sampler, chosen, settings, finish, options,
                            recorded, budget)
         result = combine_records(planner.run(plan))
@@ -400,7 +405,7 @@ def replay(
     robot = robot if robot is not None else result.robot
     if robot is None:
         raise InvalidValueError("robot: this result carries no robot (loaded from JSON?): pass robot=")
-    robot = model_named(robot, result.settings.get("sphere_model"))
+    robot = model_named(robot, result.settings)
     stored = result.settings
     if settings is None:
         names = {f.name for f in dataclasses.fields(RolloutSettings)}
