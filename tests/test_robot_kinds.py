@@ -91,6 +91,34 @@ def test_onto_bounds_moves_rounding_past_a_bound_onto_it_and_nothing_else(robot)
     np.testing.assert_array_equal(out[3], [0.4, 0.0, 0.0, math.pi])
     inside = np.array([[0.1, 0.2, 0.3, 0.4]] * 2)
     assert onto_bounds(robot, inside) is inside  # nothing to move: the same array
+    # resampled from a path that keeps the lift within its bounds: the 1 mm below is interpolation, moved
+    given = np.array([[0.0, 0.0, 0.0, 0.0], [0.4, 2.5, 0.0, 9.0]])
+    out = onto_bounds(robot, q, given)
+    np.testing.assert_array_equal(out[2], [0.0, 0.0, 0.0, -7.0])
+    np.testing.assert_array_equal(out[0], q[0])
+    # ... and a path that itself leaves the bound keeps the values beyond it, for the limit check
+    np.testing.assert_array_equal(onto_bounds(robot, q, np.vstack([given, [-0.01, 0, 0, 0]]))[2], q[2])
+
+
+def test_the_retiming_of_a_path_held_on_a_bound_stays_within_it(robot):
+    """A path that runs along the lift's lower bound at speed (a repaired path clipped there, its velocity
+    still pointing out) is resampled by a cubic Hermite curve that crosses the bound between samples; the
+    returned trajectory keeps the bound exactly."""
+    from gfcs.blend import limit_dynamics
+    from gfcs.planning.finish import FinishOptions, retime_within_limits
+
+    t = np.arange(0.0, 1.0, 0.01)
+    q = np.zeros((t.size, 4))
+    q[:, 1] = 1.5 * t  # the shoulder moves at 1.5 rad/s, beyond its 1 rad/s: the re-timing slows the path
+    q[:, 0] = np.clip(0.005 * np.sin(12.0 * t), 0.0, None)  # the lift touches its lower bound, then rests on it
+    qd = np.gradient(q, t, axis=0)
+    qd[:, 0] = 0.06 * np.cos(12.0 * t)  # the velocity of the unclipped path: outward where clipped
+    qd[0] = 0.0  # from rest
+    velocity = np.asarray(robot.velocity_limits)
+    _, interpolated, _ = limit_dynamics(t, q, qd, 0.01, velocity=velocity)
+    assert interpolated[:, 0].min() < -1e-6  # the interpolation crosses the bound by more than rounding
+    _, out, _ = retime_within_limits(robot, t, q, qd, 0.01, FinishOptions())
+    assert out[:, 0].min() >= 0.0 and np.all(out[:, 1:3] <= np.asarray(robot.upper)[1:3])
 
 
 def test_a_motion_to_a_goal_on_a_bound_keeps_every_state_within_the_bounds_exactly(robot):

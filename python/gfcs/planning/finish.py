@@ -4,8 +4,8 @@ The fabric's own trajectory starts with a jump of acceleration, converges to the
 and ignores the robot's speed and acceleration limits. :func:`finish_rollout` therefore, as
 :class:`FinishOptions` says: re-times the start from rest along the same path, appends a quintic blend
 that ends exactly at the goal, at rest (when the goal was reached), and re-times the whole path within the
-URDF velocity limits and the robot profile's acceleration limits, and moves the rounding-sized excursions
-past a position bound that re-timing leaves onto the bound (:func:`onto_bounds`). None of this changes the
+URDF velocity limits and the robot profile's acceleration limits, and moves the excursions past a position
+bound that re-timing's interpolation leaves onto the bound (:func:`onto_bounds`). None of this changes the
 cost of eq. 4, which is the fabric's own time. The ``paper`` preset turns every step off but the last.
 """
 
@@ -82,8 +82,8 @@ def retime_within_limits(robot: Any, t: np.ndarray, q: np.ndarray, qd: np.ndarra
                          options: FinishOptions) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, q, qd) re-timed along the same path within the velocity and acceleration limits ``options``
     keeps (:func:`gfcs.blend.limit_dynamics`; unchanged when it keeps none), then moved onto the position
-    bounds where it crosses them by rounding (:func:`onto_bounds`): every returned trajectory, a repaired
-    one too, passes here."""
+    bounds where its interpolation crosses bounds the given path keeps (:func:`onto_bounds`): every returned
+    trajectory, a repaired one too, passes here."""
     accel = None
     if options.limit_acceleration:
         accel = options.acceleration_limits
@@ -91,25 +91,34 @@ def retime_within_limits(robot: Any, t: np.ndarray, q: np.ndarray, qd: np.ndarra
     velocity = _profile.velocity_limits(robot) if options.limit_velocity else None
     if velocity is not None and options.velocity_limits is not None:
         velocity = np.minimum(velocity, np.asarray(options.velocity_limits, dtype=np.float64))
+    given = q
     if velocity is not None or accel is not None:
         t, q, qd = limit_dynamics(t, q, qd, dt, velocity=velocity, acceleration=accel)
-    return t, onto_bounds(robot, q), qd
+    return t, onto_bounds(robot, q, given), qd
 
 
-def onto_bounds(robot: Any, q: np.ndarray, tol: float = _metrics.DEFAULT_LIMIT_TOL) -> np.ndarray:
-    """``q`` (T, dof) with every value of a bounded joint that lies outside its position bounds by at most
-    ``tol`` [rad or m] moved onto the bound, its first row (the robot's state) kept.
+def onto_bounds(robot: Any, q: np.ndarray, given: Optional[np.ndarray] = None,
+                tol: float = _metrics.DEFAULT_LIMIT_TOL) -> np.ndarray:
+    """``q`` (T, dof) with values of bounded joints outside their position bounds moved onto the bound, its
+    first row (the robot's state) kept: every such value of a joint that the path ``q`` was resampled from,
+    ``given`` (T', dof), keeps within its bounds (to ``tol``), and elsewhere those outside by at most ``tol``
+    [rad or m].
 
-    A path that ends on a bound (a goal at a joint's limit) or touches one is resampled by the re-timing's
-    cubic Hermite curve, which crosses the bound by rounding amounts (10⁻¹⁰ rad); a validator that compares
-    each state with the bounds exactly counts that as a limit violation. Values farther outside are left as
-    they are, for the limit check to reject. Continuous joints have no bounds and are not touched."""
+    A path that ends on a bound (a goal at a joint's limit) or runs along one (a repaired path held at a
+    limit) is resampled by the re-timing's cubic Hermite curve, which crosses the bound between samples (by
+    10⁻¹⁰ to 10⁻⁵ rad); a validator that compares each state with the bounds exactly counts that as a limit
+    violation. Where the given path itself leaves a bound by more than ``tol``, the values farther outside
+    are left as they are, for the limit check to reject. Continuous joints have no bounds and are not
+    touched."""
     lower = np.asarray(robot.lower, dtype=np.float64)
     upper = np.asarray(robot.upper, dtype=np.float64)
     bounded = ~continuous_mask(robot)
+    kept = np.zeros_like(bounded)
+    if given is not None and len(given):
+        kept = (np.min(given, axis=0) >= lower - tol) & (np.max(given, axis=0) <= upper + tol)
     rest = q[1:]
-    low = bounded & (rest < lower) & (rest >= lower - tol)
-    high = bounded & (rest > upper) & (rest <= upper + tol)
+    low = bounded & (rest < lower) & ((rest >= lower - tol) | kept)
+    high = bounded & (rest > upper) & ((rest <= upper + tol) | kept)
     if not (low.any() or high.any()):
         return q
     rest = np.where(low, lower, np.where(high, upper, rest))
