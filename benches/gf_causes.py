@@ -29,7 +29,9 @@ from gfcs.planning import get_preset, solve
 VARIANTS: Dict[str, Tuple[str, Dict[str, Any]]] = {
     "default": ("the default preset's GF", {}),
     "paper": ("the paper preset: its barriers, no stall exit, no goal hold-off, no finishing", {"preset": "paper"}),
-    "no stall exit": ("rollouts run to t_max instead of stopping when they stall",
+    "no goal capture": ("a rollout that comes to rest near its goal is not counted as reached (capture_tol 0)",
+                        {"settings": dataclasses.replace(get_preset("default").settings, capture_tol=0.0)}),
+    "no stall exit": ("rollouts run to t_max instead of stopping when they stall (and so without goal capture)",
                       {"settings": dataclasses.replace(get_preset("default").settings, stall_window=0.0)}),
     "t_max 20 s": ("a 20 s budget without a stall exit",
                    {"settings": dataclasses.replace(get_preset("default").settings, stall_window=0.0, t_max=20.0)}),
