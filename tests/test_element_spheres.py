@@ -99,3 +99,20 @@ def test_a_result_records_the_elements_and_its_model_is_rebuilt_from_them(robots
     assert sorted(rebuilt.sphere_radii) == sorted(result.robot.sphere_radii) == [0.1, 0.15]
     off = planning.solve(problem, seed=0, batches=1, population=8, threads=1, time_limit=5, element_spheres=False)
     assert "element_spheres" not in off.settings and model_named(robot, off.settings) is robot
+
+
+def test_the_sampling_baselines_check_the_carried_model(robots):
+    """RRTConnect on the gap problem: with the element the straight way between the balls is invalid, and a
+    returned path keeps the validator's sphere clear; on the plain model the planner takes the gap."""
+    pytest.importorskip("ompl", reason="the 'baselines' extra (pip install 'gfcs[baselines]') is not installed")
+    from gfcs.baselines import plan_ompl
+
+    robot, mesh_robot = robots
+    problem = gap_problem(robot, mesh_robot)
+    on = plan_ompl(problem, "rrtconnect", 1.0, seed=0)
+    assert on.settings["element_spheres"] == [{"link": "b", "center": [0.01, 0.0, 0.0], "radius": 0.15}]
+    assert on.success and on.metrics["mesh_clearance"] > 0.0
+    assert np.max(np.abs(np.asarray(on.trajectory.q)[:, 1])) > 0.1  # around the balls, not between them
+    off = plan_ompl(problem, "rrtconnect", 1.0, seed=0, element_spheres=False)
+    assert "element_spheres" not in off.settings
+    assert not off.success and off.metrics["mesh_clearance"] < 0.0  # through the gap: the element hits
