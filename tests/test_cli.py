@@ -112,6 +112,27 @@ def test_solve_takes_the_spheres_of_the_spherized_model_beside_a_mesh_robot(tmp_
     assert "checked   collision meshes" in r.stdout
 
 
+def test_a_mesh_model_with_a_few_sphere_elements_takes_its_twins_spheres(tmp_path):
+    """--robot X.urdf whose links are meshes but for one part modelled by a sphere (the Fetch's head): it is a
+    mesh model, so the fabric takes X_spherized.urdf's spheres, not that one sphere alone."""
+    import gfcs
+    from gfcs.problems import links_without_spheres
+
+    text = panda_with('<box size="0.1 0.2 0.1"/>').replace(
+        '<link name="panda_link0"/>',
+        '<link name="panda_link0"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>')
+    assert '<sphere radius="0.1"/>' in text
+    mesh_model = tmp_path / "arm.urdf"
+    mesh_model.write_text(text)
+    robot = gfcs.Robot.from_urdf(str(mesh_model))
+    assert len(robot.sphere_radii) == 1 and links_without_spheres(robot) == ["panda_hand"]
+    (tmp_path / "arm_spherized.urdf").write_text(panda_with('<sphere radius="0.05"/>'))
+    r = run("solve", "--method", "gf", "--class", "box", "--robot", str(mesh_model))
+    assert r.returncode in (0, 1), r.stderr
+    assert "no collision spheres on panda_hand; the fabric uses those of" in r.stderr
+    assert "checked   collision meshes" in r.stdout
+
+
 def test_a_panda_with_meshes_only_gets_the_shipped_spheres_and_its_own_validation(tmp_path):
     """--robot X.urdf, a Panda with collision geometry but no spheres and no twin (e.g. a Franka
     description): the fabric uses the shipped Panda's spheres (said on stderr), X's geometry validates."""

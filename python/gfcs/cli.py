@@ -110,8 +110,8 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--robot", metavar="URDF",
                    help="robot URDF file, or 'mbm' for the MotionBenchMaker Panda of the shared data folder "
                         "(spherized URDF + SRDF; use it for MotionBenchMaker problems: their goals are "
-                        "collision-free for its spheres); a URDF X.urdf without collision spheres takes "
-                        "those of X_spherized.urdf beside it")
+                        "collision-free for its spheres); a URDF X.urdf without collision spheres (on some of "
+                        "its links with collision geometry) takes those of X_spherized.urdf beside it")
     g.add_argument("--srdf", metavar="SRDF", help="SRDF whose disabled collisions prune self-collision pairs")
     g.add_argument("--group", metavar="NAME",
                    help="SRDF planning group to plan for: its joints move, the others are held at the request's "
@@ -284,6 +284,7 @@ def _robot(args: argparse.Namespace) -> Any:
             return mbm_panda()
         return gfcs.Robot.panda()
     from gfcs.problems import (
+        links_without_spheres,
         spherized_urdf_for,
         with_gap_spheres,
         with_shipped_panda_spheres,
@@ -299,12 +300,14 @@ def _robot(args: argparse.Namespace) -> Any:
     else:
         robot = gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir,
                                      srdf=args.srdf, spheres=args.spheres)
-    sibling = spherized_urdf_for(args.robot) if len(robot.sphere_radii) == 0 else None
+    bare = links_without_spheres(robot)
+    sibling = spherized_urdf_for(args.robot) if len(robot.sphere_radii) == 0 or bare else None
     if sibling is not None:  # a mesh model with its spherized twin beside it (MotionBenchMaker's panda.urdf)
         twin = gfcs.Robot.from_urdf(sibling, ee_link=robot.ee_link, active_joints=list(robot.joint_names),
                                     mesh_dir=args.mesh_dir)
         robot = robot.with_spheres(list(zip(twin.sphere_links, twin.sphere_centers_local, twin.sphere_radii)))
-        print(f"gfcs: {args.robot} has no collision spheres; the fabric uses those of {sibling}",
+        where = f" on {', '.join(bare[:3])}{', ...' if len(bare) > 3 else ''}" if bare else ""
+        print(f"gfcs: {args.robot} has no collision spheres{where}; the fabric uses those of {sibling}",
               file=sys.stderr)
     shipped = with_shipped_panda_spheres(robot, args.srdf)
     if shipped is not None:  # a Panda description with meshes only (e.g. franka_description's)

@@ -53,6 +53,7 @@ __all__ = [
     "mesh_urdf_for",
     "urdf_mesh_checker",
     "with_shipped_panda_spheres",
+    "links_without_spheres",
     "thin_sphere_model",
     "shared_dir",
 ]
@@ -669,6 +670,16 @@ def spherized_urdf_for(urdf: PathLike) -> Optional[Path]:
         return None
     sibling = path.with_name(path.stem + "_spherized" + path.suffix)
     return sibling if sibling.is_file() else None
+
+
+def links_without_spheres(robot: Any) -> List[str]:
+    """The links of ``robot`` whose collision geometry (``collision_geometry()``) has other elements than
+    spheres (meshes, boxes, cylinders) and that carry no collision sphere, in link order. A description that
+    models a few parts by spheres (the Fetch's head) and the rest by meshes is a mesh model, not a sphere
+    model: its sphere elements leave the arm without any."""
+    carried = set(robot.sphere_links)
+    shaped = {e["link"] for e in robot.collision_geometry() if e["type"] != "sphere"}
+    return [link for link in robot.link_names if link in shaped and link not in carried]
 
 
 def with_shipped_panda_spheres(robot: Any, srdf: Optional[Union[PathLike, str]] = None,
