@@ -128,6 +128,8 @@ def with_element_spheres(robot: Any, spheres: Sequence[Tuple[str, Sequence[float
     0.2 m collision sphere, 95 mm of it outside all of them); planning on the element itself leaves no gap."""
     known = set(robot.link_names)
     exact = [(str(link), np.asarray(c, dtype=np.float64), float(r)) for link, c, r in spheres if link in known]
+    if not exact:  # the common case (descriptions without sphere elements): nothing to compare
+        return robot
     own = list(zip(robot.sphere_links, np.asarray(robot.sphere_centers_local, dtype=np.float64).reshape(-1, 3),
                    np.asarray(robot.sphere_radii, dtype=np.float64)))
 
