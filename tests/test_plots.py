@@ -146,3 +146,19 @@ def test_totals_count_every_class_and_take_the_medians():
         assert f"median time {np.median([r['time'] for r in mine]):.3f} s" in line
         assert f"whole solve {np.median([r['wall_time'] for r in mine]):.3f} s" in line
 
+
+
+def test_totals_take_the_medians_over_planned_problems_and_count_the_refused():
+    from gfcs.results import format_totals
+
+    rows = make_rows()
+    for k, r in enumerate(rows):
+        r["time"], r["wall_time"] = 0.1 * k, 0.1 * k + 0.05
+    refused = [r for r in rows if r["label"] == LABELS[0][0]][:2]
+    for r in refused:  # rows of problems refused before planning, as gfcs bench writes them
+        r.update(success=False, time="NaN", wall_time="NaN", error="CollisionError: the goal state is in collision")
+    line = format_totals(rows).splitlines()[0]
+    planned = [r for r in rows if r["label"] == LABELS[0][0] and "error" not in r]
+    assert "nan" not in line
+    assert f"median time {np.median([r['time'] for r in planned]):.3f} s" in line
+    assert "(2 refused before planning" in line

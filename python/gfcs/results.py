@@ -467,9 +467,10 @@ def format_table(summary: Dict[str, Dict[str, Dict[str, Any]]], markdown: bool =
 
 
 def format_totals(rows: Iterable[Dict[str, Any]]) -> str:
-    """One line per label over every class: problems solved, and the median over all its problems of
-    ``time`` (the optimisation, GFCS Table I's measure) and of ``wall_time`` (the whole solve), in s;
-    then how many problems were left out (:func:`left_out_row`), when any were."""
+    """One line per label over every class: problems solved (a problem refused before planning, a row with
+    an ``error``, counts as not solved), and the median over its planned problems of ``time`` (the
+    optimisation, GFCS Table I's measure) and of ``wall_time`` (the whole solve), in s, with how many were
+    refused; then how many problems were left out (:func:`left_out_row`), when any were."""
     rows = list(rows)
     by_label: Dict[str, List[Dict[str, Any]]] = {}
     for r in _run(rows):
@@ -477,10 +478,15 @@ def format_totals(rows: Iterable[Dict[str, Any]]) -> str:
     lines = []
     for label, rs in by_label.items():
         solved = sum(bool(r["success"]) for r in rs)
-        time = np.median([_dec_float(r["time"]) for r in rs])
-        wall = np.median([_dec_float(r["wall_time"]) for r in rs])
-        lines.append(f"{label}: {solved}/{len(rs)} solved ({100.0 * solved / len(rs):.1f} %), median time "
-                     f"{time:.3f} s, whole solve {wall:.3f} s")
+        planned = [r for r in rs if "error" not in r]
+        line = f"{label}: {solved}/{len(rs)} solved ({100.0 * solved / len(rs):.1f} %)"
+        if planned:
+            time = np.median([_dec_float(r["time"]) for r in planned])
+            wall = np.median([_dec_float(r["wall_time"]) for r in planned])
+            line += f", median time {time:.3f} s, whole solve {wall:.3f} s"
+        if len(planned) < len(rs):
+            line += f" ({len(rs) - len(planned)} refused before planning, their errors in the rows)"
+        lines.append(line)
     n_left = len(rows) - len(_run(rows))
     if n_left:
         lines.append(f"left out (start or goal not valid for the robot): {n_left} problem(s)")

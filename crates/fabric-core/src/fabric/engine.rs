@@ -817,8 +817,15 @@ impl Fabric {
                 &mut ws.jrow,
             );
             let bv = self.self_collision.eval(leaf.x, leaf.xd, ws.with_potential);
-            ws.root
-                .add_scalar(&ws.jrow, leaf.jdot_qdot, bv.m, bv.xi, bv.f, bv.grad, bv.psi);
+            ws.root.add_scalar(
+                &ws.jrow[..leaf.width],
+                leaf.jdot_qdot,
+                bv.m,
+                bv.xi,
+                bv.f,
+                bv.grad,
+                bv.psi,
+            );
             leaves += 1;
         }
 
@@ -863,7 +870,7 @@ impl Fabric {
                         }
                         let bv = self.obstacles.eval(leaf.x, leaf.xd, ws.with_potential);
                         ws.root.add_scalar(
-                            &ws.jrow,
+                            &ws.jrow[..leaf.width],
                             leaf.jdot_qdot,
                             bv.m,
                             bv.xi,

@@ -33,6 +33,9 @@ pub struct LeafState {
     pub xd: f64,
     /// J̇q̇ (m/s²).
     pub jdot_qdot: f64,
+    /// Number of leading entries of the row Jacobian that may be non-zero (the rest are written as 0):
+    /// the widest [`TaskPoint::width`] of the leaf's points.
+    pub width: usize,
 }
 
 /// Obstacle leaf for a sphere of radius `radius` centred at the task point `c` and one distance `sample`
@@ -52,9 +55,11 @@ pub fn obstacle_leaf(
 ) -> LeafState {
     let g = &sample.gradient;
     let rel = c.xd - sample.velocity;
-    for (j, col) in jac.iter_mut().zip(c.jac.as_slice().chunks_exact(3)) {
+    let (row, zero) = jac.split_at_mut(c.width.min(jac.len()));
+    for (j, col) in row.iter_mut().zip(c.jac.as_slice().chunks_exact(3)) {
         *j = g.x * col[0] + g.y * col[1] + g.z * col[2];
     }
+    zero.fill(0.0);
     // ‖H‖_F = 0 on flat features (faces): skip the square root
     let h_norm2 = sample.hessian.norm_squared();
     let h_norm = if h_norm2 > 0.0 { h_norm2.sqrt() } else { 0.0 };
@@ -67,6 +72,7 @@ pub fn obstacle_leaf(
         x: sample.distance - radius - margin,
         xd: g.dot(&rel),
         jdot_qdot: g.dot(&c.jdot_qdot) + scale * rel.dot(&(sample.hessian * rel)),
+        width: row.len(),
     }
 }
 
@@ -100,12 +106,15 @@ pub fn self_collision_leaf(
         .as_slice()
         .chunks_exact(3)
         .zip(b.jac.as_slice().chunks_exact(3));
-    for (j, (ca, cb)) in jac.iter_mut().zip(columns) {
+    let (row, zero) = jac.split_at_mut(a.width.max(b.width).min(jac.len()));
+    for (j, (ca, cb)) in row.iter_mut().zip(columns) {
         *j = n.x * (ca[0] - cb[0]) + n.y * (ca[1] - cb[1]) + n.z * (ca[2] - cb[2]);
     }
+    zero.fill(0.0);
     LeafState {
         x: dist - ra - rb - margin,
         xd: n.dot(&ud),
         jdot_qdot: n.dot(&(a.jdot_qdot - b.jdot_qdot)) + curv,
+        width: row.len(),
     }
 }

@@ -21,7 +21,7 @@
 use nalgebra::{DMatrix, DVector, Dim, Dyn, Matrix, Storage};
 
 use super::config::{Mode, SpeedConfig};
-use super::spec::{cholesky_in_place, cholesky_solve_in_place, ENERGIZATION_EPSILON};
+use super::spec::{cholesky_in_place, cholesky_solve_many, ENERGIZATION_EPSILON};
 use super::speed::{regulate, regulated_acceleration, EeMotion, SpeedInputs, SpeedTerms};
 use crate::error::{FabricError, Result};
 
@@ -165,12 +165,15 @@ impl RootSystem {
         self.psi += psi;
     }
 
-    /// Add a 1-D component through a row Jacobian `j` (n,) and scalar J̇q̇:
+    /// Add a 1-D component through a row Jacobian `j` and scalar J̇q̇:
     /// M̃ += m jjᵀ, ξ̃ += j(ξ + m J̇q̇), f̃ += j(f + m J̇q̇), ∂ψ += j grad, ψ += psi.
+    /// `j` holds the leading entries of the row (length w ≤ n), the others being zero (a point on a link
+    /// that the last coordinates do not move, [`TaskPoint::width`](crate::robot::TaskPoint::width)): only
+    /// the leading w × w block and w entries change, which is what the full update would add, bit for bit.
     /// Only the upper triangle of M̃ is updated here; [`solve`](RootSystem::solve) mirrors it.
     ///
     /// # Panics
-    /// When `j` is shorter than n.
+    /// When `j` is longer than n.
     #[allow(clippy::too_many_arguments)]
     pub fn add_scalar(
         &mut self,
@@ -183,6 +186,7 @@ impl RootSystem {
         psi: f64,
     ) {
         let n = self.dim();
+        assert!(j.len() <= n, "row Jacobian of {} entries for dimension {n}", j.len());
         let c = m * jdqd;
         let (ex, ef) = (xi + c, f + c);
         let (mm, xs, fs, gs) = (
@@ -192,10 +196,10 @@ impl RootSystem {
             self.grad.as_mut_slice(),
         );
         // the same kernel, unrolled for the common arm sizes
-        match n {
-            7 => rank_one::<7>(mm, xs, fs, gs, j, m, ex, ef, grad),
-            6 => rank_one::<6>(mm, xs, fs, gs, j, m, ex, ef, grad),
-            _ => rank_one::<0>(mm, xs, fs, gs, j, m, ex, ef, grad),
+        match j.len() {
+            7 => rank_one::<7>(mm, n, xs, fs, gs, j, m, ex, ef, grad),
+            6 => rank_one::<6>(mm, n, xs, fs, gs, j, m, ex, ef, grad),
+            _ => rank_one::<0>(mm, n, xs, fs, gs, j, m, ex, ef, grad),
         }
         self.psi += psi;
     }
@@ -265,9 +269,24 @@ impl RootSystem {
         for a in 0..n {
             self.pi[a] = -src[a];
         }
-        cholesky_solve_in_place(&self.chol, self.pi.as_mut_slice());
         self.minv_grad.copy_from(&self.grad);
-        cholesky_solve_in_place(&self.chol, self.minv_grad.as_mut_slice());
+        // M̃⁻¹ q̇ (or M̃⁻¹ S² q̇) for a force-level goal damper, solved beside π̃ and M̃⁻¹∂ψ: whether the
+        // damper acts is known only after the speed regulation below, and the third right-hand side
+        // costs little when solved with the other two
+        self.scratch.as_mut_slice().copy_from_slice(qd);
+        if let Some(s) = damping_scales {
+            for a in 0..n {
+                self.scratch[a] *= s[a] * s[a];
+            }
+        }
+        cholesky_solve_many(
+            &self.chol,
+            [
+                self.pi.as_mut_slice(),
+                self.minv_grad.as_mut_slice(),
+                self.scratch.as_mut_slice(),
+            ],
+        );
 
         // q̇ᵀM̃q̇ and α_Le = −q̇ᵀ(M̃π̃ + ξ̃)/q̇ᵀM̃q̇ with M̃π̃ = −f̃ (bent) or −ξ̃ (unbent, α = 0)
         let mut qmq = 0.0;
@@ -308,13 +327,6 @@ impl RootSystem {
         );
         let d = speed_terms.force_damping * damping_mass;
         if d != 0.0 {
-            self.scratch.as_mut_slice().copy_from_slice(qd);
-            if let Some(s) = damping_scales {
-                for a in 0..n {
-                    self.scratch[a] *= s[a] * s[a];
-                }
-            }
-            cholesky_solve_in_place(&self.chol, self.scratch.as_mut_slice());
             for a in 0..n {
                 qdd[a] -= d * self.scratch[a];
             }
@@ -333,13 +345,15 @@ impl RootSystem {
     }
 }
 
-/// The rank-one update of [`RootSystem::add_scalar`] on the raw column-major storage of M̃ (n × n) and
-/// the vectors (n,), with n = `N` (a compile-time length: the loops unroll) or, for `N = 0`, the length
-/// of `xi`: M̃ += m jjᵀ (upper triangle), ξ̃ += j ex, f̃ += j ef, ∂ψ += j grad.
+/// The rank-one update of [`RootSystem::add_scalar`] on the raw column-major storage of M̃ (`dim` × `dim`)
+/// and the vectors (`dim`,), for a row `j` of w leading entries, w = `N` (a compile-time length: the loops
+/// unroll) or, for `N = 0`, `j.len()`: M̃ += m jjᵀ (upper triangle of the leading w × w block),
+/// ξ̃ += j ex, f̃ += j ef, ∂ψ += j grad (leading w entries).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn rank_one<const N: usize>(
     mm: &mut [f64],
+    dim: usize,
     xi: &mut [f64],
     f: &mut [f64],
     gr: &mut [f64],
@@ -349,10 +363,10 @@ fn rank_one<const N: usize>(
     ef: f64,
     grad: f64,
 ) {
-    let n = if N == 0 { xi.len() } else { N };
+    let w = if N == 0 { j.len() } else { N };
     // plain slices of one length: no bounds checks in the loops
-    let (j, xi, f, gr) = (&j[..n], &mut xi[..n], &mut f[..n], &mut gr[..n]);
-    for a in 0..n {
+    let (j, xi, f, gr) = (&j[..w], &mut xi[..w], &mut f[..w], &mut gr[..w]);
+    for a in 0..w {
         let ja = j[a];
         xi[a] += ja * ex;
         f[a] += ja * ef;
@@ -361,7 +375,7 @@ fn rank_one<const N: usize>(
     if m != 0.0 {
         // upper triangle only; `solve` reads the upper triangle (see `symmetrize`). Column b of the
         // column-major M̃ holds rows 0..=b of the triangle contiguously.
-        for (b, col) in mm[..n * n].chunks_exact_mut(n).enumerate() {
+        for (b, col) in mm[..w * dim].chunks_exact_mut(dim).enumerate() {
             let mjb = m * j[b];
             for (mab, &ja) in col[..=b].iter_mut().zip(j) {
                 *mab += ja * mjb;

@@ -8,7 +8,8 @@
 //! α := 0. For an HD2 geometry π and HD2 ξ the numerator is O(‖ẋ‖³) and the denominator O(‖ẋ‖²), so α → 0
 //! as ẋ → 0: the convention is the continuous extension, and α ẋ → 0 in any case.
 //!
-//! The allocation-free helpers (`cholesky_in_place`, `cholesky_solve_in_place`) are used by the engine.
+//! The allocation-free helpers (`cholesky_in_place`, `cholesky_solve_many`) are
+//! used by the engine.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -205,22 +206,43 @@ pub(crate) fn cholesky_in_place(a: &mut DMatrix<f64>) -> bool {
     true
 }
 
-/// Solve L Lᵀ x = b in place (b ← x) with the factor from [`cholesky_in_place`]. No allocation.
-pub(crate) fn cholesky_solve_in_place(l: &DMatrix<f64>, b: &mut [f64]) {
+/// Solve L Lᵀ xₖ = bₖ in place (bₖ ← xₖ) for K right-hand sides at once, with the factor from
+/// [`cholesky_in_place`]. Every bₖ undergoes exactly the operations of a solve of its own (the same
+/// values bit for bit); interleaving them lets the K chains of divisions, whose latency dominates a
+/// small triangular solve, run side by side. No allocation.
+///
+/// # Panics
+/// When a bₖ is shorter than n.
+pub(crate) fn cholesky_solve_many<const K: usize>(l: &DMatrix<f64>, b: [&mut [f64]; K]) {
     let n = l.nrows();
+    // column-major: L[(i, k)] = lm[i + k n]
+    let lm = &l.as_slice()[..n * n];
     for i in 0..n {
-        let mut s = b[i];
+        let mut s: [f64; K] = std::array::from_fn(|r| b[r][i]);
         for k in 0..i {
-            s -= l[(i, k)] * b[k];
+            let lik = lm[i + k * n];
+            for r in 0..K {
+                s[r] -= lik * b[r][k];
+            }
         }
-        b[i] = s / l[(i, i)];
+        let lii = lm[i + i * n];
+        for r in 0..K {
+            b[r][i] = s[r] / lii;
+        }
     }
     for i in (0..n).rev() {
-        let mut s = b[i];
+        let mut s: [f64; K] = std::array::from_fn(|r| b[r][i]);
+        let col = &lm[i * n..(i + 1) * n];
         for k in (i + 1)..n {
-            s -= l[(k, i)] * b[k];
+            let lki = col[k];
+            for r in 0..K {
+                s[r] -= lki * b[r][k];
+            }
         }
-        b[i] = s / l[(i, i)];
+        let lii = col[i];
+        for r in 0..K {
+            b[r][i] = s[r] / lii;
+        }
     }
 }
 
@@ -248,11 +270,18 @@ mod tests {
             let mut l = a.clone();
             assert!(cholesky_in_place(&mut l));
             let mut x = b.clone();
-            cholesky_solve_in_place(&l, &mut x);
-            let reference = a.clone().cholesky().unwrap().solve(&DVector::from_vec(b));
+            cholesky_solve_many(&l, [&mut x]);
+            let reference = a.clone().cholesky().unwrap().solve(&DVector::from_vec(b.clone()));
             for i in 0..n {
                 assert!((x[i] - reference[i]).abs() < 1e-10);
             }
+            // several right-hand sides at once: each the same bit for bit as solved alone
+            let c: Vec<f64> = (0..n).map(|i| 0.7 - (i as f64) * 0.3).collect();
+            let (mut x2, mut y2, mut z2) = (b.clone(), c.clone(), b.clone());
+            cholesky_solve_many(&l, [&mut x2, &mut y2, &mut z2]);
+            let mut y = c.clone();
+            cholesky_solve_many(&l, [&mut y]);
+            assert_eq!((&x2, &y2, &z2), (&x, &y, &x));
         }
         let mut bad = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
         assert!(!cholesky_in_place(&mut bad));

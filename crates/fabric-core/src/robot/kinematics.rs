@@ -35,6 +35,10 @@ pub struct TaskPoint {
     pub jac: Matrix3xX<f64>,
     /// Velocity-product term J̇ q̇ (m/s², or 1/s² for an axis).
     pub jdot_qdot: Vector3<f64>,
+    /// Number of leading columns of `jac` that may be non-zero: the columns from `width` on are zero
+    /// (coordinates that do not move the point: [`Robot::point`] and [`Robot::axis`] set it from the
+    /// link's chain; dof when unknown).
+    pub width: usize,
 }
 
 impl TaskPoint {
@@ -45,6 +49,7 @@ impl TaskPoint {
             xd: Vector3::zeros(),
             jac: Matrix3xX::zeros(dof),
             jdot_qdot: Vector3::zeros(),
+            width: dof,
         }
     }
 }
@@ -302,6 +307,7 @@ impl Robot {
         let b = self.bodies[link] * ws.dof;
         let terms = b..b + self.cols[link];
         let (jw, jm) = (&ws.jw[terms.clone()], &ws.jm[terms]);
+        out.width = self.cols[link];
         let jac = jacobian_of_width(out, ws.dof);
         for (k, col) in jac.chunks_exact_mut(3).enumerate() {
             let v = match (jw.get(k), jm.get(k)) {
@@ -331,6 +337,7 @@ impl Robot {
         out.jdot_qdot = ws.alpha[link].cross(&u) + w.cross(&w.cross(&u));
         let b = self.bodies[link];
         let terms = b * ws.dof..b * ws.dof + self.cols[link];
+        out.width = self.cols[link];
         let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * self.cols[link]);
         for (col, a) in jac.chunks_exact_mut(3).zip(&ws.jw[terms]) {
             col.copy_from_slice(a.cross(&u).as_slice());
