@@ -43,21 +43,32 @@ def test_help_does_not_import_optional_dependencies():
     assert r.stdout.strip().splitlines()[-1] == "False False"
 
 
+def test_solve_imports_no_heavy_optional_dependency(tmp_path):
+    heavy = ["torch", "matplotlib", "rerun", "scipy", "trimesh"]
+    code = ("import sys; from gfcs import cli\n"
+            f"code = cli.main(['solve', '--json', {str(tmp_path / 'r.json')!r}, *{SMALL!r}])\n"
+            f"print([m for m in {heavy!r} if m in sys.modules])")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.stdout.strip().splitlines()[-1] == "[]", r.stdout + r.stderr
+
+
 def test_solve_json_to_stdout():
     r = run("solve", "--json", "-", *SMALL)
     assert r.returncode in (0, 1), r.stderr
     result = SolveResult.from_json(r.stdout)
     assert result.method == "gfcs" and result.problem.startswith(cli.DEFAULT_DEMO_CLASS + "/")
+    assert result.settings["spheres_judge"] is False  # the default preset: the meshes judge
     assert result.trajectory.q.shape[1] == 7 and len(result.trajectory) > 1
     assert "cost" in r.stderr and "EE length" in r.stderr  # the summary went to stderr
     assert r.returncode == (0 if result.success else 1)
 
 
 def test_solve_selection_and_timing_options_reach_the_result():
-    r = run("solve", "--json", "-", "--length-slack", "0.3", "--mesh-margin", "0.004", *SMALL)
+    r = run("solve", "--json", "-", "--length-slack", "0.3", "--mesh-margin", "0.004", "--spheres-judge", *SMALL)
     assert r.returncode in (0, 1), r.stderr
     result = SolveResult.from_json(r.stdout)
     assert result.settings["length_slack"] == 0.3 and result.settings["mesh_margin"] == 0.004
+    assert result.settings["spheres_judge"] is True
     assert result.wall_time > result.solve_time > 0
     r = run("solve", "--json", "-", "--no-acceleration-limits", "--limit-hold-off", "0.03", *SMALL)
     assert r.returncode in (0, 1), r.stderr

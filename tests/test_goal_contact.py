@@ -77,8 +77,9 @@ def test_goal_contact_margins(robot, checker):
 def test_solve_reaches_a_goal_in_contact_only_with_the_goal_contact_attempt(robot, checker):
     scene, _ = touching(robot)
     problem = Problem("touch", robot, scene, q0=Q0, goal=GOAL, mesh_checker=checker)
-    # the preset's endpoint contact off: the plan attempts fail, the goal-contact retry reaches the goal
-    off = dataclasses.replace(planning.get_preset("default"), endpoint_contact=False)
+    # the preset's endpoint contact off and the spheres judging too: the plan attempts fail, the goal-contact
+    # retry reaches the goal
+    off = dataclasses.replace(planning.get_preset("default"), endpoint_contact=False, spheres_judge=True)
     without = optimize.solve(problem, goal_contact_slack=0.0, preset=off, **SMALL)
     assert not without.success and "goal_contact" not in without.settings
     res = optimize.solve(problem, preset=off, **SMALL)

@@ -5,8 +5,8 @@ pinned in ``tests/data/golden/solve.json``.
 The problems exercise every retry path of the default solve: the built-in problem of ``gfcs solve``, the
 GF baseline on it, generated problems (one without a mesh model, whose second attempt adds a command; one with
 the uniform sampler, which has no retry), and MotionBenchMaker problems where the thin-sphere model falls back
-to the covering spheres after both mesh retries and the goal-contact attempt, where a mesh retry succeeds, and
-where the goal-contact attempt succeeds.
+to the covering spheres after both mesh retries and the goal-contact attempt, where a mesh retry succeeds,
+where the goal-contact attempt succeeds, and where the meshes alone judge a goal in sphere contact.
 
 Regenerate the fixture (only when a change of behaviour is intended, and say so in the commit)::
 
@@ -44,9 +44,12 @@ CASES: Dict[str, Tuple[Tuple[Any, ...], Dict[str, Any]]] = {
     "mbm_cage_0001_no_repair": (("mbm", "cage", 1, "shipped"), {"batches": 1, "mesh_repair": False}),
     "mbm_cage_0006": (("mbm", "cage", 6, "shipped"), {"batches": 1}),
     "mbm_cage_0006_no_repair": (("mbm", "cage", 6, "shipped"), {"batches": 1, "mesh_repair": False}),
-    # a goal whose spheres sink into the table: planned with its contact from the first attempt, and without
-    # the preset's endpoint contact by the goal-contact retry
-    "mbm_table_pick_0041": (("mbm", "table_pick", 41, "mbm"), {"batches": 1, "endpoint_contact": False}),
+    # a goal whose spheres sink into the table: planned with its contact from the first attempt; without the
+    # preset's endpoint contact, by the goal-contact retry when the spheres judge too, and by the first
+    # attempt when the meshes alone judge
+    "mbm_table_pick_0041": (("mbm", "table_pick", 41, "mbm"),
+                            {"batches": 1, "endpoint_contact": False, "spheres_judge": True}),
+    "mbm_table_pick_0041_meshes": (("mbm", "table_pick", 41, "mbm"), {"batches": 1, "endpoint_contact": False}),
     "mbm_table_pick_0041_endpoint": (("mbm", "table_pick", 41, "mbm"), {"batches": 1}),
 }
 

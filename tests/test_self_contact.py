@@ -89,3 +89,37 @@ def test_solve_reaches_a_goal_in_sphere_self_contact_with_the_default_preset(pro
     # the self-collision barrier holds the spheres apart: the arms stop short of the goal
     assert not without.success and without.metrics["final_error"] > 0.1 and "self_contact" not in without.settings
     assert not planning.get_preset("paper").endpoint_contact
+
+
+def test_without_spheres_judging_the_meshes_alone_judge_collisions(robot, problem):
+    from gfcs.planning.selection import mesh_contact_only, model_success
+
+    t, q = np.array([0.0, 0.01]), np.stack([GOAL, GOAL])
+    checker = problem.mesh_checker
+    meshes = metrics.trajectory_metrics(robot, problem.scene, t, q, GOAL, mesh_checker=checker, spheres_judge=False)
+    assert meshes["success"] and not meshes["spheres_judged"]
+    assert meshes["reached_within_limits"] and not meshes["sphere_success"]  # the spheres' own verdict stays
+    assert model_success(meshes) and not mesh_contact_only(meshes)
+    both = metrics.trajectory_metrics(robot, problem.scene, t, q, GOAL, mesh_checker=checker)
+    assert not both["success"] and both["spheres_judged"] and not model_success(both)
+    # without meshes to judge, the spheres always do
+    alone = metrics.trajectory_metrics(robot, problem.scene, t, q, GOAL, spheres_judge=False)
+    assert not alone["success"] and alone["spheres_judged"]
+    # meshes that touch fail either way, and count as a mesh contact to repair
+    near = two_arms(separation=0.18)
+    crossing = metrics.trajectory_metrics(near, gfcs.Scene(), t, q, GOAL, mesh_checker=gfcs.MeshChecker(near),
+                                          spheres_judge=False)
+    assert not crossing["success"] and mesh_contact_only(crossing)
+
+
+def test_solve_lets_the_meshes_judge_a_path_through_sphere_contact(problem):
+    # a fabric blind to self-collision drives the spheres 2 cm into each other at the goal while the boxes
+    # stay apart: a valid motion for a mesh validator
+    blind = dataclasses.replace(planning.get_preset("default"), endpoint_contact=False,
+                                fabric={"self_collision": {"enabled": False}})
+    meshes = planning.solve(problem, preset=blind, policies=[], **SMALL)
+    assert meshes.success and meshes.settings["spheres_judge"] is False
+    assert meshes.metrics["min_self_clearance"] < -0.01 and not meshes.metrics["sphere_success"]
+    spheres = planning.solve(problem, preset=blind, policies=[], spheres_judge=True, **SMALL)
+    assert not spheres.success and spheres.settings["spheres_judge"] is True
+    assert planning.get_preset("paper").spheres_judge and not planning.get_preset("default").spheres_judge

@@ -65,8 +65,10 @@ def cage32(mbm_dir):
 def test_solve_runs_on_the_thin_spheres(cage32):
     assert cage32.name.endswith("0032") and cage32.mesh_checker is not None
     # the goal sinks covering spheres into the cage's bars that the polytopes clear: without the endpoint
-    # contact no attempt with the configured margins can end there; only the goal-contact retry does
-    no_contact = dataclasses.replace(gfcs.planning.get_preset("default"), endpoint_contact=False)
+    # contact, and with the spheres judging too, no attempt with the configured margins can end there; only
+    # the goal-contact retry does
+    no_contact = dataclasses.replace(gfcs.planning.get_preset("default"), endpoint_contact=False,
+                                     spheres_judge=True)
     covering = optimize.solve(cage32, thin_spheres=False, preset=no_contact)
     assert not any(a.success for a in covering.attempt_records if "goal contact" not in a.attempt.label)
     assert "sphere_model" not in covering.settings

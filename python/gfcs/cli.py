@@ -188,6 +188,10 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="do not repair candidates that failed only on the collision meshes (gfcs.planning.repair: "
                         "the path moved off its mesh contacts, re-timed and judged again; the default preset "
                         "repairs, the paper preset does not)")
+    g.add_argument("--spheres-judge", action="store_true",
+                   help="when a mesh model validates motions, require the collision spheres' clearances too "
+                        "(the paper preset does; the default preset lets the meshes alone judge collisions, as "
+                        "a mesh validator does)")
     g.add_argument("--no-retry", action="store_true",
                    help="run no retry policy (gfcs.planning.policies: one more command, a wider obstacle "
                         "margin after a mesh-only collision, the goal-contact attempt, the covering spheres "
@@ -266,7 +270,8 @@ def _solve_options(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
         raise InvalidValueError(f"--time-limit must be a number of seconds ≥ 0 (0: no limit), got {args.time_limit}")
     given = {"length_slack": args.length_slack, "mesh_margin": args.mesh_margin,
              "stall_batches": args.stall_batches, "restarts": args.restarts,
-             "mesh_repair": False if args.no_mesh_repair else None}
+             "mesh_repair": False if args.no_mesh_repair else None,
+             "spheres_judge": True if args.spheres_judge else None}
     return {"preset": args.preset, "time_limit": args.time_limit or None, "settings": _settings(args),
             "finish": _finish(args, robot), "stall_tol": args.stall_tol,
             **{k: v for k, v in given.items() if v is not None}}

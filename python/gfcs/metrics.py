@@ -448,6 +448,7 @@ def trajectory_metrics(
     deadline: Optional[float] = None,
     sweep_time: Optional[float] = None,
     self_clearance_floor: float = 0.0,
+    spheres_judge: bool = True,
 ) -> Dict[str, Any]:
     """Everything GFCS Table I reports about one trajectory, plus the success criterion.
 
@@ -477,13 +478,19 @@ def trajectory_metrics(
             [m], ≤ 0 (default 0). Below 0 only with a checker, whose link meshes then judge: for an endpoint
             at which two links' spheres overlap while their meshes clear each other
             (:func:`gfcs.planning.policies.endpoint_self_contact`).
+        spheres_judge: whether the sphere clearances enter ``success`` when a mesh checker is given (without
+            one they always do). False: the collision meshes alone judge collisions, as a mesh validator does,
+            and a motion whose spheres overlap an obstacle or each other where the meshes keep their margin
+            succeeds (``sphere_success`` still reports the spheres' verdict).
 
     Returns:
         dict with keys ``success`` (bool: ``sphere_success`` and, with a checker, mesh clearances >
-        ``mesh_margin``),
-        ``sphere_success`` (bool: final error ≤ tol, min sphere clearance ≥ ``clearance_floor`` against
-        obstacles and ≥ ``self_clearance_floor`` against the robot itself,
-        position and velocity limits respected: the verdict of the sphere model alone), ``final_error``
+        ``mesh_margin``; with a checker and ``spheres_judge`` False, ``reached_within_limits`` and the mesh
+        clearances), ``spheres_judged`` (bool: whether the sphere clearances entered ``success``),
+        ``reached_within_limits`` (bool: final error ≤ tol, position and velocity limits respected),
+        ``sphere_success`` (bool: ``reached_within_limits``, min sphere clearance ≥ ``clearance_floor``
+        against obstacles and ≥ ``self_clearance_floor`` against the robot itself: the verdict of the sphere
+        model alone), ``final_error``
         [rad], ``velocity_ratio`` (:func:`velocity_ratio`, ≤ 1 within the velocity limits), ``min_clearance``
         [m] (obstacles, spheres), ``min_self_clearance`` [m], ``within_limits`` (bool), ``duration`` [s],
         ``ee_length`` [m], ``ee_lengths`` ({link: hand path [m]} of each of ``ee_links``, see
@@ -542,10 +549,13 @@ def trajectory_metrics(
         rest = [h for h in hands if h not in known]
         known.update(link_path_lengths(robot, qa, rest) if rest else {})
         extra["ee_lengths"] = {str(h): known[h] for h in hands}
-    sphere_ok = bool(final_error <= tol and clear >= floor and self_clear >= self_floor and limits_ok
-                     and speed_ratio <= 1.0 + VELOCITY_RATIO_TOL)
+    reached_ok = bool(final_error <= tol and limits_ok and speed_ratio <= 1.0 + VELOCITY_RATIO_TOL)
+    sphere_ok = bool(reached_ok and clear >= floor and self_clear >= self_floor)
+    spheres_judged = bool(spheres_judge) or mesh_checker is None
     return {
-        "success": sphere_ok and mesh_ok,
+        "success": (sphere_ok if spheres_judged else reached_ok) and mesh_ok,
+        "spheres_judged": spheres_judged,
+        "reached_within_limits": reached_ok,
         "sphere_success": sphere_ok,
         "final_error": final_error,
         "min_clearance": clear,

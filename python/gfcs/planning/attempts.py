@@ -21,7 +21,8 @@ from gfcs.planning.gfcop import BatchInfo, OptimResult, solve_gfcop
 from gfcs.planning.models import PlanningModel
 from gfcs.planning.rollout import RolloutSettings, fabric_goal
 from gfcs.planning.samplers import Sampler
-from gfcs.planning.selection import Candidate, SelectionOptions, mesh_contact_only, select_candidate
+from gfcs.planning.selection import (Candidate, SelectionOptions, mesh_contact_only, model_success,
+                                     select_candidate)
 from gfcs.results import SolveResult
 
 __all__ = ["Attempt", "AttemptRecord", "OptimOptions", "run_attempt", "combine_records", "combine_attempts"]
@@ -129,7 +130,7 @@ class AttemptRecord:
     @property
     def outcome(self) -> str:
         """``"success"``, ``"mesh contact"`` (a success but for the meshes), ``"not validated in time"`` (a
-        success under the sphere model whose mesh check the budget cut short), ``"failure"`` or
+        success before the meshes whose mesh check the budget cut short), ``"failure"`` or
         ``"not run"``."""
         if self.result is None:
             return "not run"
@@ -138,7 +139,7 @@ class AttemptRecord:
         if self.mesh_collision_only:
             return "mesh contact"
         m = self.result.metrics
-        if m.get("sphere_success") and not m.get("mesh_check_complete", True):
+        if model_success(m) and not m.get("mesh_check_complete", True):
             return "not validated in time"
         return "failure"
 

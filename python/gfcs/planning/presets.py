@@ -65,6 +65,9 @@ class Preset:
             self-collision margins of the sphere pairs the start or the goal brings nearer than the margin
             lowered, and the obstacle margins of the spheres the goal sinks into an obstacle, and the meshes
             judge those contacts (:func:`gfcs.planning.policies.endpoint_contact`).
+        spheres_judge: with a mesh checker, a candidate's sphere clearances must hold too; False: the meshes
+            alone judge collisions, as the validator does, and a motion whose spheres overlap where its
+            meshes keep the margin succeeds (:attr:`gfcs.planning.selection.SelectionOptions.spheres_judge`).
     """
 
     name: str
@@ -81,6 +84,7 @@ class Preset:
     sweep_time: Optional[float] = None
     endpoint_contact: bool = False
     element_spheres: bool = False
+    spheres_judge: bool = True
 
 
 PRESETS: Dict[str, Preset] = {
@@ -95,7 +99,8 @@ PRESETS: Dict[str, Preset] = {
                                                  limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
-                      repair=RepairOptions(), sweep_time=0.25, endpoint_contact=True, element_spheres=True),
+                      repair=RepairOptions(), sweep_time=0.25, endpoint_contact=True, element_spheres=True,
+                      spheres_judge=False),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,

@@ -72,6 +72,8 @@ class SelectionOptions:
             (and may be repaired); None: up to the attempt's deadline.
         self_clearance_floor: how far [m, ≤ 0] the spheres may overlap each other (an endpoint in sphere
             self-contact that the meshes clear: :func:`gfcs.planning.policies.endpoint_self_contact`).
+        spheres_judge: with a mesh checker, the sphere clearances must hold too (the floors above); False:
+            the meshes alone judge collisions (``spheres_judge`` of :func:`gfcs.metrics.trajectory_metrics`).
     """
 
     length_slack: float = 0.1
@@ -81,6 +83,7 @@ class SelectionOptions:
     repair: Optional[RepairOptions] = None
     sweep_time: Optional[float] = None
     self_clearance_floor: float = 0.0
+    spheres_judge: bool = True
 
 
 class _Rollouts:
@@ -145,14 +148,22 @@ def _judge(problem: Any, trajectory: Trajectory, mesh_checker: Any, options: Sel
                                        mesh_margin=options.mesh_margin, clearance_floor=options.clearance_floor,
                                        ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
                                        deadline=deadline, sweep_time=options.sweep_time,
-                                       self_clearance_floor=options.self_clearance_floor)
+                                       self_clearance_floor=options.self_clearance_floor,
+                                       spheres_judge=options.spheres_judge)
+
+
+def model_success(metrics: Dict[str, Any]) -> bool:
+    """The verdict of ``metrics`` (of :func:`gfcs.metrics.trajectory_metrics`) before the meshes: the goal
+    reached and the limits kept, and the spheres clear where they judge too."""
+    key = "sphere_success" if metrics.get("spheres_judged", True) else "reached_within_limits"
+    return bool(metrics.get(key))
 
 
 def mesh_contact_only(metrics: Dict[str, Any]) -> bool:
     """Whether ``metrics`` (of :func:`gfcs.metrics.trajectory_metrics`) are those of a motion that failed only
-    because a collision mesh came too near: judged with meshes, a success under the sphere model (goal
-    reached, spheres clear, joint limits kept), and the mesh check finished."""
-    return (not metrics.get("success") and bool(metrics.get("sphere_success"))
+    because a collision mesh came too near: judged with meshes, a success before the meshes
+    (:func:`model_success`), and the mesh check finished."""
+    return (not metrics.get("success") and model_success(metrics)
             and "mesh_clearance" in metrics and bool(metrics.get("mesh_check_complete", True)))
 
 

@@ -86,6 +86,7 @@ def solve(
     stall_tol: float = 0.01,
     endpoint_check: bool = True,
     mesh_repair: Optional[bool] = None,
+    spheres_judge: Optional[bool] = None,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1 and the preset's retry policies) or with the local fabric
     alone (``method="gf"``).
@@ -141,6 +142,9 @@ def solve(
         mesh_repair: with a mesh checker, move candidates that fail only on the meshes off their contacts
             when no candidate succeeds (:mod:`gfcs.planning.repair`); None: the preset's (on / off), True:
             the preset's options or the defaults of :class:`gfcs.planning.repair.RepairOptions`.
+        spheres_judge: with a mesh checker, a motion's sphere clearances must hold too for success; False:
+            the collision meshes alone judge collisions, as a mesh validator does (None: the preset's,
+            off / on; :attr:`gfcs.planning.selection.SelectionOptions.spheres_judge`).
 
     Returns:
         :class:`gfcs.results.SolveResult` (the chosen attempt's motion and metrics; ``attempts``: every
@@ -164,10 +168,11 @@ def solve(
     settings = settings if settings is not None else dataclasses.replace(chosen.settings)
     finish = finish if finish is not None else dataclasses.replace(chosen.finish)
     fabric = _preset_fabric(problem, fabric_config, chosen)
+    judge = chosen.spheres_judge if spheres_judge is None else bool(spheres_judge)
     recorded = {"preset": chosen.name, "time_limit": budget.limit, "mesh_margin": mesh_margin,
-                **finish.to_dict()}
+                "spheres_judge": judge, **finish.to_dict()}
     if method == "gf":
-        result = _solve_gf(problem, fabric, settings, finish, mesh_margin, seed, recorded)
+        result = _solve_gf(problem, fabric, settings, finish, mesh_margin, judge, seed, recorded)
     else:
         n_commands = integer_at_least("n_commands", n_commands, 1)
         plan = _policies(chosen, policies, sampler, n_commands, max_commands, mesh_retry_margin, mesh_retries,
@@ -180,7 +185,8 @@ def solve(
         repair = chosen.repair if mesh_repair is None else (chosen.repair or RepairOptions()) if mesh_repair else None
         options = OptimOptions(batches, population, seed, threads, progress, top_m, sigma0, callback,
                                SelectionOptions(slack, checks, mesh_margin, repair=repair,
-                                                sweep_time=chosen.sweep_time), bool(record_first_batch),
+                                                sweep_time=chosen.sweep_time, spheres_judge=judge),
+                               bool(record_first_batch),
                                stall, non_negative("stall_tol", stall_tol))
         recorded.update(batches=int(batches), population=int(population), sigma0=float(sigma0),
                         top_m=int(top_m), length_slack=slack, mesh_repair=repair is not None,
@@ -214,8 +220,8 @@ def _common(problem: Any, robot: Any, fabric: Any, seed: int) -> Dict[str, Any]:
 
 
 def _solve_gf(problem: Any, fabric: Any, settings: RolloutSettings, finish: FinishOptions, mesh_margin: float,
-              seed: int, recorded: Dict[str, Any]) -> SolveResult:
-    """The GF baseline: one rollout toward the goal."""
+              spheres_judge: bool, seed: int, recorded: Dict[str, Any]) -> SolveResult:
+    """The GF baseline: one rollout toward the goal, judged as a GFCS motion of the preset is."""
     robot, dof = problem.robot, int(problem.robot.dof)
     common = _common(problem, robot, fabric, seed)
     start = time.perf_counter()
@@ -224,7 +230,8 @@ def _solve_gf(problem: Any, fabric: Any, settings: RolloutSettings, finish: Fini
     elapsed = time.perf_counter() - start
     met = _metrics.trajectory_metrics(robot, problem.scene, traj.t, traj.q, common["goal"],
                                       mesh_checker=getattr(problem, "mesh_checker", None), mesh_margin=mesh_margin,
-                                      ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"))
+                                      ee_links=(getattr(problem, "meta", None) or {}).get("ee_links"),
+                                      spheres_judge=spheres_judge)
     with_raw_ldj(met, robot, traj, settings.dt)
     return SolveResult(method="gf", commands=np.zeros((0, dof)), cost=cost, reached=reached, t_stars=t_stars,
                        trajectory=traj, success=bool(met["success"]), metrics=met, n_evaluations=1,
