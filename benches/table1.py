@@ -23,7 +23,7 @@ import argparse
 import subprocess
 import sys
 from pathlib import Path
-from typing import Dict, List, Sequence, Tuple
+from typing import Any, Dict, List, Sequence, Tuple
 
 #: robot -> (problem folder, robot folder, spherized URDF, mesh URDF, SRDF, validator's end-effector link),
 #: relative to the shared folder.
@@ -71,11 +71,9 @@ def validate(shared: Path, robot: str, run: str, out: Path, jobs: int) -> None:
         raise SystemExit(f"table1: the validator failed on {stem} (exit code {code})")
 
 
-def write_machine(out: Path, stem: str) -> None:
-    """Record in ``OUT/machine.json`` under ``stem`` (``<robot>.<run>``) the CPU, its cores, the commit and
-    the date of that run."""
+def machine_info() -> Dict[str, Any]:
+    """The CPU model, its cores, the commit, the date and the load average now."""
     import datetime
-    import json
     import os
     import platform
 
@@ -87,10 +85,17 @@ def write_machine(out: Path, stem: str) -> None:
         cpu = names[0] if names else cpu
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__file__).resolve().parent).stdout.strip() or "unknown"
+    return {"cpu": cpu, "cores": os.cpu_count(), "commit": commit, "date": datetime.date.today().isoformat(),
+            "load": os.getloadavg()[0]}
+
+
+def write_machine(out: Path, stem: str) -> None:
+    """Record in ``OUT/machine.json`` under ``stem`` (``<robot>.<run>``) :func:`machine_info` of that run."""
+    import json
+
     path = out / "machine.json"
     runs = json.loads(path.read_text()) if path.is_file() else {}
-    runs[stem] = {"cpu": cpu, "cores": os.cpu_count(), "commit": commit,
-                  "date": datetime.date.today().isoformat(), "load": os.getloadavg()[0]}
+    runs[stem] = machine_info()
     path.write_text(json.dumps(runs, indent=1) + "\n")
 
 

@@ -183,3 +183,31 @@ def test_report_leaves_a_refused_problem_out_of_every_row_of_its_run(tmp_path, m
     assert sorted((r["problem"], r["label"]) for r in judged) == [("box/0001", "GFCS new (1 b)"),
                                                                   ("box/0001", "GFCS new (5 b)")]
     assert list(refused) == ["box/0002"] and "collision" in refused["box/0002"]
+
+
+def test_speed_section_marks_each_target_from_the_figures():
+    """benches/speed.py's page from given measurements: every target marked met or not by its own figure, the
+    fabrics ratio the median of the runs' ratios, and every table present."""
+    import argparse
+
+    speed = load_script("benches/speed.py")
+    machine = {"cpu": "test CPU", "cores": 2, "commit": "abc1234", "date": "2026-01-01", "load": 0.1}
+    crit = {"mbm_panda_free_space": {"psi": 2.1, "_no_psi": 1.9}, "mbm_panda_cage_scene": {"psi": 8.0, "_no_psi": 7.5}}
+    gfcs_run = {"median_us": 4.0, "rollout_us_per_step": 3.5, "spheres": 81, "self_pairs": 1195, "obstacles": 10}
+    runs = [{"gfcs": dict(gfcs_run, median_us=us), "fabrics": {"median_us": 1600.0, "casadi_median_us": 1400.0}}
+            for us in (4.0, 5.0, 4.5)]
+    solve = {"optimisation": 0.25, "first_batch": 0.05, "batches": 5, "solve": 0.32, "shell": 0.6, "cost": 2.9,
+             "success": True}
+    row = {"problem": "box/0001", "label": "Ours (5 b)", "success": True, "time": 0.3, "cost": 3.0,
+           "ee_length": 1.0, "cspace_length": 5.0}
+    stall = {k: [row, dict(row, label="Ours (5 b, retry)")] for k in (0, 1)}
+    curves = {"obstacles": [{"obstacles": n, "rollout_us": 2.0 * n, "python_us": 2.5 * n} for n in (1, 10, 100)]}
+    args = argparse.Namespace(measurement_time=3.0, stall_limit=1, scaling_repeat=1)
+    page = speed.write(args, machine, crit, runs, [solve] * 3, [dict(solve, batches=2)] * 3, stall, curves)
+    lines = {line.split("|")[1].strip(): line for line in page.splitlines() if line.startswith("| ")}
+    assert "1.90 µs | met" in lines["fabric step, MBM Panda in free space (criterion, Rust)"]
+    assert "7.50 µs | **not met**" in lines["fabric step, MBM Panda in the cage scene (criterion, Rust)"]
+    assert "| 356 | met" in lines["ratio to `fabrics` `compute_action`, 10 obstacles"]  # 1600 / 4.5
+    assert "0.600 s | **not met**" in lines["`gfcs solve` from the shell"]
+    assert "0.050 s | met" in lines["built-in problem: first batch"]
+    assert "Fitted exponent from 10 obstacles on: 1.00" in page and "test CPU" in page

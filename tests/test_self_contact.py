@@ -105,11 +105,11 @@ def test_without_spheres_judging_the_meshes_alone_judge_collisions(robot, proble
     # without meshes to judge, the spheres always do
     alone = metrics.trajectory_metrics(robot, problem.scene, t, q, GOAL, spheres_judge=False)
     assert not alone["success"] and alone["spheres_judged"]
-    # meshes that touch fail either way, and count as a mesh contact to repair
+    # meshes that touch fail either way; with the spheres in contact as well, the mesh repair leaves it
     near = two_arms(separation=0.18)
     crossing = metrics.trajectory_metrics(near, gfcs.Scene(), t, q, GOAL, mesh_checker=gfcs.MeshChecker(near),
                                           spheres_judge=False)
-    assert not crossing["success"] and mesh_contact_only(crossing)
+    assert not crossing["success"] and crossing["reached_within_limits"] and not mesh_contact_only(crossing)
 
 
 def test_solve_lets_the_meshes_judge_a_path_through_sphere_contact(problem):

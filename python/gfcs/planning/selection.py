@@ -161,9 +161,12 @@ def model_success(metrics: Dict[str, Any]) -> bool:
 
 def mesh_contact_only(metrics: Dict[str, Any]) -> bool:
     """Whether ``metrics`` (of :func:`gfcs.metrics.trajectory_metrics`) are those of a motion that failed only
-    because a collision mesh came too near: judged with meshes, a success before the meshes
-    (:func:`model_success`), and the mesh check finished."""
-    return (not metrics.get("success") and model_success(metrics)
+    because a collision mesh came too near: judged with meshes, a success under the sphere model (goal
+    reached, spheres clear, limits kept) and the mesh check finished. These are the candidates the mesh
+    repair moves, whether or not the spheres judge success: a path whose spheres overlap an obstacle as well
+    sits deeper in it than a local correction reaches (UR5 cage problems: repairing such candidates first
+    spent the budget that the repair of a sphere-clear one needed)."""
+    return (not metrics.get("success") and bool(metrics.get("sphere_success"))
             and "mesh_clearance" in metrics and bool(metrics.get("mesh_check_complete", True)))
 
 

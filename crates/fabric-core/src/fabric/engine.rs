@@ -30,10 +30,10 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::components::{Attractor, Barrier};
+use super::components::{Attractor, Barrier, BarrierEval};
 use super::config::{FabricConfig, GoalSpace};
 use super::energy::{ConstantMass, TanhMass};
-use super::leaves::{obstacle_leaf, self_collision_leaf};
+use super::leaves::{obstacle_leaf, self_collision_leaf, LeafState};
 use super::root::RootSystem;
 use super::speed::EeMotion;
 use crate::error::{check_finite, check_len, check_policy_inputs, FabricError, Result};
@@ -817,15 +817,7 @@ impl Fabric {
                 &mut ws.jrow,
             );
             let bv = self.self_collision.eval(leaf.x, leaf.xd, ws.with_potential);
-            ws.root.add_scalar(
-                &ws.jrow[..leaf.width],
-                leaf.jdot_qdot,
-                bv.m,
-                bv.xi,
-                bv.f,
-                bv.grad,
-                bv.psi,
-            );
+            add_barrier_leaf(&mut ws.root, &ws.jrow, &leaf, &bv);
             leaves += 1;
         }
 
@@ -869,15 +861,7 @@ impl Fabric {
                             continue;
                         }
                         let bv = self.obstacles.eval(leaf.x, leaf.xd, ws.with_potential);
-                        ws.root.add_scalar(
-                            &ws.jrow[..leaf.width],
-                            leaf.jdot_qdot,
-                            bv.m,
-                            bv.xi,
-                            bv.f,
-                            bv.grad,
-                            bv.psi,
-                        );
+                        add_barrier_leaf(&mut ws.root, &ws.jrow, &leaf, &bv);
                         leaves += 1;
                     }
                 }
@@ -991,6 +975,20 @@ fn add_attractor_3d(att: &Attractor<TanhMass>, ws: &mut FabricWorkspace, target:
         &ws.f[..3],
         &ws.grad[..3],
         e.psi,
+    );
+}
+
+/// Pull back the barrier `bv` evaluated on the 1-D leaf `leaf`, whose row Jacobian is in `jrow` (its
+/// leading `leaf.width` entries: the rest are zero).
+fn add_barrier_leaf(root: &mut RootSystem, jrow: &[f64], leaf: &LeafState, bv: &BarrierEval) {
+    root.add_scalar(
+        &jrow[..leaf.width],
+        leaf.jdot_qdot,
+        bv.m,
+        bv.xi,
+        bv.f,
+        bv.grad,
+        bv.psi,
     );
 }
 
