@@ -20,6 +20,8 @@ The targets are those of the speed issue; each is marked met or not met from the
 
     GFCS_SHARED=../shared python benches/speed.py --fabrics-python fenv/bin/python
     python benches/report.py
+
+The raw measurements go to ``benches/results/speed.json``; ``--rewrite`` writes the page from them again.
 """
 
 from __future__ import annotations
@@ -56,8 +58,11 @@ def shared_dir() -> Path:
 
 
 def run(cmd: Sequence[str], **kwargs: Any) -> subprocess.CompletedProcess:
+    """Run ``cmd`` in the repository with the shared data folder set. Python may write its bytecode cache
+    (an installed package has one), so that the processes timed here do not compile gfcs every time."""
     print("$", " ".join(str(c) for c in cmd), file=sys.stderr)
-    env = {**os.environ, "GFCS_SHARED": str(shared_dir())}
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["GFCS_SHARED"] = str(shared_dir())
     return subprocess.run([str(c) for c in cmd], check=True, env=env, cwd=ROOT, **kwargs)
 
 
@@ -68,7 +73,8 @@ def criterion(measurement_time: float) -> Dict[str, Dict[str, float]]:
     out: Dict[str, Dict[str, float]] = {}
     for case in CRITERION_CASES:
         for suffix in ("", "_no_psi"):
-            est = ROOT / "target" / "criterion" / "acceleration" / (case + suffix) / "new" / "estimates.json"
+            # criterion writes the group "acceleration" and the case as one folder name
+            est = ROOT / "target" / "criterion" / f"acceleration_{case}{suffix}" / "new" / "estimates.json"
             if est.is_file():
                 out.setdefault(case, {})[suffix or "psi"] = json.loads(est.read_text())["median"]["point_estimate"] / 1e3
     return out
@@ -98,6 +104,8 @@ def builtin_solves(repeats: int, extra: Sequence[str] = ()) -> List[Dict[str, fl
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "solve.json"
+        # one untimed run first: the bytecode cache and the file system cache, as after an installation
+        run([sys.executable, "-m", "gfcs", "solve", "--json", path, *extra], stdout=subprocess.DEVNULL)
         for _ in range(repeats):
             t0 = time.perf_counter()
             run([sys.executable, "-m", "gfcs", "solve", "--json", path, *extra], stdout=subprocess.DEVNULL)
@@ -264,22 +272,34 @@ def write(args: argparse.Namespace, m: Dict[str, Any], crit: Dict[str, Dict[str,
 def main(argv: Sequence[str] = ()) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--fabrics-python", help="python of an environment with `fabrics` installed (default: skip it)")
-    p.add_argument("--repeats", type=int, default=3, help="interleaved runs of the fabrics comparison and solves")
+    p.add_argument("--repeats", type=int, default=5, help="interleaved runs of the fabrics comparison and solves")
     p.add_argument("--measurement-time", type=float, default=3.0, help="criterion seconds per case")
     p.add_argument("--stall-limit", type=int, default=10, help="MBM Panda problems per class of the early-stop study")
     p.add_argument("--scaling-repeat", type=int, default=3, help="best-of count of the scaling curves")
     p.add_argument("--out", type=Path, default=ROOT / "benches" / "results" / "speed.md")
+    p.add_argument("--measurements", type=Path, default=ROOT / "benches" / "results" / "speed.json",
+                   help="the raw measurements, written by a run and read by --rewrite")
+    p.add_argument("--rewrite", action="store_true", help="write the page from --measurements, measuring nothing")
     args = p.parse_args(list(argv) or None)
-    m = machine_info()
-    if m["load"] > 0.5:
-        print(f"speed: load average {m['load']:.2f} at the start: the machine is not quiet", file=sys.stderr)
-    crit = criterion(args.measurement_time)
-    cmp_runs = compare_fabrics(args.fabrics_python, args.repeats)
-    solves = builtin_solves(args.repeats)
-    stall_solves = builtin_solves(args.repeats, ["--stall-batches", "1"])
-    stall = stall_study(args.stall_limit, (0, 1, 2))
-    curves = scaling(args.scaling_repeat, ROOT / "docs" / "figures" / "scaling.png")
-    args.out.write_text(write(args, m, crit, cmp_runs, solves, stall_solves, stall, curves))
+    if args.rewrite:
+        raw = json.loads(args.measurements.read_text())
+    else:
+        raw = {"machine": machine_info()}
+        if raw["machine"]["load"] > 0.5:
+            print(f"speed: load average {raw['machine']['load']:.2f} at the start: the machine is not quiet",
+                  file=sys.stderr)
+        raw["criterion"] = criterion(args.measurement_time)
+        raw["fabrics"] = compare_fabrics(args.fabrics_python, args.repeats)
+        raw["solves"] = builtin_solves(args.repeats)
+        raw["stall_solves"] = builtin_solves(args.repeats, ["--stall-batches", "1"])
+        raw["stall"] = stall_study(args.stall_limit, (0, 1, 2))
+        raw["curves"] = scaling(args.scaling_repeat, ROOT / "docs" / "figures" / "scaling.png")
+        raw["options"] = {k: getattr(args, k) for k in ("measurement_time", "stall_limit", "scaling_repeat")}
+        args.measurements.write_text(json.dumps(raw, indent=1) + "\n")
+    opts = argparse.Namespace(**raw["options"])
+    stall = {int(k): v for k, v in raw["stall"].items()}
+    args.out.write_text(write(opts, raw["machine"], raw["criterion"], raw["fabrics"], raw["solves"],
+                              raw["stall_solves"], stall, raw["curves"]))
     print(f"wrote {args.out}", file=sys.stderr)
     return 0
 

@@ -1053,7 +1053,11 @@ fn stall_detection_stops_rollouts_without_progress() {
     });
     assert_eq!(captured.reason, StopReason::Reached);
     assert_eq!(captured.t_star, captured.t_end);
-    assert!((2.0..=2.03).contains(&captured.t_star), "t* = {}", captured.t_star);
+    assert!(
+        (2.0..=2.03).contains(&captured.t_star),
+        "t* = {}",
+        captured.t_star
+    );
     for capture_tol in [0.015, 0.0] {
         let held = walled_run(&RolloutOptions {
             capture_tol,

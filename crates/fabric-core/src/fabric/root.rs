@@ -186,7 +186,11 @@ impl RootSystem {
         psi: f64,
     ) {
         let n = self.dim();
-        assert!(j.len() <= n, "row Jacobian of {} entries for dimension {n}", j.len());
+        assert!(
+            j.len() <= n,
+            "row Jacobian of {} entries for dimension {n}",
+            j.len()
+        );
         let c = m * jdqd;
         let (ex, ef) = (xi + c, f + c);
         let (mm, xs, fs, gs) = (

@@ -271,7 +271,11 @@ mod tests {
             assert!(cholesky_in_place(&mut l));
             let mut x = b.clone();
             cholesky_solve_many(&l, [&mut x]);
-            let reference = a.clone().cholesky().unwrap().solve(&DVector::from_vec(b.clone()));
+            let reference = a
+                .clone()
+                .cholesky()
+                .unwrap()
+                .solve(&DVector::from_vec(b.clone()));
             for i in 0..n {
                 assert!((x[i] - reference[i]).abs() < 1e-10);
             }
