@@ -123,3 +123,13 @@ def test_solve_lets_the_meshes_judge_a_path_through_sphere_contact(problem):
     spheres = planning.solve(problem, preset=blind, policies=[], spheres_judge=True, **SMALL)
     assert not spheres.success and spheres.settings["spheres_judge"] is True
     assert planning.get_preset("paper").spheres_judge and not planning.get_preset("default").spheres_judge
+
+
+def test_replay_judges_as_the_solve_judged(problem):
+    blind = dataclasses.replace(planning.get_preset("default"), endpoint_contact=False,
+                                fabric={"self_collision": {"enabled": False}})
+    meshes = planning.solve(problem, preset=blind, policies=[], **SMALL)
+    again = planning.replay(meshes, problem.scene, mesh_checker=problem.mesh_checker)
+    assert again.success and not again.metrics["spheres_judged"]
+    spheres = dataclasses.replace(meshes, settings={**meshes.settings, "spheres_judge": True})
+    assert not planning.replay(spheres, problem.scene, mesh_checker=problem.mesh_checker).success

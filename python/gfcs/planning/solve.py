@@ -430,8 +430,10 @@ def replay(
     cmds = np.asarray(result.commands if commands is None else commands, dtype=np.float64).reshape(-1, result.dof)
     traj, cost, reached, t_stars = rollout_commands(fabric, result.q0, result.qd0, result.goal, cmds, settings,
                                                     finish)
+    # judged as the solve judged it (results from before the switch: the spheres judged too)
     met = _metrics.trajectory_metrics(robot, scene, traj.t, traj.q, result.goal, mesh_checker=mesh_checker,
-                                      mesh_margin=mesh_margin)
+                                      mesh_margin=mesh_margin,
+                                      spheres_judge=bool(stored.get("spheres_judge", True)))
     with_raw_ldj(met, robot, traj, settings.dt)
     return dataclasses.replace(result, commands=cmds, trajectory=traj, cost=cost, reached=reached,
                                t_stars=t_stars, metrics=met, success=bool(met["success"]), robot=robot)
