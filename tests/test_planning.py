@@ -181,6 +181,14 @@ def test_the_result_lists_every_attempt_and_survives_json(retried_problem):
     assert all(a["time"] > 0 and a["n_evaluations"] == 4 for a in back.attempts)
 
 
+def test_json_encoding_keeps_arrays_exact_and_spells_non_finite_values():
+    enc = gfcs.results._enc
+    finite = np.array([[0.1, -2.5], [1e-300, 3.0]])
+    assert enc(finite) == finite.tolist() and enc(np.array([True, False])) == [True, False]
+    assert enc(np.array([1.0, np.inf, -np.inf, np.nan])) == [1.0, "Infinity", "-Infinity", "NaN"]
+    assert enc({"a": np.arange(3), "b": (np.float64(np.nan),)}) == {"a": [0, 1, 2], "b": ["NaN"]}
+
+
 def test_a_tiny_budget_lists_what_was_tried_and_what_was_not(retried_problem):
     r = planning.solve(retried_problem, time_limit=1e-3, **SMALL)
     assert not r.success and r.time_limit == 1e-3

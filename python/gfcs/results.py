@@ -58,6 +58,10 @@ _NONFINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
 def _enc(x: Any) -> Any:
     """JSON-ready copy of ``x``: numpy -> lists/scalars, non-finite floats -> strings."""
     if isinstance(x, np.ndarray):
+        # an array of finite numbers or of booleans is JSON-ready as its list (the trajectories: most of a
+        # result); one holding non-finite floats or objects goes element by element
+        if x.dtype.kind in "biu" or (x.dtype.kind == "f" and bool(np.isfinite(x).all())):
+            return x.tolist()
         return _enc(x.tolist())
     if isinstance(x, (np.bool_, bool)):
         return bool(x)

@@ -87,7 +87,9 @@ class SelectionOptions:
 
 
 class _Rollouts:
-    """Rolls candidates of ``opt`` out on demand, several in one parallel batch, each once."""
+    """Rolls candidates of ``opt`` out on demand, several in one parallel batch, each once, and finishes a
+    candidate (:func:`gfcs.planning.finish.finish_rollout`) only when it is asked for: the near-optimal
+    ordering reads the fabric's own rollouts, and usually one candidate is finished and judged."""
 
     def __init__(self, fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
                  finish: FinishOptions, threads: Optional[int]) -> None:
@@ -97,30 +99,38 @@ class _Rollouts:
         self.qd0 = np.asarray(problem.qd0, dtype=np.float64)
         self.goal = np.asarray(problem.goal, dtype=np.float64)
         self.commanded = fabric_goal(fabric, self.goal, settings.limit_hold_off)
+        self.rolled: Dict[int, Any] = {}
         self.done: Dict[int, Candidate] = {}
 
-    def __call__(self, *ks: int) -> Candidate:
-        """Roll out the candidates ``ks`` not rolled yet; the last one's :class:`Candidate`."""
-        todo = [k for k in dict.fromkeys(ks) if k not in self.done]
+    def rollouts(self, *ks: int) -> List[Any]:
+        """The recorded ``gfcs.SequenceRollout`` of each of ``ks``, those not rolled yet in one batch."""
+        todo = [k for k in dict.fromkeys(ks) if k not in self.rolled]
         if todo:
             x = np.stack([np.asarray(self.opt.all_x[k], dtype=np.float64) for k in todo])
             *_, seqs = self.fabric.evaluate(self.q0, self.qd0, self.commanded, x, threads=self.threads,
                                             return_trajectories=True, **self.settings.as_kwargs())
-            dof = self.goal.shape[0]
-            for k, row, seq in zip(todo, x, seqs):
-                traj, cost, reached, t_stars = finish_rollout(self.fabric, seq, self.goal, self.settings.dt,
-                                                              self.finish)
-                self.done[k] = Candidate(k, row.reshape(self.n, dof), traj, cost, reached, t_stars)
-        return self.done[ks[-1]]
+            self.rolled.update(zip(todo, seqs))
+        return [self.rolled[k] for k in ks]
+
+    def __call__(self, k: int) -> Candidate:
+        """Candidate ``k`` rolled out and finished."""
+        if k not in self.done:
+            seq = self.rollouts(k)[0]
+            traj, cost, reached, t_stars = finish_rollout(self.fabric, seq, self.goal, self.settings.dt,
+                                                          self.finish)
+            commands = np.asarray(self.opt.all_x[k], dtype=np.float64).reshape(self.n, self.goal.shape[0])
+            self.done[k] = Candidate(k, commands, traj, cost, reached, t_stars)
+        return self.done[k]
 
 
 def _preference(opt: OptimResult, penalty: float, options: SelectionOptions, roll: _Rollouts,
                 robot: Any, deadline: Optional[float]) -> List[int]:
     """Candidate indices in the order they are tried (see the module docstring): the lowest-cost one, then
     those that reached the goal (cost < ``penalty``), at most ``mesh_candidates``; with ``length_slack`` the
-    near-optimal ones first, shortest hand path first. The near-optimal reordering rolls every near-optimal
-    candidate out in one batch; it is skipped when the longest optimiser batch would not end before the
-    deadline."""
+    near-optimal ones first, shortest hand path of the fabric's rollout first (finishing re-times that path
+    and appends the goal blend, a few millimetres at most). The near-optimal reordering rolls every
+    near-optimal candidate out in one batch; it is skipped when the longest optimiser batch would not end
+    before the deadline."""
     order = np.argsort(opt.all_costs, kind="stable")
     keep = [int(order[0])] + [int(k) for k in order[1:] if opt.all_costs[k] < penalty]
     keep = keep[:max(1, int(options.mesh_candidates))]
@@ -128,8 +138,8 @@ def _preference(opt: OptimResult, penalty: float, options: SelectionOptions, rol
     longest = float(np.max(opt.batch_times)) if len(opt.batch_times) else 0.0
     if options.length_slack > 0 and best < penalty and not _past(deadline, longest):
         near = [k for k in keep if opt.all_costs[k] <= (1.0 + options.length_slack) * best]
-        roll(*near)
-        hand = {k: _metrics.path_length(robot.ee_position(roll(k).trajectory.q)) for k in near}
+        hand = {k: _metrics.path_length(robot.ee_position(np.asarray(seq.q)))
+                for k, seq in zip(near, roll.rollouts(*near))}
         near.sort(key=lambda k: hand[k])  # stable: equal lengths stay in cost order
         keep = near + [k for k in keep if k not in hand]
     return keep
