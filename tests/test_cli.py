@@ -109,12 +109,16 @@ def test_solve_validates_with_the_mesh_model_beside_a_spherized_robot(tmp_path):
 
 def test_solve_takes_the_spheres_of_the_spherized_model_beside_a_mesh_robot(tmp_path):
     """--robot X.urdf without spheres, X_spherized.urdf beside it (MotionBenchMaker's layout): the fabric
-    avoids obstacles with the twin's spheres (said on stderr) and X's own geometry validates the motion."""
+    avoids obstacles with the twin's spheres (said on stderr) and X's own geometry validates the motion;
+    without a twin, with spheres fitted to X's geometry."""
     mesh_model = tmp_path / "arm.urdf"
     other_arm = tmp_path / "other_arm.urdf"  # not a Panda: its forearm is 1 cm longer
     other_arm.write_text(panda_with('<box size="0.1 0.2 0.1"/>').replace('xyz="0.0825 0 0"', 'xyz="0.0925 0 0"', 1))
     r = run("solve", "--method", "gf", "--class", "box", "--robot", str(other_arm))
-    assert r.returncode == 2 and "no collision spheres" in r.stderr  # no twin: the one-line refusal
+    # no twin: spheres fitted to its own geometry (gfcs.sphere_fit), said on stderr
+    assert r.returncode in (0, 1), r.stderr
+    assert "no collision spheres on 1 link(s)" in r.stderr and "fitted to their geometry" in r.stderr
+    assert "checked   collision meshes" in r.stdout
     mesh_model.write_text(panda_with('<box size="0.1 0.2 0.1"/>'))
     (tmp_path / "arm_spherized.urdf").write_text(panda_with('<sphere radius="0.05"/>'))
     r = run("solve", "--method", "gf", "--class", "box", "--robot", str(mesh_model))

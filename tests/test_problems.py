@@ -273,6 +273,11 @@ def test_continuous_goals_turn_the_short_way_and_bounds_snap_only_within_toleran
     cont = _one_joint_robot("continuous", "")
     rev = _one_joint_robot("revolute")
     assert continuous_mask(cont).tolist() == [True] and continuous_mask(rev).tolist() == [False]
+    # a revolute joint limited to ∓2π (the xArm's, many UR descriptions') is bounded: its goal is not wrapped,
+    # though its range is the one the core gives continuous joints
+    full = _one_joint_robot("revolute", f'lower="{-math.tau!r}" upper="{math.tau!r}"')
+    assert full.lower.tolist() == [-math.tau] and full.continuous.tolist() == [False]
+    assert continuous_mask(full).tolist() == [False] and cont.continuous.tolist() == [True]
     np.testing.assert_allclose(unwrap_goal([3.0], [-3.0], [True]), [math.tau - 3.0])
     assert unwrap_goal([3.0], [-3.0], [False]).tolist() == [-3.0]
     q, moved = snap_to_bounds(rev, [math.pi])  # a request's π against a URDF bound of 3.14159
@@ -281,6 +286,33 @@ def test_continuous_goals_turn_the_short_way_and_bounds_snap_only_within_toleran
     assert q.tolist() == [3.2] and moved == []
     assert snap_to_bounds(cont, [9.0])[0].tolist() == [9.0]
     problems.Problem("p", cont, gfcs_scene(), [9.0], [-9.0])  # continuous: any angle
+
+
+def test_a_request_keeps_the_goal_of_a_revolute_joint_limited_to_two_turns(tmp_path):
+    """MoveIt compares a revolute joint's goal as written, whatever its range; a continuous joint's modulo 2π
+    (the goal is commanded as the equivalent angle nearest the start)."""
+    import math
+
+    (tmp_path / "scene0001.yaml").write_text("name: s\nworld:\n  collision_objects: []\n")
+    (tmp_path / "request0001.yaml").write_text("""group_name: g
+start_state:
+  joint_state:
+    name: [j]
+    position: [3.0]
+goal_constraints:
+  - joint_constraints:
+      - joint_name: j
+        position: -3.0
+        tolerance_above: 0.001
+        tolerance_below: 0.001
+        weight: 1.0
+""")
+    full = _one_joint_robot("revolute", f'lower="{-math.tau!r}" upper="{math.tau!r}"')
+    cont = _one_joint_robot("continuous", "")
+    load = lambda robot: problems.load_mbm(tmp_path / "scene0001.yaml", tmp_path / "request0001.yaml",
+                                           robot=robot)
+    assert load(full).goal.tolist() == [-3.0]
+    assert load(cont).goal.tolist() == pytest.approx([math.tau - 3.0])
 
 
 def gfcs_scene():

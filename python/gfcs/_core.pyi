@@ -139,6 +139,10 @@ class Robot:
     def velocity_limits(self) -> FloatArray:
         """(dof,) velocity limits, rad/s or m/s (inf when absent)."""
     @property
+    def continuous(self) -> npt.NDArray[np.bool_]:
+        """(dof,) bool: URDF ``continuous`` joints (no position limits; ``lower`` / ``upper`` of ∓2π are their
+        sampling range). A revolute joint whose limits happen to be ∓2π is not."""
+    @property
     def ee_link(self) -> str: ...
     @property
     def base_link(self) -> str: ...

@@ -319,6 +319,19 @@ def _robot(args: argparse.Namespace) -> Any:
         print(f"gfcs: {args.robot} has no collision spheres; its links move as the shipped Panda's, so the "
               "fabric uses the shipped Panda's spheres (they cover the Franka collision meshes)", file=sys.stderr)
         return shipped
+    bare = links_without_spheres(robot)
+    if bare:  # a mesh description with no spheres of its own or beside it (most MoveIt robots)
+        import time
+
+        from gfcs.sphere_fit import with_fitted_spheres
+
+        started = time.perf_counter()
+        fitted = with_fitted_spheres(robot)
+        print(f"gfcs: {args.robot} has no collision spheres on {len(bare)} link(s) with collision geometry; the "
+              f"fabric uses {len(fitted.sphere_radii) - len(robot.sphere_radii)} spheres fitted to their "
+              f"geometry in {time.perf_counter() - started:.1f} s (gfcs.sphere_fit; --spheres FILE for your own, "
+              "tools/fit_spheres.py fits tighter ones)", file=sys.stderr)
+        robot = fitted
     return with_gap_spheres(robot)  # MotionBenchMaker's panda_spherized.urdf gets --robot mbm's spheres
 
 

@@ -27,7 +27,13 @@ BOUNDS_TOLERANCE = 1e-3
 
 
 def continuous_mask(robot: Any) -> np.ndarray:
-    """(dof,) bool: the active joints that are continuous (the core's range [−2π, 2π] exactly)."""
+    """(dof,) bool: the active joints that are URDF ``continuous`` joints (``Robot.continuous``). A revolute
+    joint limited to [−2π, 2π] (the xArm's, many UR descriptions') is bounded: its goal is not wrapped. An
+    object without ``continuous`` (a stand-in robot) counts the joints whose range is the core's [−2π, 2π]
+    for continuous joints."""
+    flags = getattr(robot, "continuous", None)
+    if flags is not None:
+        return np.asarray(flags, dtype=bool)
     lower = np.asarray(robot.lower, dtype=np.float64)
     upper = np.asarray(robot.upper, dtype=np.float64)
     return (lower == -math.tau) & (upper == math.tau)

@@ -350,6 +350,13 @@ impl PyRobot {
         )
     }
 
+    /// Per active joint, (dof,) bool: a URDF `continuous` joint (no position limits: `lower` / `upper` of
+    /// ∓2π are its sampling range). A revolute joint whose limits happen to be ∓2π is not.
+    #[getter]
+    fn continuous<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<bool>>> {
+        typed_output(py, self.inner.continuous().to_vec(), &[self.inner.dof()])
+    }
+
     /// End-effector link name.
     #[getter]
     fn ee_link(&self) -> String {

@@ -562,10 +562,10 @@ impl Fabric {
                 what: "scene".into(),
                 message: format!(
                     "robot '{}' has no collision spheres, so the fabric cannot avoid the scene's {} \
-                     obstacles (its URDF collision elements are meshes or boxes, or none): load it with \
-                     spheres (a spherized URDF; Robot.from_urdf(..., spheres=FILE) or --spheres FILE, \
-                     which tools/fit_spheres.py fits to the collision meshes), or disable \
-                     obstacles in the fabric config",
+                     obstacles (its URDF collision elements are meshes or boxes, or none): give it \
+                     spheres (gfcs.sphere_fit.with_fitted_spheres(robot) fits them to its collision \
+                     geometry; or a spherized URDF, Robot.from_urdf(..., spheres=FILE), --spheres FILE), \
+                     or disable obstacles in the fabric config",
                     self.robot.name(),
                     scene.len()
                 ),

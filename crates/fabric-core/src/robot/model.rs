@@ -140,6 +140,9 @@ pub struct Robot {
     pub(crate) lower: Vec<f64>,
     pub(crate) upper: Vec<f64>,
     pub(crate) velocity_limits: Vec<f64>,
+    /// Per active joint: a URDF `continuous` joint (its [`Robot::lower`] / [`Robot::upper`] of ∓2π are a
+    /// sampling range, not limits).
+    pub(crate) continuous: Vec<bool>,
     pub(crate) spheres: Vec<CollisionSphere>,
     /// Link pairs (i < j) whose collisions are disabled by an SRDF.
     pub(crate) disabled: Vec<(usize, usize)>,
@@ -207,6 +210,12 @@ impl Robot {
     /// `f64::INFINITY` for a continuous joint without one).
     pub fn velocity_limits(&self) -> &[f64] {
         &self.velocity_limits
+    }
+
+    /// Per active joint, shape (dof,): whether it is a URDF `continuous` joint (no position limits; its
+    /// ∓2π range is a sampling range). A revolute joint whose limits happen to be ∓2π is not.
+    pub fn continuous(&self) -> &[bool] {
+        &self.continuous
     }
 
     /// Every link name, indexed by link index (depth-first order from the base link, index 0).

@@ -262,9 +262,11 @@ fn drives(
     Ok(out)
 }
 
-/// Position and velocity limits of the active joints.
-fn limits(g: &Graph, active: &[usize]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-    let (mut lo, mut hi, mut vel) = (Vec::new(), Vec::new(), Vec::new());
+/// Position and velocity limits of the active joints, and which of them are continuous.
+type Limits = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<bool>);
+
+fn limits(g: &Graph, active: &[usize]) -> Result<Limits> {
+    let (mut lo, mut hi, mut vel, mut cont) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for &j in active {
         let joint = &g.urdf.joints[j];
         let lim = &joint.limit;
@@ -296,8 +298,9 @@ fn limits(g: &Graph, active: &[usize]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)>
         lo.push(l);
         hi.push(u);
         vel.push(v);
+        cont.push(continuous);
     }
-    Ok((lo, hi, vel))
+    Ok((lo, hi, vel, cont))
 }
 
 /// Tree joints (indexed by child tree link) from the re-rooted graph and the joint drives.
@@ -481,7 +484,7 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
     };
     let active = choose_active(&g, &t, ee, opts, &name)?;
     let drive = drives(&g, &active, opts, &name)?;
-    let (lower, upper, velocity_limits) = limits(&g, &active)?;
+    let (lower, upper, velocity_limits, continuous) = limits(&g, &active)?;
     let joints = tree_joints(&g, &t, &drive)?;
     let (spheres, geometry) = collisions(&g, &t, mesh_dir)?;
     let locked = g
@@ -524,6 +527,7 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
         lower,
         upper,
         velocity_limits,
+        continuous,
         spheres,
         disabled: Vec::new(),
         self_pairs: Vec::new(),

@@ -1,0 +1,173 @@
+"""Collision spheres fitted to a robot's collision geometry in about a second: the fabric's spheres for a
+robot whose description has none.
+
+The fabric avoids obstacles and itself with collision spheres. A MotionBenchMaker robot ships a spherized
+URDF, the shipped Panda its own spheres; a URDF with meshes only (most MoveIt descriptions) has none, and a
+fabric without spheres cannot avoid anything. :func:`with_fitted_spheres` gives such a robot spheres that
+contain every point of its collision geometry, on the links that have geometry and no sphere.
+
+Per link, from the points of its collision elements (every vertex and a seeded area-uniform sample of the
+surfaces, :mod:`gfcs.coverage`, in the link frame):
+
+1. for k = 1 … ``max_per_link``: k-means of the points, started at k points spread along the principal axis
+   (Lloyd iterations);
+2. the smallest k whose clusters' summed volume (a sphere around each cluster's mean through its farthest
+   point) is within ``volume_slack`` of the least over all k: more spheres hug a long link more tightly, and
+   past that the volume no longer drops;
+3. each of its clusters' smallest enclosing sphere (Bădoiu-Clarkson iterations, then SLSQP over the
+   cluster's convex hull; the radius covers every point of the cluster exactly), every point of the link then covered (a subsample fits; a point it left
+   out grows the sphere it lies least outside of), every radius grown by ``margin``.
+
+Every point of the geometry lies inside a sphere of its link (tested on generated boxes and cylinders). The
+spheres are conservative, not tight: ``tools/fit_spheres.py`` fits tighter covers (volume-optimal, minutes per
+robot) when the planner should come closer to obstacles.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from gfcs.errors import InvalidValueError
+
+__all__ = ["fit_link_spheres", "fitted_spheres", "with_fitted_spheres"]
+
+#: Largest number of points a link's fit iterates over (a seeded subsample; every point is covered at the end).
+FIT_POINTS = 3000
+
+
+def _hull(points: np.ndarray) -> np.ndarray:
+    """The vertices of the convex hull of ``points`` (M, 3) (all of them when it is flat or tiny): the
+    points that decide an enclosing sphere."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    if points.shape[0] < 5:
+        return points
+    try:
+        return points[ConvexHull(points).vertices]
+    except (QhullError, ValueError):
+        return points
+
+
+def _enclosing_sphere(points: np.ndarray, iterations: int = 100) -> Tuple[np.ndarray, float]:
+    """(centre (3,), radius) of a sphere containing every one of ``points`` (M, 3), the smallest to within
+    the solver's tolerance: Bădoiu-Clarkson iterations (the centre steps toward the farthest point by
+    1/(i + 1)) start SLSQP on min r subject to ‖p − c‖² ≤ r² over the hull's vertices, and the radius is then
+    the one that covers every point from the centre found."""
+    from scipy.optimize import minimize
+
+    hull = _hull(points)
+    c = hull.mean(axis=0)
+    for i in range(1, iterations + 1):
+        far = hull[np.argmax(np.einsum("ij,ij->i", hull - c, hull - c))]
+        c = c + (far - c) / (i + 1)
+    r = float(np.sqrt(np.max(np.einsum("ij,ij->i", hull - c, hull - c))))
+    if hull.shape[0] > 1 and r > 0:
+        res = minimize(lambda x: x[3], np.r_[c, r], jac=lambda x: np.r_[0.0, 0.0, 0.0, 1.0], method="SLSQP",
+                       constraints={"type": "ineq",
+                                    "fun": lambda x: x[3] ** 2 - np.einsum("ij,ij->i", hull - x[:3], hull - x[:3]),
+                                    "jac": lambda x: np.c_[2.0 * (hull - x[:3]), np.full(hull.shape[0], 2.0 * x[3])]},
+                       options={"maxiter": 100, "ftol": 1e-10})
+        if np.all(np.isfinite(res.x)):
+            c = res.x[:3]
+    return c, float(np.sqrt(np.max(np.einsum("ij,ij->i", points - c, points - c))))
+
+
+def _kmeans(points: np.ndarray, k: int, iterations: int = 20) -> np.ndarray:
+    """(M,) cluster labels of ``points`` (M, 3): Lloyd's k-means started at k points spread along the
+    principal axis."""
+    centred = points - points.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    order = np.argsort(centred @ vt[0], kind="stable")
+    centres = points[order[((np.arange(k) + 0.5) * points.shape[0] / k).astype(int)]]
+    label = np.zeros(points.shape[0], dtype=int)
+    for _ in range(iterations):
+        label = np.argmin(((points[:, None, :] - centres[None]) ** 2).sum(axis=2), axis=1)
+        moved = np.array([points[label == j].mean(axis=0) if np.any(label == j) else centres[j] for j in range(k)])
+        if np.allclose(moved, centres, atol=1e-9):
+            break
+        centres = moved
+    return label
+
+
+def _spread(points: np.ndarray, label: np.ndarray) -> float:
+    """Σ over clusters of (largest distance from the cluster's mean)³: the volume (over 4π/3) of the cover
+    by spheres around the means, an upper bound of the enclosing spheres'."""
+    total = 0.0
+    for j in np.unique(label):
+        members = points[label == j]
+        total += float(np.max(np.linalg.norm(members - members.mean(axis=0), axis=1))) ** 3
+    return total
+
+
+def fit_link_spheres(points: Any, max_per_link: int = 8, margin: float = 0.001, volume_slack: float = 0.15,
+                     seed: int = 0) -> List[Tuple[np.ndarray, float]]:
+    """Spheres [(centre (3,) m, radius m)] containing every one of ``points`` (N, 3) with ``margin`` [m] to
+    spare (see the module docstring); [] for no points.
+
+    Raises:
+        gfcs.InvalidValueError: points not (N, 3) finite, ``max_per_link`` < 1, a negative ``margin`` or
+            ``volume_slack``.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
+        raise InvalidValueError(f"points: expected finite (N, 3) coordinates, got shape {pts.shape}")
+    if int(max_per_link) < 1:
+        raise InvalidValueError(f"max_per_link must be >= 1, got {max_per_link}")
+    if not (margin >= 0 and volume_slack >= 0):
+        raise InvalidValueError(f"margin and volume_slack must be >= 0, got {margin} and {volume_slack}")
+    if pts.shape[0] == 0:
+        return []
+    sample = pts
+    if pts.shape[0] > FIT_POINTS:
+        sample = pts[np.random.default_rng(seed).choice(pts.shape[0], FIT_POINTS, replace=False)]
+    labels = [_kmeans(sample, k) for k in range(1, min(int(max_per_link), sample.shape[0]) + 1)]
+    volumes = [_spread(sample, label) for label in labels]
+    best = min(volumes)
+    label = next(lab for lab, v in zip(labels, volumes) if v <= (1.0 + volume_slack) * best)
+    cover = [_enclosing_sphere(sample[label == j]) for j in np.unique(label)]
+    centres = np.array([c for c, _ in cover])
+    radii = np.array([r for _, r in cover])
+    # every point, the ones left out of the subsample too: a point outside every sphere grows the sphere it
+    # lies least outside of
+    dist = np.linalg.norm(pts[:, None, :] - centres[None], axis=2)
+    outside = dist - radii[None]
+    missed = np.flatnonzero(outside.min(axis=1) > 0)
+    for i in missed:
+        j = int(np.argmin(outside[i]))
+        radii[j] = max(radii[j], float(dist[i, j]))
+    return [(centres[j], float(radii[j] + margin)) for j in range(len(radii))]
+
+
+def fitted_spheres(robot: Any, links: Optional[Sequence[str]] = None, max_per_link: int = 8,
+                   margin: float = 0.001) -> List[Tuple[str, List[float], float]]:
+    """Spheres fitted to the collision geometry of ``robot``'s ``links`` (default: every link with geometry),
+    as ``Robot.with_spheres`` takes them: (link, centre in the link frame [m], radius [m]), link by link in
+    ``robot.link_names`` order. Links whose meshes are missing get none."""
+    from gfcs.coverage import _key, _link_points
+
+    points: Dict[str, np.ndarray] = _link_points(tuple(_key(e) for e in robot.collision_geometry()))
+    wanted = None if links is None else set(links)
+    out: List[Tuple[str, List[float], float]] = []
+    for link in robot.link_names:
+        if link not in points or (wanted is not None and link not in wanted):
+            continue
+        for c, r in fit_link_spheres(points[link], max_per_link, margin):
+            out.append((str(link), [float(x) for x in c], math.ceil(r * 1e6) / 1e6))
+    return out
+
+
+def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001) -> Any:
+    """``robot`` with spheres fitted (:func:`fitted_spheres`) on each link whose collision geometry carries
+    no collision sphere (:func:`gfcs.problems.links_without_spheres`), its own spheres kept; ``robot`` itself
+    when every link with geometry has spheres. The SRDF's disabled pairs still apply to the new spheres."""
+    from gfcs.problems import links_without_spheres
+
+    bare = links_without_spheres(robot)
+    if not bare:
+        return robot
+    own = list(zip(robot.sphere_links, np.asarray(robot.sphere_centers_local, dtype=np.float64).reshape(-1, 3).tolist(),
+                   np.asarray(robot.sphere_radii, dtype=np.float64).tolist()))
+    return robot.with_spheres(own + fitted_spheres(robot, bare, max_per_link, margin))

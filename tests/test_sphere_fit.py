@@ -1,0 +1,105 @@
+"""gfcs.sphere_fit: spheres fitted to collision geometry contain every point of it, on the links without
+spheres only, with the SRDF's disabled pairs honoured; a mesh robot with no spheres plans from the CLI."""
+
+import numpy as np
+import pytest
+
+import gfcs
+from gfcs.coverage import sphere_deficits
+from gfcs.sphere_fit import fit_link_spheres, fitted_spheres, with_fitted_spheres
+
+
+def _box_points(size, n=4000, seed=0):
+    """Corners and seeded surface points of a box of ``size`` (3,) centred at the origin."""
+    rng = np.random.default_rng(seed)
+    half = np.asarray(size) / 2
+    pts = rng.uniform(-half, half, (n, 3))
+    face = rng.integers(0, 3, n)
+    pts[np.arange(n), face] = np.where(rng.random(n) < 0.5, -half[face], half[face])
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+    return np.vstack([pts, corners])
+
+
+def _covered(points, spheres, margin=0.0):
+    centres = np.array([c for c, _ in spheres])
+    radii = np.array([r for _, r in spheres])
+    gap = np.linalg.norm(points[:, None] - centres[None], axis=2) - radii[None]
+    return np.min(gap, axis=1)
+
+
+@pytest.mark.parametrize("size", [(0.1, 0.1, 0.1), (0.6, 0.08, 0.08), (0.3, 0.2, 0.02)])
+def test_every_point_lies_inside_a_sphere_with_the_margin_to_spare(size):
+    pts = _box_points(size)
+    spheres = fit_link_spheres(pts, margin=0.002)
+    assert np.max(_covered(pts, spheres)) <= -0.002 + 1e-12
+    # a cover hugs the shape: no sphere much larger than the box's half-diagonal
+    assert max(r for _, r in spheres) <= np.linalg.norm(size) / 2 + 0.002 + 1e-9
+
+
+def test_a_long_link_takes_several_spheres_and_a_cube_one():
+    assert len(fit_link_spheres(_box_points((0.1, 0.1, 0.1)))) == 1
+    long = fit_link_spheres(_box_points((0.6, 0.08, 0.08)))
+    assert len(long) >= 4
+    volume = sum(r**3 for _, r in long) * 4 / 3 * np.pi
+    assert volume < 4 / 3 * np.pi * (np.linalg.norm((0.6, 0.08, 0.08)) / 2) ** 3 / 10  # far below one sphere
+
+
+def test_an_l_shaped_link_is_covered_by_spheres_along_both_arms():
+    pts = np.vstack([_box_points((0.4, 0.05, 0.05)) + [0.2, 0, 0], _box_points((0.05, 0.4, 0.05)) + [0, 0.2, 0]])
+    spheres = fit_link_spheres(pts)
+    assert np.max(_covered(pts, spheres)) < 0
+    centres = np.array([c for c, _ in spheres])
+    assert np.any(centres[:, 0] > 0.25) and np.any(centres[:, 1] > 0.25)
+
+
+def test_the_fit_is_reproducible_and_a_subsample_still_covers_every_point():
+    pts = _box_points((0.5, 0.1, 0.05), n=20000, seed=3)  # more points than the fit iterates over
+    a, b = fit_link_spheres(pts), fit_link_spheres(pts)
+    assert [(c.tolist(), r) for c, r in a] == [(c.tolist(), r) for c, r in b]
+    assert np.max(_covered(pts, a)) < 0
+
+
+@pytest.mark.parametrize("points, kwargs", [
+    (np.zeros((5, 2)), {}), (np.array([[0.0, np.nan, 0.0]]), {}), (np.zeros((5, 3)), {"max_per_link": 0}),
+    (np.zeros((5, 3)), {"margin": -0.1})])
+def test_bad_input_names_the_problem(points, kwargs):
+    with pytest.raises(gfcs.InvalidValueError):
+        fit_link_spheres(points, **kwargs)
+    assert fit_link_spheres(np.zeros((0, 3))) == []
+
+
+ARM = """<robot name="arm">
+  <link name="base"><collision><geometry><box size="0.2 0.2 0.1"/></geometry></collision></link>
+  <link name="upper"><collision><origin xyz="0.2 0 0"/><geometry><box size="0.4 0.06 0.06"/></geometry></collision></link>
+  <link name="fore"><collision><origin xyz="0.15 0 0" rpy="0 1.5708 0"/>
+    <geometry><cylinder radius="0.03" length="0.3"/></geometry></collision>{fore_sphere}</link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="upper"/><origin xyz="0 0 0.1"/>
+    <axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="1" effort="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="upper"/><child link="fore"/><origin xyz="0.4 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-2.5" upper="2.5" velocity="1" effort="1"/></joint>
+</robot>"""
+
+
+def test_a_mesh_robot_gets_spheres_covering_its_geometry_and_keeps_its_srdf():
+    robot = gfcs.Robot.from_urdf(ARM.format(fore_sphere=""), ee_link="fore")
+    assert len(robot.sphere_radii) == 0
+    fitted = with_fitted_spheres(robot)
+    assert set(fitted.sphere_links) == {"base", "upper", "fore"}
+    assert np.all(sphere_deficits(fitted, robot) == 0.0)
+    srdf = '<robot name="arm"><disable_collisions link1="base" link2="fore" reason="Never"/></robot>'
+    pruned = with_fitted_spheres(robot.with_srdf(srdf))
+    links = np.asarray(pruned.sphere_links)
+    pairs = {tuple(sorted((links[a], links[b]))) for a, b in np.asarray(pruned.self_collision_pairs)}
+    assert ("base", "fore") not in pairs
+    assert fitted_spheres(robot, ["upper"]) and {s[0] for s in fitted_spheres(robot, ["upper"])} == {"upper"}
+
+
+def test_only_the_links_without_spheres_are_fitted():
+    sphere = ('<collision><origin xyz="0.15 0 0"/><geometry><sphere radius="0.04"/></geometry></collision>')
+    robot = gfcs.Robot.from_urdf(ARM.format(fore_sphere=""), ee_link="fore",
+                                 spheres=[("fore", [0.15, 0.0, 0.0], 0.2)])
+    fitted = with_fitted_spheres(robot)
+    assert list(fitted.sphere_links).count("fore") == 1 and {"base", "upper"} <= set(fitted.sphere_links)
+    covered = gfcs.Robot.from_urdf(ARM.format(fore_sphere=sphere), ee_link="fore",
+                                   spheres=[(k, [0.0, 0.0, 0.0], 0.5) for k in ("base", "upper", "fore")])
+    assert with_fitted_spheres(covered) is covered
