@@ -98,6 +98,50 @@ def test_cube_mesh_against_sphere_closed_form(cube_checker):
     assert np.all(cube_checker.clearance(scene, np.linspace(0.4, 0.6, 9)[:, None]) <= 0.0)
 
 
+def write_cube_dae(path: Path) -> Path:
+    """The unit cube of :func:`write_cube_obj` as COLLADA: positions of [0, 1]³, placed by a node that
+    translates them by −0.5 (in a library node, scaled by 1), with unit and up-axis tags that MoveIt's
+    loader and trimesh leave unapplied."""
+    corners = " ".join(f"{x} {y} {z}" for z in (0, 1) for y in (0, 1) for x in (0, 1))
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    path.write_text(f"""<?xml version="1.0"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit meter="0.001"/><up_axis>Y_UP</up_axis></asset>
+  <library_geometries><geometry id="cube"><mesh>
+    <source id="p"><float_array id="pa" count="24">{corners}</float_array>
+      <technique_common><accessor source="#pa" count="8" stride="3"/></technique_common></source>
+    <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
+    <polylist count="6"><input semantic="VERTEX" source="#v" offset="0"/><vcount>4 4 4 4 4 4</vcount>
+      <p>{" ".join(str(i) for quad in quads for i in quad)}</p></polylist>
+  </mesh></geometry></library_geometries>
+  <library_nodes><node id="shifted"><translate>-0.5 -0.5 -0.5</translate><instance_geometry url="#cube"/></node>
+  </library_nodes>
+  <library_visual_scenes><visual_scene id="s"><node><scale>1 1 1</scale><instance_node url="#shifted"/></node>
+  </visual_scene></library_visual_scenes><scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>""")
+    return path
+
+
+def test_a_collada_mesh_measures_as_the_same_cube_in_obj(tmp_path):
+    write_cube_dae(tmp_path / "cube.dae")
+    urdf = tmp_path / "slider.urdf"
+    urdf.write_text(slider_urdf('<geometry><mesh filename="cube.dae" scale="0.4 0.4 0.4"/></geometry>'))
+    checker = gfcs.MeshChecker(gfcs.Robot.from_urdf(urdf), max_distance=math.inf)
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        c, q = rng.uniform(-0.8, 0.8, 3), rng.uniform(-0.3, 0.3)
+        sdf = box_sdf(c - [q, 0.0, 0.0], np.full(3, 0.2))
+        if sdf < 1e-3:
+            continue
+        scene = gfcs.Scene()
+        scene.add_sphere(c, 0.05)
+        assert checker.clearance(scene, [q]) == pytest.approx(sdf - 0.05, abs=1e-7)
+    (tmp_path / "broken.dae").write_text("<COLLADA><library_geometries/></COLLADA>")
+    urdf.write_text(slider_urdf('<geometry><mesh filename="broken.dae"/></geometry>'))
+    with pytest.raises(gfcs.GfcsError, match="broken.dae.*no triangles"):
+        gfcs.MeshChecker(gfcs.Robot.from_urdf(urdf))
+
+
 def test_cutoff_reports_inf_and_empty_trajectory():
     urdf = slider_urdf('<geometry><box size="0.2 0.2 0.2"/></geometry>')
     checker = gfcs.MeshChecker(gfcs.Robot.from_urdf(urdf))

@@ -251,7 +251,7 @@ class Scene:
         self, mesh: Union[PathLike, Tuple[ArrayLike, ArrayLike]], pose: Optional[Pose] = None,
         name: Optional[str] = None, scale: Optional[ArrayLike] = None, velocity: Optional[ArrayLike] = None,
     ) -> int:
-        """Triangle mesh from an .obj/.stl path or (vertices (V, 3), faces (F, 3)); solid when closed."""
+        """Triangle mesh from an .obj/.stl/.dae path or (vertices (V, 3), faces (F, 3)); solid when closed."""
     def add_point_cloud(
         self, points: ArrayLike, radius: float = 0.0, pose: Optional[Pose] = None, name: Optional[str] = None,
         velocity: Optional[ArrayLike] = None,

@@ -327,7 +327,7 @@ impl PyScene {
         self.add_obstacle(py, Shape::HalfSpace, pose, name, None)
     }
 
-    /// A triangle mesh: `mesh` is a path to a mesh file (.obj or .stl) or a pair (vertices (V, 3) m,
+    /// A triangle mesh: `mesh` is a path to a mesh file (.obj, .stl or .dae) or a pair (vertices (V, 3) m,
     /// faces (F, 3) vertex indices). `scale` (3,) multiplies the vertices in the mesh frame. Returns its
     /// id. A closed, consistently oriented mesh is solid (signed distance negative inside); any other mesh
     /// is a thin surface (unsigned distance). `MeshError` for a missing or unreadable file.

@@ -1,5 +1,5 @@
-//! Small triangle-mesh readers (Wavefront OBJ, binary and ASCII STL) and the mesh builder that decides
-//! whether a mesh is solid.
+//! Small triangle-mesh readers (Wavefront OBJ, binary and ASCII STL; COLLADA in [`super::collada`]) and the
+//! mesh builder that decides whether a mesh is solid.
 //!
 //! Units: whatever the file holds (URDF meshes are in metres; apply a URDF `scale` yourself with
 //! `TriMesh::scaled`). Errors are [`FabricError::Mesh`] naming the file and the line (OBJ, ASCII STL) or
@@ -23,7 +23,7 @@ fn mesh_err(source: &str, message: impl Into<String>) -> FabricError {
     }
 }
 
-/// Load an `.obj` or `.stl` file (extension, case-insensitive) and build it with [`build_mesh`].
+/// Load an `.obj`, `.stl` or `.dae` file (extension, case-insensitive) and build it with [`build_mesh`].
 pub fn load_mesh(path: &Path) -> Result<TriMesh> {
     let source = path.display().to_string();
     let ext = path
@@ -39,10 +39,15 @@ pub fn load_mesh(path: &Path) -> Result<TriMesh> {
             parse_obj(text, &source)?
         }
         "stl" => parse_stl(&bytes, &source)?,
+        "dae" => {
+            let text = std::str::from_utf8(&bytes)
+                .map_err(|e| mesh_err(&source, format!("not UTF-8 text: {e}")))?;
+            super::collada::parse_dae(text, &source)?
+        }
         _ => {
             return Err(mesh_err(
                 &source,
-                format!("unsupported mesh format '.{ext}' (supported: .obj, .stl)"),
+                format!("unsupported mesh format '.{ext}' (supported: .obj, .stl, .dae)"),
             ))
         }
     };

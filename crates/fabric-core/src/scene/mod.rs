@@ -12,9 +12,10 @@
 //! * `scene` (items re-exported here): [`Scene`] add / move / remove, [`Scene::advance`],
 //!   [`Scene::query`], [`Scene::signed_distance`], [`Scene::shape_distance`].
 //! * [`moveit`]: MoveIt PlanningScene / MotionPlanRequest YAML (MotionBenchMaker).
-//! * [`meshio`]: OBJ / STL readers.
+//! * [`meshio`]: OBJ / STL readers; [`collada`]: the COLLADA (`.dae`) reader.
 //! * [`sampling`]: [`Scene::surface_points`] for the GFCS scene encoding (Sec. IV-B).
 
+pub mod collada;
 pub mod distance;
 pub mod meshio;
 pub mod moveit;
