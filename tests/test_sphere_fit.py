@@ -103,3 +103,28 @@ def test_only_the_links_without_spheres_are_fitted():
     covered = gfcs.Robot.from_urdf(ARM.format(fore_sphere=sphere), ee_link="fore",
                                    spheres=[(k, [0.0, 0.0, 0.0], 0.5) for k in ("base", "upper", "fore")])
     assert with_fitted_spheres(covered) is covered
+
+
+STACK = """<robot name="stack">
+  <link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <link name="middle"><collision><geometry><box size="0.05 0.05 0.05"/></geometry></collision></link>
+  <link name="top"><collision><origin xyz="0.1 0 0"/><geometry><box size="0.3 0.05 0.05"/></geometry></collision></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="middle"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" velocity="1" effort="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="middle"/><child link="top"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" velocity="1" effort="1"/></joint>
+</robot>"""
+
+
+def test_link_pairs_whose_fitted_spheres_always_overlap_are_left_out_as_moveit_setup_assistant_does():
+    """base and top turn about the same point, two joints apart: their fitted spheres overlap whatever the
+    joints do (a pair MoveIt Setup Assistant disables as "always in collision")."""
+    robot = gfcs.Robot.from_urdf(STACK, ee_link="top")
+    left_out = []
+    fitted = with_fitted_spheres(robot, left_out=left_out)
+    assert left_out == [("base", "top")]
+    links = np.asarray(fitted.sphere_links)
+    pairs = {tuple(sorted((links[a], links[b]))) for a, b in np.asarray(fitted.self_collision_pairs)}
+    assert ("base", "top") not in pairs
+    with pytest.raises(gfcs.LinkError):
+        fitted.with_disabled_pairs([("base", "nowhere")])

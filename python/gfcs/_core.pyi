@@ -111,6 +111,9 @@ class Robot:
         """A copy with other collision spheres (self-collision pairs recomputed)."""
     def with_srdf(self, srdf: Union[PathLike, str]) -> Robot:
         """A copy whose self-collision pairs follow the SRDF (path or XML text)."""
+    def with_disabled_pairs(self, pairs: Sequence[Tuple[str, str]]) -> Robot:
+        """A copy whose self-collision checks also leave out these (link, link) pairs, besides the SRDF's
+        (``LinkError`` for an unknown link)."""
     def with_locked_positions(self, positions: Dict[str, float]) -> Robot:
         """A copy with inactive joints held at other positions {joint: rad or m} (e.g. a gripper opened as a
         request's start state says), rebuilt from the same URDF; collision spheres and self-collision pairs

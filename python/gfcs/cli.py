@@ -326,11 +326,15 @@ def _robot(args: argparse.Namespace) -> Any:
         from gfcs.sphere_fit import with_fitted_spheres
 
         started = time.perf_counter()
-        fitted = with_fitted_spheres(robot)
+        left_out: List[Tuple[str, str]] = []
+        fitted = with_fitted_spheres(robot, left_out=left_out)
+        pairs = f"; {len(left_out)} link pair(s) whose spheres always overlap are not self-checked " \
+                f"({', '.join('/'.join(p) for p in left_out[:3])}{', ...' if len(left_out) > 3 else ''})" \
+            if left_out else ""
         print(f"gfcs: {args.robot} has no collision spheres on {len(bare)} link(s) with collision geometry; the "
               f"fabric uses {len(fitted.sphere_radii) - len(robot.sphere_radii)} spheres fitted to their "
-              f"geometry in {time.perf_counter() - started:.1f} s (gfcs.sphere_fit; --spheres FILE for your own, "
-              "tools/fit_spheres.py fits tighter ones)", file=sys.stderr)
+              f"geometry in {time.perf_counter() - started:.1f} s{pairs} (gfcs.sphere_fit; --spheres FILE for "
+              "your own, tools/fit_spheres.py fits tighter ones)", file=sys.stderr)
         robot = fitted
     return with_gap_spheres(robot)  # MotionBenchMaker's panda_spherized.urdf gets --robot mbm's spheres
 
@@ -768,6 +772,17 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     robot = _robot(args)
     group = _planning_group(args, robot)
+    if group is None and getattr(args, "srdf", None) and args.robot not in (None, "mbm"):
+        # no SRDF group moves exactly the robot's default joints (a gripper joint besides the arm's): plan
+        # for the SRDF's first group, as a request must name one
+        from gfcs.srdf_groups import read_srdf_groups
+
+        first = next(iter(read_srdf_groups(args.srdf)), None)
+        if first is not None:
+            print(f"gfcs: generate: no group of {args.srdf} moves exactly {', '.join(robot.joint_names)}; the "
+                  f"problems are for its first group, '{first}' (--group NAME for another)", file=sys.stderr)
+            args.group = group = first
+            robot = _robot(args)
     classes = args.classes or list(problems.CLASSES)
     total, written = 0, []
     for c in classes:

@@ -28,6 +28,8 @@ Classes (:data:`gfcs.problems.CLASSES`):
 * ``table_under_pick``: a higher table; start: the gripper under the table; goal: as ``table_pick``.
 
 Starts are the Panda "ready" configuration (the MotionBenchMaker start) except for ``table_under_pick``.
+The layouts are the Panda's; for another robot every length is scaled by :func:`workspace_scale` (its reach
+over the Panda's), so that a smaller arm gets smaller structures nearer its base.
 Problem ``i`` of ``generate(cls, n, seed)`` depends only on (cls, seed, i), so a longer list extends a
 shorter one. Generated problems keep their primitives in ``problem.meta["primitives"]`` and can be written
 as MotionBenchMaker files with :func:`write_problems` (read back by :func:`gfcs.problems.load_mbm_dir`).
@@ -55,6 +57,7 @@ __all__ = [
     "PANDA_TCP",
     "PANDA_REACH",
     "generate",
+    "workspace_scale",
     "build_scene",
     "inverse_kinematics",
     "is_collision_free",
@@ -539,12 +542,56 @@ def inverse_kinematics(
 
 
 # ---------------------------------------------------------------------------------------- generator
+def _is_panda(robot: Any) -> bool:
+    """A 7-joint Panda (joints named ``panda_joint*``): the robot the layouts, READY and PANDA_TCP fit."""
+    return robot.dof == READY.shape[0] and all(j.startswith("panda_joint") for j in robot.joint_names)
+
+
 def _ready(robot: Any) -> np.ndarray:
     """The Panda ready configuration for a 7-joint Panda, else the middle of the joint ranges."""
     lo, up = np.asarray(robot.lower), np.asarray(robot.upper)
-    if robot.dof == READY.shape[0] and all(j.startswith("panda_joint") for j in robot.joint_names):
+    if _is_panda(robot):
         return np.clip(READY, lo, up)
     return (lo + up) / 2
+
+
+def _reach(robot: Any, samples: int = 512, seed: int = 0) -> float:
+    """The 95th percentile [m] of the end-effector link origin's distance from the base over seeded
+    configurations uniform in the joint limits."""
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(np.asarray(robot.lower), np.asarray(robot.upper), (samples, int(robot.dof)))
+    return float(np.percentile(np.linalg.norm(np.asarray(robot.ee_position(q)), axis=1), 95))
+
+
+def workspace_scale(robot: Any) -> float:
+    """How large ``robot``'s workspace is against the Panda's, for which the layouts are drawn: its
+    :func:`_reach` over the shipped Panda's (1 for a Panda). A smaller arm (a Unitree Z1, a Kinova) gets
+    smaller shelves, tables and cages, nearer the base."""
+    import gfcs
+
+    if _is_panda(robot):
+        return 1.0
+    return _reach(robot) / _reach(gfcs.Robot.panda())
+
+
+def _scaled(layout: _Layout, scale: float) -> _Layout:
+    """``layout`` scaled by ``scale`` about the robot base: primitive positions and sizes and target positions
+    (orientations, approach directions and cones unchanged)."""
+    if scale == 1.0:
+        return layout
+
+    def scale_target(sample: Optional[Callable[[np.random.Generator], Target]]) -> Any:
+        if sample is None:
+            return None
+
+        def draw(rng: np.random.Generator) -> Target:
+            t = sample(rng)
+            return dataclasses.replace(t, position=np.asarray(t.position, dtype=np.float64) * scale)
+        return draw
+
+    prims = [dataclasses.replace(p, dims=tuple(d * scale for d in p.dims),
+                                 position=tuple(x * scale for x in p.position)) for p in layout.primitives]
+    return _Layout(prims, scale_target(layout.goal), scale_target(layout.start))
 
 
 def _reachable_target(sample: Callable[[np.random.Generator], Target], rng: np.random.Generator,
@@ -571,6 +618,7 @@ def generate(
     min_distance: float = 0.5,
     max_scenes: int = 30,
     reach: Optional[Tuple[Sequence[float], float]] = PANDA_REACH,
+    scale: Optional[float] = None,
 ) -> List[Problem]:
     """``n`` seeded problems of class ``cls`` (see the module docstring for the classes).
 
@@ -578,12 +626,16 @@ def generate(
         cls: a class of :data:`gfcs.problems.CLASSES` or an alias (``"table_under"``, ``"single_shelf"``).
         n: number of problems (≥ 0).
         seed: problem i depends only on (cls, seed, i).
-        robot: default :meth:`gfcs.Robot.panda` (the TCP offset assumes a Panda hand).
+        robot: default :meth:`gfcs.Robot.panda`. The layouts are drawn for a Panda and scaled by
+            ``scale`` for another robot; targets are for the point :data:`PANDA_TCP` of the end-effector
+            link, approached along its z axis (the flange normal of ROS descriptions).
         margin: obstacle clearance required of start and goal [m] (sphere model).
         min_distance: minimum ‖goal − start‖ [rad].
         max_scenes: scene re-draws allowed per problem before giving up.
         reach: (centre (3,), radius) [m]: targets outside this sphere are redrawn before IK (None: keep
-            all); the default fits the Panda.
+            all); the default fits the Panda (scaled by ``scale``).
+        scale: factor [> 0] on every layout length (structures, their distances, targets, the default
+            reach); None: :func:`workspace_scale` (1 for a Panda).
 
     Raises:
         ValueError: unknown class, negative n.
@@ -598,12 +650,17 @@ def generate(
     ready = _ready(robot)
     checker = mesh_checker_for(robot)
     layout_fn = _LAYOUTS[name]
+    scale = workspace_scale(robot) if scale is None else float(scale)
+    if not (math.isfinite(scale) and scale > 0):
+        raise InvalidValueError(f"scale must be a finite number > 0, got {scale}")
+    if reach is PANDA_REACH and scale != 1.0:
+        reach = (tuple(float(c) * scale for c in PANDA_REACH[0]), PANDA_REACH[1] * scale)
     problems = []
     for i in range(int(n)):
         rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(_CLASS_INDEX[name], i)))
         problem = None
         for _ in range(int(max_scenes)):
-            layout = layout_fn(rng)
+            layout = _scaled(layout_fn(rng), scale)
             scene = build_scene(layout.primitives)
             def free(q: np.ndarray, scene: Any = scene) -> bool:
                 return is_collision_free(robot, scene, q, margin) and (

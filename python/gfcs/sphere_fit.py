@@ -18,7 +18,9 @@ surfaces, :mod:`gfcs.coverage`, in the link frame):
    cluster's convex hull; the radius covers every point of the cluster exactly), every point of the link then covered (a subsample fits; a point it left
    out grows the sphere it lies least outside of), every radius grown by ``margin``.
 
-Every point of the geometry lies inside a sphere of its link (tested on generated boxes and cylinders). The
+Every point of the geometry lies inside a sphere of its link (tested on generated boxes and cylinders). Link
+pairs whose fitted spheres overlap in almost every configuration are left out of the self-collision checks
+(:func:`always_touching`), as MoveIt Setup Assistant leaves "always in collision" pairs out of an SRDF. The
 spheres are conservative, not tight: ``tools/fit_spheres.py`` fits tighter covers (volume-optimal, minutes per
 robot) when the planner should come closer to obstacles.
 """
@@ -32,7 +34,7 @@ import numpy as np
 
 from gfcs.errors import InvalidValueError
 
-__all__ = ["fit_link_spheres", "fitted_spheres", "with_fitted_spheres"]
+__all__ = ["fit_link_spheres", "fitted_spheres", "always_touching", "with_fitted_spheres"]
 
 #: Largest number of points a link's fit iterates over (a seeded subsample; every point is covered at the end).
 FIT_POINTS = 3000
@@ -159,10 +161,40 @@ def fitted_spheres(robot: Any, links: Optional[Sequence[str]] = None, max_per_li
     return out
 
 
-def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001) -> Any:
+def always_touching(robot: Any, links: Sequence[str], samples: int = 256, share: float = 0.95,
+                    seed: int = 0) -> List[Tuple[str, str]]:
+    """The self-collision link pairs of ``robot`` with a link in ``links`` whose spheres overlap in at least
+    ``share`` of ``samples`` seeded configurations uniform in the joint limits: MoveIt Setup Assistant's
+    "always in collision" pairs, which it disables, found on the spheres. Spheres fitted around two
+    links that meet at a joint two links apart can overlap in every configuration; a fabric pushing them
+    apart would fight the robot's own shape."""
+    pairs = np.asarray(robot.self_collision_pairs, dtype=np.int64).reshape(-1, 2)
+    if pairs.shape[0] == 0:
+        return []
+    names = np.asarray(robot.sphere_links)
+    fitted = set(links)
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(np.asarray(robot.lower), np.asarray(robot.upper), (int(samples), int(robot.dof)))
+    centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(q.shape[0], -1, 3)
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)
+    gap = (np.linalg.norm(centres[:, pairs[:, 0]] - centres[:, pairs[:, 1]], axis=2)
+           - radii[pairs[:, 0]] - radii[pairs[:, 1]])  # (samples, pairs)
+    touching: Dict[Tuple[str, str], np.ndarray] = {}
+    for k, (a, b) in enumerate(pairs):
+        key = tuple(sorted((str(names[a]), str(names[b]))))
+        if fitted.intersection(key):
+            touching[key] = touching.get(key, np.zeros(q.shape[0], dtype=bool)) | (gap[:, k] < 0)
+    return sorted(key for key, hit in touching.items() if hit.mean() >= share)
+
+
+def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001,
+                        left_out: Optional[List[Tuple[str, str]]] = None) -> Any:
     """``robot`` with spheres fitted (:func:`fitted_spheres`) on each link whose collision geometry carries
-    no collision sphere (:func:`gfcs.problems.links_without_spheres`), its own spheres kept; ``robot`` itself
-    when every link with geometry has spheres. The SRDF's disabled pairs still apply to the new spheres."""
+    no collision sphere (:func:`gfcs.problems.links_without_spheres`), its own spheres kept, and the link
+    pairs whose fitted spheres always overlap (:func:`always_touching`) left out of its self-collision
+    checks, as MoveIt Setup Assistant leaves them out of an SRDF; ``robot`` itself when every link with
+    geometry has spheres. The SRDF's disabled pairs still apply to the new spheres. ``left_out``, when
+    given, receives the (link, link) pairs left out."""
     from gfcs.problems import links_without_spheres
 
     bare = links_without_spheres(robot)
@@ -170,4 +202,8 @@ def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001
         return robot
     own = list(zip(robot.sphere_links, np.asarray(robot.sphere_centers_local, dtype=np.float64).reshape(-1, 3).tolist(),
                    np.asarray(robot.sphere_radii, dtype=np.float64).tolist()))
-    return robot.with_spheres(own + fitted_spheres(robot, bare, max_per_link, margin))
+    fitted = robot.with_spheres(own + fitted_spheres(robot, bare, max_per_link, margin))
+    touching = always_touching(fitted, bare)
+    if left_out is not None:
+        left_out.extend(touching)
+    return fitted.with_disabled_pairs(touching) if touching else fitted

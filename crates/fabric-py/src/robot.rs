@@ -285,6 +285,12 @@ impl PyRobot {
         Ok(out)
     }
 
+    /// A copy of this robot whose self-collision checks also leave out the link pairs `pairs` (a sequence of
+    /// (link name, link name)), besides those its SRDF disables; `LinkError` for an unknown link.
+    fn with_disabled_pairs(&self, py: Python<'_>, pairs: Vec<(String, String)>) -> PyResult<Self> {
+        self.modified(py, |r| r.disable_link_pairs(&pairs))
+    }
+
     /// A copy of this robot with inactive joints held at other positions ({joint name: rad or m}), e.g. a
     /// gripper opened as a planning request's start state says; spheres and self-collision pairs kept.
     fn with_locked_positions(

@@ -71,6 +71,23 @@ impl Robot {
         Ok(skipped)
     }
 
+    /// Disable the self-collision checks between the named link pairs, in addition to those already
+    /// disabled (an SRDF's `<disable_collisions>`), and recompute the sphere pairs.
+    ///
+    /// Errors: `Link` for an unknown link name; the model is then unchanged.
+    pub fn disable_link_pairs(&mut self, pairs: &[(String, String)]) -> Result<()> {
+        let mut disabled = self.disabled.clone();
+        for (a, b) in pairs {
+            let (a, b) = (self.link_index(a)?, self.link_index(b)?);
+            disabled.push((a.min(b), a.max(b)));
+        }
+        disabled.sort_unstable();
+        disabled.dedup();
+        self.disabled = disabled;
+        self.recompute_self_pairs();
+        Ok(())
+    }
+
     /// Recompute the self-collision sphere pairs from the spheres, the rigid bodies, the adjacency of
     /// bodies (one movable joint between them) and the disabled link pairs.
     pub(crate) fn recompute_self_pairs(&mut self) {

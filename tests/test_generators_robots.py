@@ -1,0 +1,89 @@
+"""gfcs.generators for robots other than the Panda: layouts scaled by the robot's reach, and `gfcs generate`
+on a robot whose SRDF has no group moving exactly its joints."""
+
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import gfcs
+from gfcs import generators
+from gfcs.generators import workspace_scale
+
+SCALE = 0.6
+
+
+def _small_arm():
+    """The shipped Panda with every joint offset and sphere scaled by SCALE and its joints renamed (not a
+    Panda to the generator): (URDF text, spheres)."""
+    text = gfcs.panda_urdf().replace("panda_joint", "arm_joint")
+
+    def shrink(m):
+        return 'xyz="' + " ".join(repr(float(v) * SCALE) for v in m.group(1).split()) + '"'
+
+    text = re.sub(r'xyz="([^"]*)"', shrink, text)
+    panda = gfcs.Robot.panda()
+    spheres = [(link, (np.asarray(c) * SCALE).tolist(), float(r) * SCALE)
+               for link, c, r in zip(panda.sphere_links, panda.sphere_centers_local, panda.sphere_radii)]
+    return text, spheres
+
+
+@pytest.fixture(scope="module")
+def small_arm():
+    text, spheres = _small_arm()
+    return gfcs.Robot.from_urdf(text, spheres=spheres, srdf=gfcs.panda_srdf())
+
+
+def test_the_workspace_scale_is_the_reach_over_the_pandas(small_arm):
+    assert workspace_scale(gfcs.Robot.panda()) == 1.0
+    assert workspace_scale(small_arm) == pytest.approx(SCALE, rel=1e-9)  # every length scaled: the reach too
+
+
+def test_a_scaled_layout_scales_positions_sizes_and_targets_only():
+    rng = np.random.default_rng(3)
+    layout = generators._LAYOUTS["box"](rng)
+    scaled = generators._scaled(layout, 0.5)
+    for a, b in zip(layout.primitives, scaled.primitives):
+        assert np.allclose(np.asarray(b.position), 0.5 * np.asarray(a.position))
+        assert np.allclose(b.dims, 0.5 * np.asarray(a.dims)) and b.quaternion == a.quaternion
+    t, u = layout.goal(np.random.default_rng(1)), scaled.goal(np.random.default_rng(1))
+    assert np.allclose(u.position, 0.5 * t.position) and np.array_equal(u.approach, t.approach)
+    assert generators._scaled(layout, 1.0) is layout
+
+
+def test_a_small_arm_gets_problems_in_its_own_reach(small_arm):
+    problems = generators.generate("bookshelf_tall", 1, seed=0, robot=small_arm)
+    panda = generators.generate("bookshelf_tall", 1, seed=0)
+    far = lambda p: max(np.linalg.norm(np.asarray(q["position"])[:2]) for q in p.meta["primitives"])
+    assert far(problems[0]) < 0.8 * far(panda[0])  # structures nearer the base
+    for p in problems:
+        assert generators.is_collision_free(small_arm, p.scene, p.q0, 0.01)
+        assert generators.is_collision_free(small_arm, p.scene, p.goal, 0.01)
+    with pytest.raises(gfcs.InvalidValueError, match="scale"):
+        generators.generate("box", 1, robot=small_arm, scale=0.0)
+
+
+def test_generate_plans_for_the_first_srdf_group_when_none_moves_exactly_the_robots_joints(tmp_path):
+    """The arm's seven joints move by default; the SRDF's only group holds six of them. A request must name
+    a group of the SRDF: the problems are for that group (its joints), not for the robot's name."""
+    import json
+
+    text, spheres = _small_arm()
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(text)
+    (tmp_path / "spheres.json").write_text(json.dumps({"spheres": [{"link": l, "center": c, "radius": r}
+                                                                    for l, c, r in spheres]}))
+    srdf = tmp_path / "arm.srdf"
+    joints = "".join(f'<joint name="arm_joint{k}"/>' for k in range(1, 7))
+    srdf.write_text(f'<robot name="arm"><group name="six">{joints}</group></robot>')
+    out = tmp_path / "problems"
+    r = subprocess.run([sys.executable, "-m", "gfcs", "generate", "--out", str(out), "--n", "1", "--classes",
+                        "bookshelf_tall", "--robot", str(urdf), "--srdf", str(srdf), "--spheres",
+                        str(tmp_path / "spheres.json")], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "the problems are for its first group, 'six'" in r.stderr
+    request = (out / "bookshelf_tall" / "request0001.yaml").read_text()
+    goal = request[request.index("goal_constraints"):]
+    assert "group_name: six" in request and "arm_joint6" in goal and "arm_joint7" not in goal
