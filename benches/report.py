@@ -43,7 +43,7 @@ CLASSES = {"bookshelf_small": "single shelf", "bookshelf_tall": "tall shelf", "b
 COLUMNS: Tuple[Tuple[str, str], ...] = (("ee_length", "EE len (m)"), ("cspace_length", "C-space len (rad)"),
                                         ("time", "Time (s)"), ("ee_ldj", "EE-LDJ"), ("cspace_ldj", "C-space-LDJ"))
 #: fragments after Table I, in order: file stem under benches/results.
-FRAGMENTS = ("gf_causes", "ldj", "baselines", "learning", "speed", "mesh_checks", "scaling", "particles", "experiments", "reactivity",
+FRAGMENTS = ("gf_causes", "ldj", "learning", "speed", "mesh_checks", "scaling", "particles", "experiments", "reactivity",
              "scaleout", "reliability")
 
 
@@ -211,6 +211,32 @@ def ldj_table(rows: List[Dict[str, Any]]) -> List[str]:
     return lines + [""]
 
 
+def rejections_table(rows: List[Dict[str, Any]]) -> List[str]:
+    """Of the paths the sampling-based planners returned, how many are not valid and why: spheres in
+    collision between the states the planner checked (at MoveIt's motion-check resolution), or collision
+    meshes within the mesh margin (clear for the spheres, as the planner checked them)."""
+    from gfcs.metrics import DEFAULT_MESH_MARGIN as margin
+
+    planners = {label: rs for label, rs in by_label(rows).items() if rs and rs[0]["method"] != "gfcs"
+                and rs[0]["method"] != "gf"}
+    if not planners:
+        return []
+    lines = ["Paths the sampling-based planners returned (a path within their time), those that are not valid "
+             "(the verdict of the Success column), and of these the ones in sphere collision between the "
+             "states the planner checked, and the ones clear for the spheres with the collision meshes within "
+             "the mesh margin:", "",
+             "| Method | path returned | not valid | spheres between checked states | meshes within the margin |",
+             "|---|---|---|---|---|"]
+    for label, rs in planners.items():
+        returned = [r for r in rs if math.isfinite(number(r["cost"]))]
+        rejected = [r for r in returned if not r["success"]]
+        spheres = sum(number(r["min_clearance"]) < 0 for r in rejected)
+        meshes = sum(number(r["min_clearance"]) >= 0 and min(number(r.get("mesh_clearance", math.inf)),
+                     number(r.get("mesh_self_clearance", math.inf))) <= margin for r in rejected)
+        lines.append(f"| {escape(label)} | {len(returned)}/{len(rs)} | {len(rejected)} | {spheres} | {meshes} |")
+    return lines + [""]
+
+
 def table1_section() -> List[str]:
     paper = json.loads(PAPER.read_text())["classes"] if PAPER.is_file() else {}
     machine = RESULTS / "table1" / "machine.json"
@@ -246,6 +272,7 @@ def table1_section() -> List[str]:
                       + ")" + (": a start or goal in collision, which no motion leaves or reaches" if
                                set(kinds) == {"CollisionError"} else "") + ".", ""]
         lines += ldj_table(rows)
+        lines += rejections_table(rows)
         for cls in [c for c in CLASSES if any(r["class"] == c for r in rows)]:
             lines += class_table(cls, [r for r in rows if r["class"] == cls],
                                  paper.get(cls) if robot == "mbm_panda" else None)
