@@ -179,9 +179,12 @@ fn build_mesh_orients_closed_meshes_and_leaves_open_ones_unsigned() {
 #[test]
 fn load_mesh_errors() {
     let tmp = TempDir::new("errors");
+    let (path, message) = mesh_message(load_mesh(&tmp.file("m.ply", b"ply")));
+    assert!(path.ends_with("m.ply"));
+    assert!(message.contains("unsupported mesh format '.ply' (supported: .obj, .stl, .dae)"), "{message}");
     let (path, message) = mesh_message(load_mesh(&tmp.file("m.dae", b"<xml/>")));
     assert!(path.ends_with("m.dae"));
-    assert!(message.contains("unsupported"), "{message}");
+    assert!(message.contains("no triangles"), "{message}");
     let (path, _) = mesh_message(load_mesh(std::path::Path::new("/nonexistent/dir/mesh.obj")));
     assert_eq!(path, "/nonexistent/dir/mesh.obj");
     let (path, message) = mesh_message(load_mesh(&tmp.file("broken.obj", b"v 0 0 0\nf 1 2 3\n")));
