@@ -217,8 +217,7 @@ def rejections_table(rows: List[Dict[str, Any]]) -> List[str]:
     meshes within the mesh margin (clear for the spheres, as the planner checked them)."""
     from gfcs.metrics import DEFAULT_MESH_MARGIN as margin
 
-    planners = {label: rs for label, rs in by_label(rows).items() if rs and rs[0]["method"] != "gfcs"
-                and rs[0]["method"] != "gf"}
+    planners = {label: rs for label, rs in by_label(rows).items() if rs and rs[0]["method"] not in ("gfcs", "gf")}
     if not planners:
         return []
     lines = ["Paths the sampling-based planners returned (a path within their time), those that are not valid "

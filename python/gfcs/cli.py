@@ -770,19 +770,10 @@ def cmd_generate(args: argparse.Namespace) -> int:
     """`gfcs generate`: write generated problems as MotionBenchMaker files."""
     from gfcs import generators, problems
 
-    robot = _robot(args)
+    if not getattr(args, "group", None) and getattr(args, "srdf", None) and args.robot not in (None, "mbm"):
+        args.group = _first_group_unless_exact(args)
+    robot = _robot(args)  # built once: a mesh robot's spheres are fitted here
     group = _planning_group(args, robot)
-    if group is None and getattr(args, "srdf", None) and args.robot not in (None, "mbm"):
-        # no SRDF group moves exactly the robot's default joints (a gripper joint besides the arm's): plan
-        # for the SRDF's first group, as a request must name one
-        from gfcs.srdf_groups import read_srdf_groups
-
-        first = next(iter(read_srdf_groups(args.srdf)), None)
-        if first is not None:
-            print(f"gfcs: generate: no group of {args.srdf} moves exactly {', '.join(robot.joint_names)}; the "
-                  f"problems are for its first group, '{first}' (--group NAME for another)", file=sys.stderr)
-            args.group = group = first
-            robot = _robot(args)
     classes = args.classes or list(problems.CLASSES)
     total, written = 0, []
     for c in classes:
@@ -796,6 +787,22 @@ def cmd_generate(args: argparse.Namespace) -> int:
         written.append(problems.canonical_class(c))
     print(f"wrote {total} problems ({', '.join(written)}) to {args.out}")
     return 0 if len(written) == len(classes) else 1
+
+
+def _first_group_unless_exact(args: argparse.Namespace) -> Optional[str]:
+    """For `gfcs generate --robot X.urdf --srdf S` without --group: None when a group of S moves exactly the
+    robot's default joints (:func:`_planning_group` finds it), else S's first group, said on stderr (a gripper
+    joint besides the arm's): a request must name a group of the SRDF."""
+    import gfcs
+    from gfcs.srdf_groups import group_of, read_srdf_groups
+
+    joints = gfcs.Robot.from_urdf(args.robot, ee_link=args.ee_link, mesh_dir=args.mesh_dir).joint_names
+    first = next(iter(read_srdf_groups(args.srdf)), None)
+    if first is None or group_of(args.robot, args.srdf, joints) is not None:
+        return None
+    print(f"gfcs: generate: no group of {args.srdf} moves exactly {', '.join(joints)}; the problems are for its "
+          f"first group, '{first}' (--group NAME for another)", file=sys.stderr)
+    return first
 
 
 def _planning_group(args: argparse.Namespace, robot: Any) -> Optional[str]:

@@ -195,14 +195,12 @@ def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001
     checks, as MoveIt Setup Assistant leaves them out of an SRDF; ``robot`` itself when every link with
     geometry has spheres. The SRDF's disabled pairs still apply to the new spheres. ``left_out``, when
     given, receives the (link, link) pairs left out."""
-    from gfcs.problems import links_without_spheres
+    from gfcs.problems import _robot_spheres, links_without_spheres
 
     bare = links_without_spheres(robot)
     if not bare:
         return robot
-    own = list(zip(robot.sphere_links, np.asarray(robot.sphere_centers_local, dtype=np.float64).reshape(-1, 3).tolist(),
-                   np.asarray(robot.sphere_radii, dtype=np.float64).tolist()))
-    fitted = robot.with_spheres(own + fitted_spheres(robot, bare, max_per_link, margin))
+    fitted = robot.with_spheres(_robot_spheres(robot) + fitted_spheres(robot, bare, max_per_link, margin))
     touching = always_touching(fitted, bare)
     if left_out is not None:
         left_out.extend(touching)

@@ -181,7 +181,10 @@ fn load_mesh_errors() {
     let tmp = TempDir::new("errors");
     let (path, message) = mesh_message(load_mesh(&tmp.file("m.ply", b"ply")));
     assert!(path.ends_with("m.ply"));
-    assert!(message.contains("unsupported mesh format '.ply' (supported: .obj, .stl, .dae)"), "{message}");
+    assert!(
+        message.contains("unsupported mesh format '.ply' (supported: .obj, .stl, .dae)"),
+        "{message}"
+    );
     let (path, message) = mesh_message(load_mesh(&tmp.file("m.dae", b"<xml/>")));
     assert!(path.ends_with("m.dae"));
     assert!(message.contains("no triangles"), "{message}");

@@ -62,12 +62,9 @@ impl Robot {
                 (a, b) => skipped.extend([a.err(), b.err()].into_iter().flatten()),
             }
         }
-        disabled.sort_unstable();
-        disabled.dedup();
         skipped.sort_unstable();
         skipped.dedup();
-        self.disabled = disabled;
-        self.recompute_self_pairs();
+        self.set_disabled(disabled);
         Ok(skipped)
     }
 
@@ -81,11 +78,16 @@ impl Robot {
             let (a, b) = (self.link_index(a)?, self.link_index(b)?);
             disabled.push((a.min(b), a.max(b)));
         }
+        self.set_disabled(disabled);
+        Ok(())
+    }
+
+    /// The disabled link pairs (i < j), sorted without repeats, and the sphere pairs they leave.
+    fn set_disabled(&mut self, mut disabled: Vec<(usize, usize)>) {
         disabled.sort_unstable();
         disabled.dedup();
         self.disabled = disabled;
         self.recompute_self_pairs();
-        Ok(())
     }
 
     /// Recompute the self-collision sphere pairs from the spheres, the rigid bodies, the adjacency of
