@@ -296,3 +296,26 @@ def test_group_of_finds_the_srdf_group_of_a_robots_joints_and_generate_writes_it
     assert cli.main(["generate", "--n", "1", "--classes", "box", "--out", str(tmp_path)]) == 0
     request = yaml.safe_load((tmp_path / "box" / "request0001.yaml").read_text())
     assert request["group_name"] == "panda_arm"
+
+
+def test_cli_bench_with_an_srdf_of_collision_pairs_only_plans_the_robots_joints(tmp_path):
+    # an SRDF without <group> (written for a collision checker, not MoveIt's planning groups) cannot name
+    # the request's group: the request is for the robot's default joints
+    assert cli.main(["generate", "--n", "1", "--classes", "box", "--out", str(tmp_path / "p")]) == 0
+    request = tmp_path / "p" / "box" / "request0001.yaml"
+    request.write_text(request.read_text().replace("group_name: panda_arm", "group_name: panda"))
+    pairs_only, urdf, srdf = tmp_path / "pairs.srdf", tmp_path / "panda.urdf", tmp_path / "panda.srdf"
+    pairs_only.write_text('<robot name="panda"><disable_collisions link1="panda_link0" link2="panda_link1" '
+                          'reason="Adjacent"/></robot>')
+    urdf.write_text(gfcs.panda_urdf())
+    srdf.write_text(gfcs.panda_srdf())
+    args = cli.build_parser().parse_args(["bench", "--problems", str(tmp_path / "p"), "--robot", str(urdf),
+                                          "--srdf", str(pairs_only)])
+    assert cli._group_name(args) is None
+    assert list(cli._robot(args).joint_names) == list(gfcs.Robot.panda().joint_names)
+    # an SRDF with groups still refuses a request for a group it does not define, as MoveIt does
+    args = cli.build_parser().parse_args(["bench", "--problems", str(tmp_path / "p"), "--robot", str(urdf),
+                                          "--srdf", str(srdf)])
+    assert cli._group_name(args) == "panda"
+    with pytest.raises(gfcs.GfcsError, match="no group named 'panda'"):
+        cli._robot(args)

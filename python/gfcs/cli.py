@@ -342,9 +342,11 @@ def _robot(args: argparse.Namespace) -> Any:
 def _group_name(args: argparse.Namespace) -> Optional[str]:
     """The SRDF group to plan for: ``--group``, else with ``--srdf`` the ``group_name`` of the problems'
     first request (``--request``, or the first of ``--problems`` in suite order), as MoveIt plans the
-    request's group; None without an SRDF or a request naming a group (the robot's default joints)."""
+    request's group; None without an SRDF, a request naming a group, or a group in the SRDF (the robot's
+    default joints)."""
     import gfcs
     from gfcs import problems
+    from gfcs.srdf_groups import read_srdf_groups
 
     if getattr(args, "group", None):
         if not args.srdf:
@@ -367,7 +369,10 @@ def _group_name(args: argparse.Namespace) -> Optional[str]:
         request = next((found[0] for found in firsts if found), None)
     if not request:
         return None
-    return gfcs.load_motion_plan_request(str(request)).get("group") or None
+    name = gfcs.load_motion_plan_request(str(request)).get("group") or None
+    if name is not None and not read_srdf_groups(args.srdf):
+        return None  # an SRDF of collision pairs only names no group: the request's group is the robot's joints
+    return name
 
 
 def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:

@@ -175,29 +175,61 @@ def _rigid_with_ee(robot: Any, rng: np.random.Generator, samples: int = 3, link:
     return rigid
 
 
+def _parent_links(robot: Any, q: np.ndarray, link: str) -> np.ndarray:
+    """Boolean (links,) mask of the links of the body before the end effector's: those that the second
+    nearest joint moving ``link`` moves and the nearest does not (a joint nearer the end effector moves
+    fewer links); all False when one joint or none moves ``link``."""
+    poses = np.asarray(robot.link_poses(q), dtype=np.float64)
+    moved = []
+    for j in range(robot.dof):
+        dq = np.zeros(robot.dof)
+        dq[j] = 1e-3
+        moved.append(np.any(np.abs(np.asarray(robot.link_poses(q + dq), dtype=np.float64) - poses) > 1e-12,
+                            axis=(1, 2)))
+    ee = int(robot.link_index(link))
+    chain = sorted((m for m in moved if m[ee]), key=lambda m: int(m.sum()))
+    if len(chain) < 2:
+        return np.zeros(len(robot.link_names), dtype=bool)
+    return chain[1] & ~chain[0]
+
+
 def derive_approach_axis(robot: Any, link: Optional[str] = None) -> Tuple[float, float, float]:
     """The gripper's approach direction in the frame of the end-effector link ``link`` (default
-    ``robot.ee_link``; another for the second hand of a two-arm group), from the robot's collision spheres:
-    the direction from the origin of the last moving body (the child link of the last joint that moves the
-    end effector) to the volume-weighted centroid of the spheres rigidly attached to the end effector (a
-    gripper extends from the wrist along its approach direction), snapped to the nearest axis of the
+    ``robot.ee_link``; another for the second hand of a two-arm group), from the robot's collision spheres
+    at the middle of the joint ranges: the direction from the origin of the last moving body (the child link
+    of the last joint that moves the end effector) to the volume-weighted centroid of the spheres rigidly
+    attached to the end effector (a gripper extends from the wrist along its approach direction). When that
+    centroid lies behind the origin, on the side of the body before it (a bare flange whose frame sits on
+    the flange face, the link's volume behind it), the direction from that body's sphere centroid to the end
+    effector's is used instead: a tool extends away from the arm. Snapped to the nearest axis of the
     end-effector frame when within 25° of it. The z axis when the robot has no spheres there."""
     link = robot.ee_link if link is None else link
     rng = np.random.default_rng(0)
     rigid = _rigid_with_ee(robot, rng, link=link)
     names = list(robot.link_names)
-    on_body = np.array([rigid[names.index(link)] for link in robot.sphere_links], dtype=bool)
+    sphere_link = np.array([names.index(name) for name in robot.sphere_links], dtype=np.int64)
+    on_body = rigid[sphere_link] if sphere_link.size else np.zeros(0, dtype=bool)
     if not on_body.any():
         return (0.0, 0.0, 1.0)
     q = 0.5 * (np.asarray(robot.lower, dtype=np.float64) + np.asarray(robot.upper, dtype=np.float64))
     poses = np.asarray(robot.link_poses(q), dtype=np.float64)
-    centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(-1, 3)[on_body]
-    weights = np.asarray(robot.sphere_radii, dtype=np.float64)[on_body] ** 3
-    centroid = weights @ centres / weights.sum()
+    centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(-1, 3)
+    weights = np.asarray(robot.sphere_radii, dtype=np.float64) ** 3
+
+    def centroid(on: np.ndarray) -> np.ndarray:
+        return weights[on] @ centres[on] / weights[on].sum()
+
+    tool = centroid(on_body)
     # the body's origin: among the rigidly attached links, the one nearest the base in the link order
     body_origin = poses[int(np.flatnonzero(rigid)[0]), :3, 3]
+    d = tool - body_origin
+    on_parent = _parent_links(robot, q, link)[sphere_link]
+    if on_parent.any():
+        away = tool - centroid(on_parent)
+        if float(d @ away) <= 0.0:
+            d = away
     ee_rot = poses[int(robot.link_index(link)), :3, :3]
-    d = ee_rot.T @ (centroid - body_origin)
+    d = ee_rot.T @ d
     if np.linalg.norm(d) < 1e-9:
         return (0.0, 0.0, 1.0)
     d = d / np.linalg.norm(d)
