@@ -41,16 +41,61 @@ def test_the_workspace_scale_is_the_reach_over_the_pandas(small_arm):
     assert workspace_scale(small_arm) == pytest.approx(SCALE, rel=1e-9)  # every length scaled: the reach too
 
 
-def test_a_scaled_layout_scales_positions_sizes_and_targets_only():
+def test_a_placed_layout_scales_about_the_shoulder_and_moves_positions_sizes_and_targets_only():
     rng = np.random.default_rng(3)
     layout = generators._LAYOUTS["box"](rng)
-    scaled = generators._scaled(layout, 0.5)
-    for a, b in zip(layout.primitives, scaled.primitives):
-        assert np.allclose(np.asarray(b.position), 0.5 * np.asarray(a.position))
+    mount = np.array([0.3, -0.2, 1.0])
+    placed = generators._placed(layout, 0.5, mount)
+    shoulder = np.asarray(generators.PANDA_MOUNT)
+    for a, b in zip(layout.primitives, placed.primitives):
+        assert np.allclose(np.asarray(b.position) - mount, 0.5 * (np.asarray(a.position) - shoulder))
         assert np.allclose(b.dims, 0.5 * np.asarray(a.dims)) and b.quaternion == a.quaternion
-    t, u = layout.goal(np.random.default_rng(1)), scaled.goal(np.random.default_rng(1))
-    assert np.allclose(u.position, 0.5 * t.position) and np.array_equal(u.approach, t.approach)
-    assert generators._scaled(layout, 1.0) is layout
+    t, u = layout.goal(np.random.default_rng(1)), placed.goal(np.random.default_rng(1))
+    assert np.allclose(u.position - mount, 0.5 * (t.position - shoulder))
+    assert np.array_equal(u.approach, t.approach)
+    assert generators._placed(layout, 1.0, shoulder) is layout
+
+
+MOUNT = (0.3, 0.2, 0.5)
+#: Where the layouts move with the shoulder: the column, and the lift in the middle of its range.
+SHIFT = np.add(MOUNT, (0.0, 0.0, 0.15))
+
+
+@pytest.fixture(scope="module")
+def mounted_arm():
+    """The shipped Panda (joints renamed: not a Panda to the generator) on a column 0.5 m high and off the
+    base origin, behind a prismatic lift of 0.3 m, as a mobile manipulator's arm sits on its torso."""
+    text = gfcs.panda_urdf().replace("panda_joint", "arm_joint")
+    x, y, z = MOUNT
+    column = (f'<link name="base"/><link name="torso"/>'
+              f'<joint name="lift" type="prismatic"><parent link="base"/><child link="torso"/>'
+              f'<origin xyz="{x} {y} {z}"/><axis xyz="0 0 1"/>'
+              f'<limit lower="0" upper="0.3" velocity="0.1" effort="1"/></joint>'
+              f'<joint name="mount" type="fixed"><parent link="torso"/><child link="panda_link0"/></joint>')
+    text = text.replace('<link name="panda_link0"/>', column + '<link name="panda_link0"/>')
+    panda = gfcs.Robot.panda()
+    spheres = list(zip(panda.sphere_links, panda.sphere_centers_local, panda.sphere_radii))
+    return gfcs.Robot.from_urdf(text, spheres=spheres, srdf=gfcs.panda_srdf())
+
+
+def test_the_arm_mount_is_the_shoulder_wherever_the_arm_sits(mounted_arm):
+    np.testing.assert_allclose(generators.arm_mount(gfcs.Robot.panda()), generators.PANDA_MOUNT, atol=1e-12)
+    assert mounted_arm.joint_names[0] == "lift"
+    np.testing.assert_allclose(generators.arm_mount(mounted_arm), SHIFT + generators.PANDA_MOUNT, atol=1e-12)
+    assert 1.0 <= workspace_scale(mounted_arm) < 1.2  # the same arm, and a lift
+
+
+def test_a_mounted_arm_gets_every_class_in_front_of_its_shoulder(mounted_arm):
+    for cls in gfcs.problems.CLASSES:
+        problem = generators.generate(cls, 1, seed=0, robot=mounted_arm)[0]
+        panda = generators.generate(cls, 1, seed=0)[0]
+        # the Panda's structures, moved with its shoulder: at its height, within its reach (the draws of the
+        # two robots' scenes may differ where a scene is redrawn: the orientation of a table, a shelf)
+        lifted = np.mean([p["position"] for p in problem.meta["primitives"]], axis=0) - SHIFT
+        height = np.mean([p["position"] for p in panda.meta["primitives"]], axis=0)[2]
+        assert abs(lifted[2] - height) < 0.1 and np.linalg.norm(lifted[:2]) < 1.5, cls
+        assert generators.is_collision_free(mounted_arm, problem.scene, problem.q0, 0.01)
+        assert generators.is_collision_free(mounted_arm, problem.scene, problem.goal, 0.01)
 
 
 def test_a_small_arm_gets_problems_in_its_own_reach(small_arm):

@@ -28,8 +28,10 @@ Classes (:data:`gfcs.problems.CLASSES`):
 * ``table_under_pick``: a higher table; start: the gripper under the table; goal: as ``table_pick``.
 
 Starts are the Panda "ready" configuration (the MotionBenchMaker start) except for ``table_under_pick``.
-The layouts are the Panda's; for another robot every length is scaled by :func:`workspace_scale` (its reach
-over the Panda's), so that a smaller arm gets smaller structures nearer its base.
+The layouts are the Panda's, drawn about its shoulder; for another robot every length is scaled by
+:func:`workspace_scale` (its reach over the Panda's) and the layout is moved onto its shoulder
+(:func:`arm_mount`), so that a smaller arm gets smaller structures nearer it and a mobile manipulator's
+scenes stand in front of its arm, not its base.
 Problem ``i`` of ``generate(cls, n, seed)`` depends only on (cls, seed, i), so a longer list extends a
 shorter one. Generated problems keep their primitives in ``problem.meta["primitives"]`` and can be written
 as MotionBenchMaker files with :func:`write_problems` (read back by :func:`gfcs.problems.load_mbm_dir`).
@@ -55,9 +57,11 @@ __all__ = [
     "Target",
     "READY",
     "PANDA_TCP",
+    "PANDA_MOUNT",
     "PANDA_REACH",
     "generate",
     "workspace_scale",
+    "arm_mount",
     "build_scene",
     "inverse_kinematics",
     "is_collision_free",
@@ -547,26 +551,63 @@ def _is_panda(robot: Any) -> bool:
     return robot.dof == READY.shape[0] and all(j.startswith("panda_joint") for j in robot.joint_names)
 
 
-def _ready(robot: Any) -> np.ndarray:
-    """The Panda ready configuration for a 7-joint Panda, else the middle of the joint ranges."""
-    lo, up = np.asarray(robot.lower), np.asarray(robot.upper)
+def _ready(robot: Any, checker: Any = None, samples: int = 512) -> np.ndarray:
+    """The start of the layouts' problems: the Panda ready configuration for a 7-joint Panda; else the middle
+    of the joint ranges when it is free of self-contact (the sphere pairs at least :data:`SELF_MARGIN` apart
+    and, with a mesh ``checker``, the meshes too), else the configuration nearest it (in range-normalised
+    joint space) among ``samples`` seeded ones that is (an arm whose mid-range folds it into its torso).
+    The middle when none is."""
+    lo, up = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
     if _is_panda(robot):
         return np.clip(READY, lo, up)
-    return (lo + up) / 2
+    mid = (lo + up) / 2
+    candidates = np.vstack([mid, np.random.default_rng(0).uniform(lo, up, (int(samples), mid.size))])
+    span = np.where(up > lo, up - lo, 1.0)
+    candidates = candidates[np.argsort(np.linalg.norm((candidates - mid) / span, axis=1), kind="stable")]
+    clear = _metrics.self_clearance(robot, candidates) >= SELF_MARGIN
+    empty = None if checker is None else build_scene([])
+    for q in candidates[clear]:
+        if checker is None or _metrics.mesh_verdict(checker, empty, q[None, :])[2]:
+            return q
+    return mid
+
+
+def arm_mount(robot: Any) -> np.ndarray:
+    """(3,) world position [m] of the arm's shoulder, about which the layouts are placed: the origin of the
+    first link turned by the first joint that turns the end effector (a revolute joint's child link; a
+    prismatic torso before it only lifts the arm), at :func:`_ready`. The shipped Panda's is (0, 0, 0.333);
+    a mobile manipulator's sits on its torso, off its base."""
+    q = _ready(robot)
+    poses = np.asarray(robot.link_poses(q), dtype=np.float64)
+    ee = int(robot.link_index(robot.ee_link))
+    first = None  # (links moved, first link moved) of the joint turning the end effector that moves the most
+    for j in range(int(robot.dof)):
+        dq = np.zeros(int(robot.dof))
+        dq[j] = 1e-3
+        moved_poses = np.asarray(robot.link_poses(q + dq), dtype=np.float64)
+        if np.max(np.abs(moved_poses[ee, :3, :3] - poses[ee, :3, :3])) < 1e-9:
+            continue  # does not turn the end effector (a prismatic joint, or another branch)
+        moved = np.flatnonzero(np.any(np.abs(moved_poses - poses) > 1e-12, axis=(1, 2)))
+        if first is None or moved.size > first[0]:
+            first = (moved.size, int(moved[0]))
+    if first is None:
+        return poses[int(robot.link_index(robot.base_link)), :3, 3].copy()
+    return poses[first[1], :3, 3].copy()
 
 
 def _reach(robot: Any, samples: int = 512, seed: int = 0) -> float:
-    """The 95th percentile [m] of the end-effector link origin's distance from the base over seeded
+    """The 95th percentile [m] of the end-effector link origin's distance from :func:`arm_mount` over seeded
     configurations uniform in the joint limits."""
     rng = np.random.default_rng(seed)
     q = rng.uniform(np.asarray(robot.lower), np.asarray(robot.upper), (samples, int(robot.dof)))
-    return float(np.percentile(np.linalg.norm(np.asarray(robot.ee_position(q)), axis=1), 95))
+    offsets = np.asarray(robot.ee_position(q)) - arm_mount(robot)
+    return float(np.percentile(np.linalg.norm(offsets, axis=1), 95))
 
 
 def workspace_scale(robot: Any) -> float:
     """How large ``robot``'s workspace is against the Panda's, for which the layouts are drawn: its
     :func:`_reach` over the shipped Panda's (1 for a Panda). A smaller arm (a Unitree Z1, a Kinova) gets
-    smaller shelves, tables and cages, nearer the base."""
+    smaller shelves, tables and cages, nearer its shoulder."""
     import gfcs
 
     if _is_panda(robot):
@@ -574,24 +615,29 @@ def workspace_scale(robot: Any) -> float:
     return _reach(robot) / _reach(gfcs.Robot.panda())
 
 
-def _scaled(layout: _Layout, scale: float) -> _Layout:
-    """``layout`` scaled by ``scale`` about the robot base: primitive positions and sizes and target positions
-    (orientations, approach directions and cones unchanged)."""
-    if scale == 1.0:
+def _placed(layout: _Layout, scale: float, mount: np.ndarray) -> _Layout:
+    """``layout`` (drawn about the Panda's shoulder :data:`PANDA_MOUNT`) scaled by ``scale`` about that shoulder
+    and moved onto ``mount`` (3,) [m]: primitive positions and sizes and target positions (orientations,
+    approach directions and cones unchanged). The identity for a Panda."""
+    shift = np.asarray(mount, dtype=np.float64) - scale * np.asarray(PANDA_MOUNT)
+    if scale == 1.0 and not np.any(shift):
         return layout
 
-    def scale_target(sample: Optional[Callable[[np.random.Generator], Target]]) -> Any:
+    def place(x: Any) -> np.ndarray:
+        return np.asarray(x, dtype=np.float64) * scale + shift
+
+    def place_target(sample: Optional[Callable[[np.random.Generator], Target]]) -> Any:
         if sample is None:
             return None
 
         def draw(rng: np.random.Generator) -> Target:
             t = sample(rng)
-            return dataclasses.replace(t, position=np.asarray(t.position, dtype=np.float64) * scale)
+            return dataclasses.replace(t, position=place(t.position))
         return draw
 
     prims = [dataclasses.replace(p, dims=tuple(d * scale for d in p.dims),
-                                 position=tuple(x * scale for x in p.position)) for p in layout.primitives]
-    return _Layout(prims, scale_target(layout.goal), scale_target(layout.start))
+                                 position=tuple(float(x) for x in place(p.position))) for p in layout.primitives]
+    return _Layout(prims, place_target(layout.goal), place_target(layout.start))
 
 
 def _reachable_target(sample: Callable[[np.random.Generator], Target], rng: np.random.Generator,
@@ -604,9 +650,11 @@ def _reachable_target(sample: Callable[[np.random.Generator], Target], rng: np.r
     return None
 
 
+#: The shipped Panda's :func:`arm_mount` [m]: the layouts are drawn about it.
+PANDA_MOUNT = (0.0, 0.0, 0.333)
 #: Workspace sphere of the Panda used to discard unreachable targets before IK: centre at the shoulder
 #: (joint 2 axis, 0.333 m above the base) [m], radius [m] (the stretched arm reaches about 0.99 m).
-PANDA_REACH = ((0.0, 0.0, 0.333), 0.9)
+PANDA_REACH = (PANDA_MOUNT, 0.9)
 
 
 def generate(
@@ -626,14 +674,14 @@ def generate(
         cls: a class of :data:`gfcs.problems.CLASSES` or an alias (``"table_under"``, ``"single_shelf"``).
         n: number of problems (≥ 0).
         seed: problem i depends only on (cls, seed, i).
-        robot: default :meth:`gfcs.Robot.panda`. The layouts are drawn for a Panda and scaled by
-            ``scale`` for another robot; targets are for the point :data:`PANDA_TCP` of the end-effector
+        robot: default :meth:`gfcs.Robot.panda`. The layouts are drawn about a Panda's shoulder; for
+            another robot they are scaled by ``scale`` and moved onto its shoulder (:func:`arm_mount`); targets are for the point :data:`PANDA_TCP` of the end-effector
             link, approached along its z axis (the flange normal of ROS descriptions).
         margin: obstacle clearance required of start and goal [m] (sphere model).
         min_distance: minimum ‖goal − start‖ [rad].
         max_scenes: scene re-draws allowed per problem before giving up.
         reach: (centre (3,), radius) [m]: targets outside this sphere are redrawn before IK (None: keep
-            all); the default fits the Panda (scaled by ``scale``).
+            all); the default fits the Panda (radius scaled by ``scale``, centred on the shoulder).
         scale: factor [> 0] on every layout length (structures, their distances, targets, the default
             reach); None: :func:`workspace_scale` (1 for a Panda).
 
@@ -647,20 +695,21 @@ def generate(
     if int(n) < 0:
         raise InvalidValueError(f"n must be ≥ 0, got {n}")
     robot = gfcs.Robot.panda() if robot is None else robot
-    ready = _ready(robot)
     checker = mesh_checker_for(robot)
+    ready = _ready(robot, checker)
     layout_fn = _LAYOUTS[name]
     scale = workspace_scale(robot) if scale is None else float(scale)
     if not (math.isfinite(scale) and scale > 0):
         raise InvalidValueError(f"scale must be a finite number > 0, got {scale}")
-    if reach is PANDA_REACH and scale != 1.0:
-        reach = (tuple(float(c) * scale for c in PANDA_REACH[0]), PANDA_REACH[1] * scale)
+    mount = PANDA_MOUNT if _is_panda(robot) else tuple(float(c) for c in arm_mount(robot))
+    if reach is PANDA_REACH and (scale != 1.0 or mount != PANDA_MOUNT):
+        reach = (mount, PANDA_REACH[1] * scale)
     problems = []
     for i in range(int(n)):
         rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(_CLASS_INDEX[name], i)))
         problem = None
         for _ in range(int(max_scenes)):
-            layout = _scaled(layout_fn(rng), scale)
+            layout = _placed(layout_fn(rng), scale, np.asarray(mount))
             scene = build_scene(layout.primitives)
             def free(q: np.ndarray, scene: Any = scene) -> bool:
                 return is_collision_free(robot, scene, q, margin) and (
