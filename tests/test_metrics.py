@@ -228,10 +228,11 @@ class _CountingChecker:
     """Mesh checker double: obstacle clearance 0.2 m everywhere, counting the states it is asked about."""
 
     def __init__(self):
-        self.states = 0
+        self.states = self.calls = 0
 
     def min_clearance(self, scene, q, threads=None, cutoff=None):
         self.states += len(q)
+        self.calls += 1
         return 0.2
 
     def min_self_clearance(self, q, threads=None, cutoff=None):
@@ -247,6 +248,16 @@ def test_a_mesh_check_past_its_deadline_stops_with_a_negative_verdict():
     assert not ok and late.states == m.MESH_CHECK_CHUNK and clear == 0.2
     assert m.mesh_check(_CountingChecker(), None, q, deadline=0.0)[3] is False
     assert m.mesh_check(_CountingChecker(), None, q)[3] is True
+
+
+def test_a_mesh_check_with_time_left_doubles_its_calls():
+    import time
+
+    q = np.stack([np.linspace(0.0, 6.0, 601), np.zeros(601)], axis=1)
+    checker = _CountingChecker()
+    assert m.mesh_verdict(checker, None, q, deadline=time.perf_counter() + 60.0)[2]
+    # 8, 16, 32, 64, 128, 256 states, then the 97 left: 7 calls, not 76 of 8
+    assert checker.states == 601 and checker.calls == 7
 
 
 def test_ldj_closed_forms_of_single_movements():

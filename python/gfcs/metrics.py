@@ -67,8 +67,9 @@ MESH_REPORT_RANGE = 0.002
 #: Resolution [rad or m, max over joints] at which collision checks visit a path (:func:`checked_states`):
 #: half the 0.01 rad at which validators commonly interpolate a returned trajectory.
 MESH_CHECK_STEP = 0.005
-#: States per mesh-check call when a deadline bounds the check (:func:`mesh_check`): a check overruns its
-#: deadline by one call at most.
+#: States of the first mesh-check call when a deadline bounds the check (:func:`mesh_check`); each next call
+#: takes twice as many, at most as many as the time left allows at the rate measured so far, so that a check
+#: overruns its deadline by about one call of this size at most.
 MESH_CHECK_CHUNK = 8
 #: Default clearance [m] the collision meshes must keep, from the obstacles and between links, at every
 #: configuration of a trajectory (its states and the straight segments between them) for it to count as
@@ -315,12 +316,15 @@ def checked_indices(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
     timed path (small steps) is checked at that resolution instead of at every time sample; a path whose
     samples lie farther apart keeps all of them."""
     qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    n = qa.shape[0]
+    if n > 2 and np.all(np.max(np.abs(np.diff(qa[:-1], axis=0)), axis=1) >= step):
+        return np.arange(n, dtype=np.int64)  # every step is that long: every row is visited
     keep = [0]
-    for k in range(1, qa.shape[0] - 1):
+    for k in range(1, n - 1):
         if np.max(np.abs(qa[k] - qa[keep[-1]])) >= step:
             keep.append(k)
-    if qa.shape[0] > 1:
-        keep.append(qa.shape[0] - 1)
+    if n > 1:
+        keep.append(n - 1)
     return np.asarray(keep, dtype=np.int64)
 
 
@@ -348,8 +352,9 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
     the same as with exact distances.
 
     The states are those of :func:`checked_states` (the path at :data:`MESH_CHECK_STEP` resolution). With
-    a ``deadline`` (a ``time.perf_counter()`` value) they are checked :data:`MESH_CHECK_CHUNK` at a time,
-    and a check that reaches the deadline stops there with a negative verdict: exact distances between
+    a ``deadline`` (a ``time.perf_counter()`` value) they are checked in calls of :data:`MESH_CHECK_CHUNK`
+    states, then twice as many each time within the time left, and a check that reaches the deadline stops
+    there with a negative verdict: exact distances between
     detailed meshes take up to a tenth of a second per state, and a solve's budget bounds its checks too.
 
     A path whose checked states all keep more than ``margin`` + :data:`INTERPOLATION_ALLOWANCE` passes;
@@ -368,16 +373,23 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
     """
     qa = checked_states(q)
     cutoff = mesh_report_cutoff(margin)
-    chunk = qa.shape[0] if deadline is None else MESH_CHECK_CHUNK
+    n = qa.shape[0]
+    chunk = n if deadline is None else MESH_CHECK_CHUNK
     clear = self_clear = math.inf
-    for start in range(0, qa.shape[0], max(1, chunk)):
-        part = qa[start:start + chunk]
+    start, began = 0, time.perf_counter()
+    while start < n:
+        part = qa[start:start + max(1, chunk)]
         clear = min(clear, float(mesh_checker.min_clearance(scene, part, cutoff=cutoff)))
         self_clear = min(self_clear, float(mesh_checker.min_self_clearance(part, cutoff=cutoff)))
+        start += part.shape[0]
         if clear <= margin or self_clear <= margin:
             return clear, self_clear, False, True
-        if deadline is not None and start + chunk < qa.shape[0] and time.perf_counter() > deadline:
-            return clear, self_clear, False, False
+        if deadline is not None and start < n:
+            now = time.perf_counter()
+            if now > deadline:
+                return clear, self_clear, False, False
+            per_state = (now - began) / start
+            chunk = max(MESH_CHECK_CHUNK, min(2 * chunk, int((deadline - now) / max(per_state, 1e-12))))
     if min(clear, self_clear) > margin + INTERPOLATION_ALLOWANCE:
         return clear, self_clear, True, True
     left = None if deadline is None else max(0.0, deadline - time.perf_counter())

