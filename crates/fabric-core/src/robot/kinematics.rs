@@ -305,17 +305,17 @@ impl Robot {
         out.xd = ws.vel[link] + w.cross(&r);
         out.jdot_qdot = ws.acc[link] + ws.alpha[link].cross(&r) + w.cross(&w.cross(&r));
         let b = self.bodies[link] * ws.dof;
-        let terms = b..b + self.cols[link];
-        let (jw, jm) = (&ws.jw[terms.clone()], &ws.jm[terms]);
-        out.width = self.cols[link];
-        let jac = jacobian_of_width(out, ws.dof);
-        for (k, col) in jac.chunks_exact_mut(3).enumerate() {
-            let v = match (jw.get(k), jm.get(k)) {
-                (Some(a), Some(m)) => cross_minus(a, &x, m),
-                _ => Vector3::zeros(),
-            };
-            col.copy_from_slice(v.as_slice());
+        let cols = self.cols[link];
+        let terms = b..b + cols;
+        out.width = cols;
+        let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * cols);
+        for ((col, a), m) in jac.chunks_exact_mut(3).zip(&ws.jw[terms.clone()]).zip(&ws.jm[terms]) {
+            let v = cross_minus(a, &x, m);
+            col[0] = v.x;
+            col[1] = v.y;
+            col[2] = v.z;
         }
+        zero.fill(0.0);
     }
 
     /// A direction fixed on `link`: x = R_link · local_axis (unitless); J column j is `a_j × x` for a
