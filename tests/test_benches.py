@@ -211,3 +211,29 @@ def test_speed_section_marks_each_target_from_the_figures():
     assert "0.600 s | **not met**" in lines["`gfcs solve` from the shell"]
     assert "0.050 s | met" in lines["built-in problem: first batch"]
     assert "Fitted exponent from 10 obstacles on: 1.00" in page and "test CPU" in page
+
+
+def test_unseen_robots_disables_the_adjacent_pairs_setup_assistant_would(tmp_path):
+    unseen = load_script("benches/unseen_robots.py")
+    urdf = tmp_path / "r.urdf"
+    geometry = '<collision><geometry><sphere radius="0.1"/></geometry></collision>'
+    urdf.write_text(
+        f'<robot name="r"><link name="base">{geometry}</link><link name="flange"/><link name="a">{geometry}</link>'
+        f'<link name="b">{geometry}</link><link name="c">{geometry}</link>'
+        '<joint name="j0" type="fixed"><parent link="base"/><child link="flange"/></joint>'
+        '<joint name="j1" type="revolute"><parent link="flange"/><child link="a"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint>'
+        '<joint name="j2" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint>'
+        '<joint name="j3" type="revolute"><parent link="b"/><child link="c"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>')
+    srdf = tmp_path / "r.srdf"
+    srdf.write_text('<robot name="r"><group name="arm"><joint name="j1"/></group>'
+                    '<disable_collisions link1="b" link2="a" reason="Never"/></robot>')
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(unseen.adjacent_srdf(urdf, srdf))
+    pairs = {frozenset((e.get("link1"), e.get("link2"))) for e in root.iter("disable_collisions")}
+    # base-a through the geometry-less flange; a-b kept once; b-c added; base-c and a-c stay checked
+    assert pairs == {frozenset(p) for p in (("base", "a"), ("a", "b"), ("b", "c"))}
+    assert root.find("group").get("name") == "arm"

@@ -1,0 +1,189 @@
+#!/usr/bin/env python3
+"""Robots the project was never developed on, run as a new user would: `gfcs generate`, `gfcs bench` and
+`tools/check_trajectories.py` on the MoveIt/ROS descriptions of the `example-robot-data` package (URDF,
+SRDF, collision meshes; no spheres: gfcs fits them).
+
+The package's SRDFs written for Pinocchio disable no link pairs, and a MoveIt SRDF disables at least the
+adjacent ones (MoveIt Setup Assistant's "Adjacent"): for those robots (``adjacent=True`` below) the SRDF
+used for planning and validation is the package's with every pair of adjacent links with collision
+geometry disabled (links without geometry skipped, as Setup Assistant does), written into --out.
+
+Get the descriptions (the wheel holds only data files)::
+
+    pip download example-robot-data==6.0.0 --no-deps -d erd && unzip -q erd/*.whl -d erd/x
+    python benches/unseen_robots.py --share erd/x/cmeel.prefix/share --out runs/unseen
+
+Writes the fragment ``benches/results/unseen_robots.md`` (for ``benches/report.py``) and one folder of
+problems, results and verdicts per robot under --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Optional, Tuple
+
+ROOT = Path(__file__).resolve().parents[1]
+FRAGMENT = ROOT / "benches" / "results" / "unseen_robots.md"
+RETRY_LABEL = "Ours (5 b, retry)"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One robot: its title, URDF and SRDF (relative to ``<share>/example-robot-data/robots``), the link whose
+    pose the validator reports, whether to add the adjacent pairs to the SRDF, and extra CLI flags."""
+
+    title: str
+    urdf: str
+    srdf: str
+    ee_link: str
+    adjacent: bool = False
+    flags: Tuple[str, ...] = field(default_factory=tuple)
+
+
+CASES = (
+    Case("UFactory xArm7 (7 joints)", "xarm_description/urdf/xarm7.urdf", "xarm_description/srdf/xarm7.srdf",
+         "link_eef"),
+    Case("Kinova Gen2 j2s6s200 (6)", "kinova_description/robots/kinova.urdf", "kinova_description/srdf/kinova.srdf",
+         "j2s6s200_end_effector", adjacent=True),
+    Case("Unitree Z1 (6)", "z1_description/urdf/z1.urdf", "z1_description/srdf/z1.srdf", "gripperMover",
+         adjacent=True),
+    Case("UR3 with gripper (6)", "ur_description/urdf/ur3_gripper.urdf", "ur_description/srdf/ur3_gripper.srdf",
+         "tool0"),
+    Case("PR2, both arms (14)", "pr2_description/urdf/pr2.urdf", "pr2_description/srdf/pr2.srdf",
+         "l_wrist_roll_link", flags=("--group", "arms")),
+)
+
+
+def adjacent_srdf(urdf: Path, srdf: Path) -> str:
+    """``srdf`` with a ``disable_collisions`` (reason "Adjacent") for every pair of links of ``urdf`` with
+    collision geometry that the kinematic tree joins directly, links without geometry skipped."""
+    tree = ET.parse(urdf).getroot()
+    solid = {link.get("name") for link in tree.findall("link") if link.find("collision") is not None}
+    parent = {j.find("child").get("link"): j.find("parent").get("link") for j in tree.findall("joint")}
+
+    def solid_parent(link: str) -> Optional[str]:
+        p = parent.get(link)
+        while p is not None and p not in solid:
+            p = parent.get(p)
+        return p
+
+    root = ET.parse(srdf).getroot()
+    have = {frozenset((e.get("link1"), e.get("link2"))) for e in root.iter("disable_collisions")}
+    for link in sorted(solid):
+        p = solid_parent(link)
+        if p is not None and frozenset((p, link)) not in have:
+            ET.SubElement(root, "disable_collisions", link1=p, link2=link, reason="Adjacent")
+    return ET.tostring(root, encoding="unicode")
+
+
+def run(cmd: List[str], log: Path) -> str:
+    """Run ``cmd``; its stderr and stdout appended to ``log``; its stdout returned (a failure stops here)."""
+    out = subprocess.run(cmd, capture_output=True, text=True)
+    with log.open("a") as f:
+        f.write("$ " + " ".join(cmd) + "\n" + out.stderr + out.stdout + "\n")
+    if out.returncode not in (0, 1):  # 1: generate or bench with a class or a problem that failed
+        raise SystemExit(f"{' '.join(cmd)} exited {out.returncode}; see {log}")
+    return out.stdout + out.stderr
+
+
+def bench_case(case: Case, share: Path, out: Path, n: int, jobs: int) -> Dict[str, object]:
+    """Generate, plan and validate one robot; its row of the table."""
+    robots = share / "example-robot-data" / "robots"
+    folder = out / case.urdf.split("/")[0]
+    folder.mkdir(parents=True, exist_ok=True)
+    log = folder / "log.txt"
+    log.write_text("")
+    urdf, srdf = robots / case.urdf, robots / case.srdf
+    if case.adjacent:
+        written = folder / (srdf.stem + "_adjacent.srdf")
+        written.write_text(adjacent_srdf(urdf, srdf))
+        srdf = written
+    robot = ["--robot", str(urdf), "--srdf", str(srdf), "--mesh-dir", str(share), *case.flags]
+    problems, results, rows, verdicts = (folder / "problems", folder / "results", folder / "bench.jsonl",
+                                         folder / "validated.jsonl")
+    for p in (rows, verdicts):
+        p.unlink(missing_ok=True)
+    generated = run([sys.executable, "-m", "gfcs", "generate", "--out", str(problems), "--n", str(n), *robot], log)
+    started = time.perf_counter()
+    run([sys.executable, "-m", "gfcs", "bench", "--problems", str(problems), *robot, "--method", "gfcs",
+         "--no-progress", "--json", str(rows), "--results-dir", str(results)], log)
+    bench_s = time.perf_counter() - started
+    run([sys.executable, str(ROOT / "tools" / "check_trajectories.py"), str(results), "--problems", str(problems),
+         "--urdf", str(urdf), "--srdf", str(srdf), "--mesh-dir", str(share), "--ee-link", case.ee_link,
+         "--jobs", str(jobs), "--json", str(verdicts)], log)
+    final = [json.loads(line) for line in rows.read_text().splitlines() if line.strip()]
+    final = [r for r in final if r.get("label") == RETRY_LABEL]
+    judged = [json.loads(line) for line in verdicts.read_text().splitlines() if line.strip()]
+    claims = [v for v in judged if v.get("claimed_success")]
+    fitted = next((line for line in generated.splitlines() if "spheres fitted" in line), "")
+    classes = sorted({r["class"] for r in final})
+    return {
+        "robot": case.title,
+        "problems": len(final),
+        "classes": len(classes),
+        "solved": sum(bool(r.get("success")) for r in final),
+        "claims": len(claims),
+        "valid": sum(bool(v.get("valid")) for v in claims),
+        "median_solve_s": statistics.median(float(r["wall_time"]) for r in final) if final else float("nan"),
+        "max_speed_ratio": max((float(v.get("speed_ratio") or 0.0) for v in claims), default=float("nan")),
+        "min_clearance_mm": 1e3 * min((float(v["clearance"]) for v in claims), default=float("nan")),
+        "bench_s": bench_s,
+        "spheres": fitted.split("the fabric uses ")[-1].split(" spheres")[0] if fitted else "",
+    }
+
+
+def fragment(rows: List[Dict[str, object]], n: int) -> str:
+    lines = [
+        "## Robots the project never ran on",
+        "",
+        "Written by `python benches/unseen_robots.py --share SHARE --n {n}` on the descriptions of the "
+        "`example-robot-data` package 6.0.0 (URDF, SRDF, collision meshes; no spheres: gfcs fits them), as a new "
+        "user would run them: `gfcs generate --n {n}` (each class it can fill), `gfcs bench --method gfcs`, and "
+        "`tools/check_trajectories.py` on the robot's meshes, SRDF pairs, limits and velocity limits. The Kinova's "
+        "and the Z1's SRDFs (written for Pinocchio) disable no pair; they are used with their adjacent pairs "
+        "disabled, as MoveIt Setup Assistant writes them. The UR3's SRDF has no group: its requests plan the "
+        "robot's joints.".format(n=n),
+        "",
+        "| robot (joints) | problems (classes) | solved | claims valid | median whole solve (s) "
+        "| max speed/limit | min mesh clearance (mm) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(f"| {r['robot']} | {r['problems']} ({r['classes']}) | {r['solved']}/{r['problems']} "
+                     f"| {r['valid']}/{r['claims']} | {r['median_solve_s']:.2f} | {r['max_speed_ratio']:.2f} "
+                     f"| {r['min_clearance_mm']:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--share", type=Path, required=True,
+                   help="folder holding example-robot-data/robots (the wheel's cmeel.prefix/share)")
+    p.add_argument("--out", type=Path, default=Path("runs/unseen"), help="working folder (default runs/unseen)")
+    p.add_argument("--n", type=int, default=3, help="problems per class (default 3)")
+    p.add_argument("--jobs", type=int, default=2, help="validator processes (default 2)")
+    p.add_argument("--fragment", type=Path, default=FRAGMENT, help=f"markdown written (default {FRAGMENT})")
+    args = p.parse_args(argv)
+    if not (args.share / "example-robot-data" / "robots").is_dir():
+        p.error(f"--share {args.share}: no example-robot-data/robots in it")
+    rows = []
+    for case in CASES:
+        row = bench_case(case, args.share, args.out, args.n, args.jobs)
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+    (args.out / "unseen_robots.json").write_text(json.dumps(rows, indent=1))
+    args.fragment.write_text(fragment(rows, args.n))
+    print(fragment(rows, args.n))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
