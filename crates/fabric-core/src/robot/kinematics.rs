@@ -309,7 +309,11 @@ impl Robot {
         let terms = b..b + cols;
         out.width = cols;
         let (jac, zero) = jacobian_of_width(out, ws.dof).split_at_mut(3 * cols);
-        for ((col, a), m) in jac.chunks_exact_mut(3).zip(&ws.jw[terms.clone()]).zip(&ws.jm[terms]) {
+        for ((col, a), m) in jac
+            .chunks_exact_mut(3)
+            .zip(&ws.jw[terms.clone()])
+            .zip(&ws.jm[terms])
+        {
             let v = cross_minus(a, &x, m);
             col[0] = v.x;
             col[1] = v.y;
