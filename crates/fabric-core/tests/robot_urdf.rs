@@ -327,3 +327,113 @@ fn batch_matches_single_evaluations(n: usize) {
         }
     }
 }
+
+/// A URDF joint `name` of `kind` from `parent` to `child` (revolute and prismatic limited to ±1).
+fn joint(name: &str, kind: &str, parent: &str, child: &str, extra: &str) -> String {
+    format!(
+        r#"<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>
+        <origin xyz="0.1 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1"/>{extra}</joint>"#
+    )
+}
+
+/// An arm of `n` revolute joints from `parent`, ending in a hand with two fingers (one a mimic):
+/// (links, joints).
+fn arm(prefix: &str, parent: &str, n: usize) -> (Vec<String>, Vec<String>) {
+    let mut links = Vec::new();
+    let mut joints = Vec::new();
+    let mut last = parent.to_string();
+    for k in 1..=n {
+        let link = format!("{prefix}link{k}");
+        joints.push(joint(&format!("{prefix}j{k}"), "revolute", &last, &link, ""));
+        links.push(link.clone());
+        last = link;
+    }
+    let hand = format!("{prefix}hand");
+    joints.push(joint(&format!("{prefix}hand_joint"), "fixed", &last, &hand, ""));
+    for (f, mimic) in [("left", ""), ("right", "<mimic joint=\"FIRST\"/>")] {
+        let finger = format!("{prefix}{f}");
+        let mimic = mimic.replace("FIRST", &format!("{prefix}left_joint"));
+        joints.push(joint(&format!("{prefix}{f}_joint"), "prismatic", &hand, &finger, &mimic));
+        links.push(finger);
+    }
+    links.push(hand);
+    (links, joints)
+}
+
+fn urdf(links: &[String], joints: &[String]) -> String {
+    let links: String = links.iter().map(|l| format!(r#"<link name="{l}"/>"#)).collect();
+    format!(r#"<robot name="r">{links}{}</robot>"#, joints.concat())
+}
+
+#[test]
+fn the_default_end_effector_of_a_mobile_manipulator_is_its_arms_hand() {
+    // base: two continuous wheels, a torso lift; torso: a two-joint head and a six-joint arm
+    let mut links: Vec<String> = ["base", "wheel_l", "wheel_r", "torso", "head1", "head2"]
+        .map(String::from)
+        .to_vec();
+    let mut joints = vec![
+        joint("wheel_l_joint", "continuous", "base", "wheel_l", ""),
+        joint("wheel_r_joint", "continuous", "base", "wheel_r", ""),
+        joint("lift", "prismatic", "base", "torso", ""),
+        joint("head_pan", "revolute", "torso", "head1", ""),
+        joint("head_tilt", "revolute", "head1", "head2", ""),
+    ];
+    let (l, j) = arm("arm_", "torso", 6);
+    links.extend(l);
+    joints.extend(j);
+    let robot = Robot::from_urdf_str(&urdf(&links, &joints), "m.urdf", &RobotOptions::default())
+        .expect("a mobile manipulator loads without an end-effector named");
+    assert_eq!(robot.link_names()[robot.ee_link()], "arm_hand");
+    let expected: Vec<String> = std::iter::once("lift".to_string())
+        .chain((1..=6).map(|k| format!("arm_j{k}")))
+        .collect();
+    assert_eq!(robot.joint_names(), expected);
+}
+
+#[test]
+fn the_default_end_effector_of_two_equal_arms_is_the_first_arms_hand() {
+    let mut links = vec!["torso".to_string()];
+    let mut joints = Vec::new();
+    for prefix in ["left_", "right_"] {
+        let (l, j) = arm(prefix, "torso", 7);
+        links.extend(l);
+        joints.extend(j);
+    }
+    let robot = Robot::from_urdf_str(&urdf(&links, &joints), "two.urdf", &RobotOptions::default())
+        .expect("two arms on a torso load without an end-effector named");
+    assert_eq!(robot.link_names()[robot.ee_link()], "left_hand");
+    assert_eq!(robot.dof(), 7);
+    // short branches (one joint and a gripper, a one-joint head) are no arm: the walk stops where they
+    // branch
+    let (l, j) = arm("", "torso", 1);
+    let mut short = vec!["torso".to_string()];
+    short.extend(l);
+    let mut jj = j;
+    jj.push(joint("head_pan", "revolute", "torso", "head", ""));
+    short.push("head".into());
+    let err = Robot::from_urdf_str(&urdf(&short, &jj), "short.urdf", &RobotOptions::default());
+    assert!(err.is_err(), "no branch of three joints: no default end-effector below the torso");
+}
+
+#[test]
+fn a_hand_of_many_jointed_fingers_is_not_taken_for_an_arm() {
+    // an arm of six 0.1 m links, then a palm with two fingers of three 1 cm joints each
+    let (mut links, mut joints) = arm("", "base", 6);
+    links.push("base".into());
+    for f in ["index", "thumb"] {
+        let mut last = "hand".to_string();
+        for k in 1..=3 {
+            let link = format!("{f}{k}");
+            joints.push(
+                joint(&format!("{f}_j{k}"), "revolute", &last, &link, "")
+                    .replace(r#"<origin xyz="0.1 0 0"/>"#, r#"<origin xyz="0.01 0 0"/>"#),
+            );
+            links.push(link.clone());
+            last = link;
+        }
+    }
+    let robot = Robot::from_urdf_str(&urdf(&links, &joints), "hand.urdf", &RobotOptions::default())
+        .expect("loads");
+    assert_eq!(robot.link_names()[robot.ee_link()], "hand");
+    assert_eq!(robot.dof(), 6);
+}

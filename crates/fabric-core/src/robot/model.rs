@@ -20,8 +20,11 @@ pub struct RobotOptions {
     /// Link whose frame is the world frame of the model. Default: the URDF root link.
     pub base_link: Option<String>,
     /// End-effector link. Default: walking from the base, follow the only child, or the only child
-    /// subtree that holds a movable joint, and stop at a leaf or at a branching point (for the Panda with
-    /// its two finger joints, and for the MotionBenchMaker Panda: `panda_hand`). When `active_joints` is
+    /// subtree that holds a movable joint, or, where several do, the longest arm among them (at least three
+    /// joints that move on their own, at least a quarter as long as the path to the branching link: an arm
+    /// beside wheels or a head, not a hand's fingers; the first of two equal arms), and stop at a leaf or
+    /// at a branching point (for the Panda with its two finger
+    /// joints, and for the MotionBenchMaker Panda: `panda_hand`). When `active_joints` is
     /// given, the walk starts at the child link of the deepest active joint and only follows single fixed
     /// children.
     pub ee_link: Option<String>,

@@ -202,8 +202,19 @@ pub(super) fn reroot(g: &Graph, base: usize) -> Rooted {
     rooted
 }
 
-/// Default end-effector: follow the only child, or the only child subtree holding a movable joint;
-/// with explicit active joints, start below the deepest one and follow single fixed children only.
+/// Joints that move on their own (not mimic joints) a branch needs below a branching link for the default
+/// end-effector walk to take it as an arm ([`default_ee`]): not a wheel, a pan-tilt head, a gripper.
+const ARM_JOINTS: usize = 3;
+/// The least length of an arm branch (the longest sum of joint-origin lengths down it) against the path
+/// from the base to the branching link: a hand's fingers (a few centimetres after a metre of arm) are no
+/// arm however many joints they have.
+const ARM_LENGTH: f64 = 0.25;
+
+/// Default end-effector: follow the only child, or the only child subtree holding a movable joint, or,
+/// where several do, the longest arm among them (at least [`ARM_JOINTS`] joints that move on their own,
+/// at least [`ARM_LENGTH`] times as long as the path to the branching link: a mobile manipulator's arm
+/// beside its wheels and head; the first of two equal arms); with explicit active joints, start below the
+/// deepest one and follow single fixed children only.
 pub(super) fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usize {
     let n = t.order.len();
     let movable_edge =
@@ -230,13 +241,39 @@ pub(super) fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usi
         }
         return current;
     }
+    // has_movable[i]: a movable joint at or below link i's parent joint; free[i]: the joints at or below it
+    // that move on their own (mimic joints follow another); offset[i]: the length (m) of link i's parent
+    // joint origin; reach[i]: the longest sum of joint-origin lengths from link i down its subtree, from[i]:
+    // from the base to link i
     let mut has_movable = vec![false; n];
-    for i in (0..n).rev() {
-        has_movable[i] |= movable_edge(i);
-        if let Some((_, p, _)) = t.edge[i] {
-            has_movable[p] |= has_movable[i];
+    let mut free = vec![0usize; n];
+    let mut offset = vec![0.0; n];
+    let mut reach = vec![0.0_f64; n];
+    let mut from = vec![0.0; n];
+    for i in 0..n {
+        if let Some((j, p, _)) = t.edge[i] {
+            let xyz = &g.urdf.joints[j].origin.xyz;
+            offset[i] = (xyz[0] * xyz[0] + xyz[1] * xyz[1] + xyz[2] * xyz[2]).sqrt();
+            from[i] = from[p] + offset[i];
         }
     }
+    for i in (0..n).rev() {
+        has_movable[i] |= movable_edge(i);
+        free[i] += usize::from(t.edge[i].is_some_and(|(j, _, _)| {
+            let joint = &g.urdf.joints[j];
+            is_movable(&joint.joint_type) && joint.mimic.is_none()
+        }));
+        if let Some((_, p, _)) = t.edge[i] {
+            has_movable[p] |= has_movable[i];
+            free[p] += free[i];
+            reach[p] = reach[p].max(offset[i] + reach[i]);
+        }
+    }
+    // an arm below a branching link b: at least ARM_JOINTS joints that move on their own, and as long as
+    // ARM_LENGTH times the path from the base to b (a hand's fingers are short against the arm before them)
+    let arm = |b: usize, c: usize| {
+        free[c] >= ARM_JOINTS && offset[c] + reach[c] >= ARM_LENGTH * from[b]
+    };
     loop {
         let kids = &t.children[current];
         let next = match kids[..] {
@@ -244,7 +281,16 @@ pub(super) fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usi
             [only] => Some(only),
             _ => match kids.iter().filter(|&&c| has_movable[c]).collect::<Vec<_>>()[..] {
                 [&only] => Some(only),
-                _ => None,
+                // several moving branches: the longest arm among them (the first of equals, e.g. one of
+                // two arms); no arm: stop here (a hand between its fingers)
+                ref moving => moving
+                    .iter()
+                    .map(|&&c| c)
+                    .filter(|&c| arm(current, c))
+                    .fold(None, |best: Option<usize>, c| match best {
+                        Some(b) if offset[b] + reach[b] >= offset[c] + reach[c] => Some(b),
+                        _ => Some(c),
+                    }),
             },
         };
         match next {
