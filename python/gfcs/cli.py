@@ -118,8 +118,9 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
                         "start values; the end effector is its first tip link, and the metrics report every tip's "
                         "path (default with --srdf: the group_name of the problems' first request)")
     g.add_argument("--spheres", metavar="JSON", help="collision sphere file (replaces URDF spheres)")
-    g.add_argument("--ee-link", metavar="LINK", help="end-effector link (default: the hand at the end of the robot's only moving branch, "
-                        "or of its longest arm where it branches)")
+    g.add_argument("--ee-link", metavar="LINK",
+                   help="end-effector link (default: the hand at the end of the robot's only moving branch, or of "
+                        "its longest arm where it branches)")
     g.add_argument("--mesh-dir", metavar="DIR", help="directory resolving package:// mesh paths")
     g.add_argument("--mesh-urdf", metavar="URDF",
                    help="URDF whose collision meshes validate the returned trajectories (default with "
