@@ -50,6 +50,7 @@ import numpy as np
 from gfcs import metrics as _metrics
 from gfcs.errors import GenerationError, InvalidValueError
 from gfcs.pose_goal import quaternion_xyzw
+from gfcs.profile import perturbed_poses
 from gfcs.problems import CLASSES, Problem, canonical_class, mesh_checker_for
 
 __all__ = [
@@ -572,22 +573,18 @@ def _ready(robot: Any, checker: Any = None, samples: int = 512) -> np.ndarray:
     return mid
 
 
-def arm_mount(robot: Any) -> np.ndarray:
+def arm_mount(robot: Any, q: Optional[np.ndarray] = None) -> np.ndarray:
     """(3,) world position [m] of the arm's shoulder, about which the layouts are placed: the origin of the
     first link turned by the first joint that turns the end effector (a revolute joint's child link; a
-    prismatic torso before it only lifts the arm), at :func:`_ready`. The shipped Panda's is (0, 0, 0.333);
-    a mobile manipulator's sits on its torso, off its base."""
-    q = _ready(robot)
-    poses = np.asarray(robot.link_poses(q), dtype=np.float64)
+    prismatic torso before it only lifts the arm), at ``q`` (default :func:`_ready`). The shipped Panda's is
+    (0, 0, 0.333); a mobile manipulator's sits on its torso, off its base."""
+    poses, moved_poses = perturbed_poses(robot, _ready(robot) if q is None else q)
     ee = int(robot.link_index(robot.ee_link))
     first = None  # (links moved, first link moved) of the joint turning the end effector that moves the most
-    for j in range(int(robot.dof)):
-        dq = np.zeros(int(robot.dof))
-        dq[j] = 1e-3
-        moved_poses = np.asarray(robot.link_poses(q + dq), dtype=np.float64)
-        if np.max(np.abs(moved_poses[ee, :3, :3] - poses[ee, :3, :3])) < 1e-9:
+    for moved_pose in moved_poses:
+        if np.max(np.abs(moved_pose[ee, :3, :3] - poses[ee, :3, :3])) < 1e-9:
             continue  # does not turn the end effector (a prismatic joint, or another branch)
-        moved = np.flatnonzero(np.any(np.abs(moved_poses - poses) > 1e-12, axis=(1, 2)))
+        moved = np.flatnonzero(np.any(np.abs(moved_pose - poses) > 1e-12, axis=(1, 2)))
         if first is None or moved.size > first[0]:
             first = (moved.size, int(moved[0]))
     if first is None:
@@ -595,24 +592,27 @@ def arm_mount(robot: Any) -> np.ndarray:
     return poses[first[1], :3, 3].copy()
 
 
-def _reach(robot: Any, samples: int = 512, seed: int = 0) -> float:
-    """The 95th percentile [m] of the end-effector link origin's distance from :func:`arm_mount` over seeded
-    configurations uniform in the joint limits."""
+def _reach(robot: Any, mount: np.ndarray, samples: int = 512, seed: int = 0) -> float:
+    """The 95th percentile [m] of the end-effector link origin's distance from ``mount`` (3,) [m] (the arm's
+    shoulder, :func:`arm_mount`) over seeded configurations uniform in the joint limits."""
     rng = np.random.default_rng(seed)
     q = rng.uniform(np.asarray(robot.lower), np.asarray(robot.upper), (samples, int(robot.dof)))
-    offsets = np.asarray(robot.ee_position(q)) - arm_mount(robot)
+    offsets = np.asarray(robot.ee_position(q)) - np.asarray(mount, dtype=np.float64)
     return float(np.percentile(np.linalg.norm(offsets, axis=1), 95))
 
 
-def workspace_scale(robot: Any) -> float:
+def workspace_scale(robot: Any, mount: Optional[np.ndarray] = None) -> float:
     """How large ``robot``'s workspace is against the Panda's, for which the layouts are drawn: its
-    :func:`_reach` over the shipped Panda's (1 for a Panda). A smaller arm (a Unitree Z1, a Kinova) gets
-    smaller shelves, tables and cages, nearer its shoulder."""
+    :func:`_reach` from its shoulder ``mount`` (default :func:`arm_mount`) over the shipped Panda's (1 for a
+    Panda). A smaller arm (a Unitree Z1, a Kinova) gets smaller shelves, tables and cages, nearer its
+    shoulder."""
     import gfcs
 
     if _is_panda(robot):
         return 1.0
-    return _reach(robot) / _reach(gfcs.Robot.panda())
+    mount = arm_mount(robot) if mount is None else mount
+    panda = gfcs.Robot.panda()
+    return _reach(robot, mount) / _reach(panda, arm_mount(panda))
 
 
 def _placed(layout: _Layout, scale: float, mount: np.ndarray) -> _Layout:
@@ -675,8 +675,9 @@ def generate(
         n: number of problems (≥ 0).
         seed: problem i depends only on (cls, seed, i).
         robot: default :meth:`gfcs.Robot.panda`. The layouts are drawn about a Panda's shoulder; for
-            another robot they are scaled by ``scale`` and moved onto its shoulder (:func:`arm_mount`); targets are for the point :data:`PANDA_TCP` of the end-effector
-            link, approached along its z axis (the flange normal of ROS descriptions).
+            another robot they are scaled by ``scale`` and moved onto its shoulder (:func:`arm_mount`);
+            targets are for the point :data:`PANDA_TCP` of the end-effector link, approached along its z
+            axis (the flange normal of ROS descriptions).
         margin: obstacle clearance required of start and goal [m] (sphere model).
         min_distance: minimum ‖goal − start‖ [rad].
         max_scenes: scene re-draws allowed per problem before giving up.
@@ -698,10 +699,10 @@ def generate(
     checker = mesh_checker_for(robot)
     ready = _ready(robot, checker)
     layout_fn = _LAYOUTS[name]
-    scale = workspace_scale(robot) if scale is None else float(scale)
+    mount = PANDA_MOUNT if _is_panda(robot) else tuple(float(c) for c in arm_mount(robot, ready))
+    scale = workspace_scale(robot, np.asarray(mount)) if scale is None else float(scale)
     if not (math.isfinite(scale) and scale > 0):
         raise InvalidValueError(f"scale must be a finite number > 0, got {scale}")
-    mount = PANDA_MOUNT if _is_panda(robot) else tuple(float(c) for c in arm_mount(robot))
     if reach is PANDA_REACH and (scale != 1.0 or mount != PANDA_MOUNT):
         reach = (mount, PANDA_REACH[1] * scale)
     problems = []

@@ -175,17 +175,21 @@ def _rigid_with_ee(robot: Any, rng: np.random.Generator, samples: int = 3, link:
     return rigid
 
 
+def perturbed_poses(robot: Any, q: np.ndarray, delta: float = 1e-3) -> Tuple[np.ndarray, np.ndarray]:
+    """World link poses at ``q`` (L, 4, 4) and with each coordinate in turn moved by ``delta`` [rad or m]
+    (dof, L, 4, 4), in one batched forward kinematics: which links a joint moves, and how."""
+    q = np.asarray(q, dtype=np.float64)
+    batch = np.vstack([q, q + delta * np.eye(int(robot.dof))])
+    poses = np.asarray(robot.link_poses(batch), dtype=np.float64).reshape(batch.shape[0], -1, 4, 4)
+    return poses[0], poses[1:]
+
+
 def _parent_links(robot: Any, q: np.ndarray, link: str) -> np.ndarray:
     """Boolean (links,) mask of the links of the body before the end effector's: those that the second
     nearest joint moving ``link`` moves and the nearest does not (a joint nearer the end effector moves
     fewer links); all False when one joint or none moves ``link``."""
-    poses = np.asarray(robot.link_poses(q), dtype=np.float64)
-    moved = []
-    for j in range(robot.dof):
-        dq = np.zeros(robot.dof)
-        dq[j] = 1e-3
-        moved.append(np.any(np.abs(np.asarray(robot.link_poses(q + dq), dtype=np.float64) - poses) > 1e-12,
-                            axis=(1, 2)))
+    poses, moved_poses = perturbed_poses(robot, q)
+    moved = np.any(np.abs(moved_poses - poses[None]) > 1e-12, axis=(2, 3))  # (dof, links)
     ee = int(robot.link_index(link))
     chain = sorted((m for m in moved if m[ee]), key=lambda m: int(m.sum()))
     if len(chain) < 2:

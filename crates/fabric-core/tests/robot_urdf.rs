@@ -344,16 +344,34 @@ fn arm(prefix: &str, parent: &str, n: usize) -> (Vec<String>, Vec<String>) {
     let mut last = parent.to_string();
     for k in 1..=n {
         let link = format!("{prefix}link{k}");
-        joints.push(joint(&format!("{prefix}j{k}"), "revolute", &last, &link, ""));
+        joints.push(joint(
+            &format!("{prefix}j{k}"),
+            "revolute",
+            &last,
+            &link,
+            "",
+        ));
         links.push(link.clone());
         last = link;
     }
     let hand = format!("{prefix}hand");
-    joints.push(joint(&format!("{prefix}hand_joint"), "fixed", &last, &hand, ""));
+    joints.push(joint(
+        &format!("{prefix}hand_joint"),
+        "fixed",
+        &last,
+        &hand,
+        "",
+    ));
     for (f, mimic) in [("left", ""), ("right", "<mimic joint=\"FIRST\"/>")] {
         let finger = format!("{prefix}{f}");
         let mimic = mimic.replace("FIRST", &format!("{prefix}left_joint"));
-        joints.push(joint(&format!("{prefix}{f}_joint"), "prismatic", &hand, &finger, &mimic));
+        joints.push(joint(
+            &format!("{prefix}{f}_joint"),
+            "prismatic",
+            &hand,
+            &finger,
+            &mimic,
+        ));
         links.push(finger);
     }
     links.push(hand);
@@ -361,7 +379,10 @@ fn arm(prefix: &str, parent: &str, n: usize) -> (Vec<String>, Vec<String>) {
 }
 
 fn urdf(links: &[String], joints: &[String]) -> String {
-    let links: String = links.iter().map(|l| format!(r#"<link name="{l}"/>"#)).collect();
+    let links: String = links
+        .iter()
+        .map(|l| format!(r#"<link name="{l}"/>"#))
+        .collect();
     format!(r#"<robot name="r">{links}{}</robot>"#, joints.concat())
 }
 
@@ -412,7 +433,10 @@ fn the_default_end_effector_of_two_equal_arms_is_the_first_arms_hand() {
     jj.push(joint("head_pan", "revolute", "torso", "head", ""));
     short.push("head".into());
     let err = Robot::from_urdf_str(&urdf(&short, &jj), "short.urdf", &RobotOptions::default());
-    assert!(err.is_err(), "no branch of three joints: no default end-effector below the torso");
+    assert!(
+        err.is_err(),
+        "no branch of three joints: no default end-effector below the torso"
+    );
 }
 
 #[test]
@@ -432,8 +456,12 @@ fn a_hand_of_many_jointed_fingers_is_not_taken_for_an_arm() {
             last = link;
         }
     }
-    let robot = Robot::from_urdf_str(&urdf(&links, &joints), "hand.urdf", &RobotOptions::default())
-        .expect("loads");
+    let robot = Robot::from_urdf_str(
+        &urdf(&links, &joints),
+        "hand.urdf",
+        &RobotOptions::default(),
+    )
+    .expect("loads");
     assert_eq!(robot.link_names()[robot.ee_link()], "hand");
     assert_eq!(robot.dof(), 6);
 }

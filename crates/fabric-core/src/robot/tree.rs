@@ -269,11 +269,11 @@ pub(super) fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usi
             reach[p] = reach[p].max(offset[i] + reach[i]);
         }
     }
-    // an arm below a branching link b: at least ARM_JOINTS joints that move on their own, and as long as
-    // ARM_LENGTH times the path from the base to b (a hand's fingers are short against the arm before them)
-    let arm = |b: usize, c: usize| {
-        free[c] >= ARM_JOINTS && offset[c] + reach[c] >= ARM_LENGTH * from[b]
-    };
+    // the length of the branch from link b's parent joint down; an arm below a branching link b: at least
+    // ARM_JOINTS joints that move on their own, and as long as ARM_LENGTH times the path from the base to b
+    // (a hand's fingers are short against the arm before them)
+    let length = |c: usize| offset[c] + reach[c];
+    let arm = |b: usize, c: usize| free[c] >= ARM_JOINTS && length(c) >= ARM_LENGTH * from[b];
     loop {
         let kids = &t.children[current];
         let next = match kids[..] {
@@ -288,7 +288,7 @@ pub(super) fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usi
                     .map(|&&c| c)
                     .filter(|&c| arm(current, c))
                     .fold(None, |best: Option<usize>, c| match best {
-                        Some(b) if offset[b] + reach[b] >= offset[c] + reach[c] => Some(b),
+                        Some(b) if length(b) >= length(c) => Some(b),
                         _ => Some(c),
                     }),
             },
