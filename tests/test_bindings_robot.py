@@ -482,3 +482,18 @@ def test_bad_sphere_radius_raises(tmp_path):
     bad.write_text('{"spheres": [{"link": "l1", "center": [0, 0, 0]}]}')
     with pytest.raises(gfcs.FormatError, match="bad.json"):
         gfcs.Robot.from_urdf(TWO_LINK, spheres=bad)
+
+
+def test_locked_positions_keep_one_order_in_every_process():
+    """Requests and results written from ``locked_positions`` must not depend on a process's hash seed."""
+    import subprocess
+    import sys
+
+    code = ("import gfcs\n"
+            "names = gfcs.Robot.panda().joint_names\n"
+            "locked = gfcs.Robot.from_urdf(gfcs.panda_urdf(), active_joints=names[:2]).locked_positions\n"
+            "print(','.join(locked))")
+    orders = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                             timeout=120).stdout.strip() for _ in range(4)}
+    assert len(orders) == 1, orders
+    assert orders.pop().split(",")[:5] == [f"panda_joint{k}" for k in range(3, 8)]

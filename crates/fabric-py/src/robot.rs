@@ -304,10 +304,15 @@ impl PyRobot {
         Ok(PyRobot::new(out))
     }
 
-    /// {joint name: position} of the inactive movable joints (not mimic joints), rad or m.
+    /// {joint name: position} of the inactive movable joints (not mimic joints), rad or m, in the core's
+    /// order (the same in every process: written requests and results do not depend on hashing).
     #[getter]
-    fn locked_positions(&self) -> std::collections::HashMap<String, f64> {
-        self.inner.locked_positions().iter().cloned().collect()
+    fn locked_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, q) in self.inner.locked_positions() {
+            d.set_item(name, q)?;
+        }
+        Ok(d)
     }
 
     /// Robot name (URDF `<robot name>`).
