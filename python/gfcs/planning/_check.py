@@ -10,7 +10,7 @@ import numpy as np
 
 from gfcs.errors import InvalidValueError
 
-__all__ = ["non_negative", "positive", "integer_at_least", "optional_time_limit"]
+__all__ = ["non_negative", "positive", "fraction", "integer_at_least", "optional_time_limit"]
 
 
 def _number(name: str, value: Any, unit: str, rule: str) -> float:
@@ -35,6 +35,14 @@ def positive(name: str, value: Any, unit: str = "") -> float:
     v = _number(name, value, unit, "a finite number > 0")
     if not (math.isfinite(v) and v > 0):
         raise InvalidValueError(f"{name} must be a finite number > 0{unit}, got {value!r}")
+    return v
+
+
+def fraction(name: str, value: Any) -> float:
+    """``value`` as a float; InvalidValueError naming ``name`` unless it is a number in (0, 1]."""
+    v = _number(name, value, "", "a number in (0, 1]")
+    if not 0.0 < v <= 1.0:
+        raise InvalidValueError(f"{name} must be a number in (0, 1], got {value!r}")
     return v
 
 

@@ -155,7 +155,9 @@ class AttemptRecord:
 
 @dataclass
 class OptimOptions:
-    """Options of every attempt of a solve (Alg. 1 and the selection)."""
+    """Options of every attempt of a solve (Alg. 1 and the selection). ``selection_share``: the share of the
+    time left that a selection may spend while another attempt would fit after it
+    (:meth:`gfcs.planning.budget.Budget.selection_deadline`; 1: up to the solve's end)."""
 
     batches: int = 5
     population: int = 32
@@ -169,6 +171,7 @@ class OptimOptions:
     first_batch: bool = False
     stall_batches: int = 0
     stall_tol: float = 0.01
+    selection_share: float = 1.0
 
 
 def _warm_start(sampler: Sampler, problem: Any, n_commands: int, goal: np.ndarray) -> Callable[..., np.ndarray]:
@@ -274,11 +277,12 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
         first_batch.wall_time = float(one.batch_times[0]) + measuring
         if budget is not None:
             budget.exclude(measuring)
-    chosen_at = time.perf_counter()
+    timing: Dict[str, float] = {}
+    deadline = None if budget is None else budget.selection_deadline(options.selection_share)
     candidate = select_candidate(fabric, problem, opt, n, settings, mesh_checker, selection, finish,
-                                 options.threads, select_deadline)
+                                 options.threads, deadline, timing)
     if budget is not None:
-        budget.observe_selection(time.perf_counter() - chosen_at)
+        budget.observe_selection(timing["first_verdict"])
     # per-sphere (and per-pair) margins are recorded under the attempt's kind ("goal_contact" or "cover"; a
     # plan attempt's are the goal's contact, gfcs.planning.policies.endpoint_contact), per-pair margins of an
     # endpoint in sphere self-contact under "self_contact" (once)

@@ -68,6 +68,9 @@ class Preset:
         spheres_judge: with a mesh checker, a candidate's sphere clearances must hold too; False: the meshes
             alone judge collisions, as the validator does, and a motion whose spheres overlap where its
             meshes keep the margin succeeds (:attr:`gfcs.planning.selection.SelectionOptions.spheres_judge`).
+        selection_share: the share (in (0, 1]) of the time left that an attempt's candidate selection may
+            spend while another attempt would still fit after it, so that the retry policies get time
+            (:meth:`gfcs.planning.budget.Budget.selection_deadline`); 1: up to the end of the budget.
     """
 
     name: str
@@ -85,6 +88,7 @@ class Preset:
     endpoint_contact: bool = False
     element_spheres: bool = False
     spheres_judge: bool = True
+    selection_share: float = 1.0
 
 
 PRESETS: Dict[str, Preset] = {
@@ -100,7 +104,7 @@ PRESETS: Dict[str, Preset] = {
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
                       repair=RepairOptions(), sweep_time=0.25, endpoint_contact=True, element_spheres=True,
-                      spheres_judge=False),
+                      spheres_judge=False, selection_share=0.5),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,

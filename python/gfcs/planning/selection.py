@@ -208,15 +208,19 @@ def _repair(problem: Any, candidate: Candidate, mesh_checker: Any, options: Sele
 
 def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: int, settings: RolloutSettings,
                      mesh_checker: Any, options: SelectionOptions, finish: Optional[FinishOptions] = None,
-                     threads: Optional[int] = None, deadline: Optional[float] = None) -> Candidate:
+                     threads: Optional[int] = None, deadline: Optional[float] = None,
+                     timing: Optional[Dict[str, float]] = None) -> Candidate:
     """The candidate an attempt returns, rolled out, finished and judged.
 
     Without a mesh checker the first candidate of the preference order (see the module docstring) is
     returned; with one, the first whose trajectory succeeds with meshes included, else, with
     ``options.repair``, the first repaired one that does, or, if none does, the first of the order. With a
     ``deadline`` (a ``time.perf_counter()`` value) a further candidate is judged only when the longest
-    judgement so far would end before it; the first candidate always is.
+    judgement so far would end before it; the first candidate always is. A ``timing`` dict receives
+    ``first_verdict``: the seconds from the call to the first candidate's verdict (what any selection costs;
+    :class:`gfcs.planning.budget.Budget` reserves it).
     """
+    began = time.perf_counter()
     finish = finish or FinishOptions()
     roll = _Rollouts(fabric, problem, opt, n_commands, settings, finish, threads)
     order = np.argsort(opt.all_costs, kind="stable")
@@ -237,6 +241,8 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
             met["mesh_candidates_checked"] = len(judged) + 1
         candidate.metrics = met
         judging = max(judging, time.perf_counter() - started)
+        if timing is not None and not judged:
+            timing["first_verdict"] = time.perf_counter() - began
         judged.append(candidate)
         if mesh_checker is None or met["success"]:
             chosen = candidate

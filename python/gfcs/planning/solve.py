@@ -31,7 +31,7 @@ import numpy as np
 
 from gfcs import metrics as _metrics
 from gfcs.errors import InvalidValueError
-from gfcs.planning._check import integer_at_least, non_negative, optional_time_limit, worker_threads
+from gfcs.planning._check import fraction, integer_at_least, non_negative, optional_time_limit, worker_threads
 from gfcs.planning.attempts import Attempt, AttemptRecord, OptimOptions, combine_records, run_attempt
 from gfcs.planning.budget import Budget
 from gfcs.planning.finish import FinishOptions, rollout_commands, with_raw_ldj
@@ -87,6 +87,7 @@ def solve(
     endpoint_check: bool = True,
     mesh_repair: Optional[bool] = None,
     spheres_judge: Optional[bool] = None,
+    selection_share: Optional[float] = None,
 ) -> SolveResult:
     """Solve a motion problem with GFCS (Alg. 1 and the preset's retry policies) or with the local fabric
     alone (``method="gf"``).
@@ -145,6 +146,9 @@ def solve(
         spheres_judge: with a mesh checker, a motion's sphere clearances must hold too for success; False:
             the collision meshes alone judge collisions, as a mesh validator does (None: the preset's,
             off / on; :attr:`gfcs.planning.selection.SelectionOptions.spheres_judge`).
+        selection_share: the share (in (0, 1]) of the time left that an attempt's candidate selection may
+            spend while another attempt would still fit after it (None: the preset's, 0.5 / 1; 1: up to the
+            end of the budget; :meth:`gfcs.planning.budget.Budget.selection_deadline`).
 
     Returns:
         :class:`gfcs.results.SolveResult` (the chosen attempt's motion and metrics; ``attempts``: every
@@ -187,10 +191,12 @@ def solve(
                                SelectionOptions(slack, checks, mesh_margin, repair=repair,
                                                 sweep_time=chosen.sweep_time, spheres_judge=judge),
                                bool(record_first_batch),
-                               stall, non_negative("stall_tol", stall_tol))
+                               stall, non_negative("stall_tol", stall_tol),
+                               fraction("selection_share", chosen.selection_share if selection_share is None
+                                        else selection_share))
         recorded.update(batches=int(batches), population=int(population), sigma0=float(sigma0),
                         top_m=int(top_m), length_slack=slack, mesh_repair=repair is not None,
-                        sweep_time=chosen.sweep_time,
+                        sweep_time=chosen.sweep_time, selection_share=options.selection_share,
                         **({"stall_batches": stall, "stall_tol": float(stall_tol)} if stall else {}))
         models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres),
                             chosen.element_spheres if element_spheres is None else bool(element_spheres))
