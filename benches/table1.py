@@ -58,17 +58,24 @@ def bench(shared: Path, robot: str, run: str, out: Path, args: argparse.Namespac
 
 
 def validate(shared: Path, robot: str, run: str, out: Path, jobs: int) -> None:
-    problems, folder, _, mesh_urdf, srdf, ee_link = ROBOTS[robot]
+    problems, folder, *_ = ROBOTS[robot]
     stem = out / f"{robot}.{run}"
+    run_validator(shared / problems, shared / folder, robot, stem, Path(f"{stem}.validated.jsonl"), jobs)
+
+
+def run_validator(problems: Path, robot_dir: Path, robot: str, results: Path, out: Path, jobs: int) -> None:
+    """``tools/check_trajectories.py`` on the result files in ``results`` (problems in ``problems``, the
+    robot files of ``ROBOTS[robot]`` in ``robot_dir``), its verdicts written to ``out`` (JSON lines)."""
+    *_, mesh_urdf, srdf, ee_link = ROBOTS[robot]
     tool = Path(__file__).resolve().parents[1] / "tools" / "check_trajectories.py"
-    cmd = [sys.executable, str(tool), str(stem), "--problems", str(shared / problems),
-           "--urdf", str(shared / folder / mesh_urdf), "--srdf", str(shared / folder / srdf),
-           "--ee-link", ee_link, "--jobs", str(jobs), "--json", f"{stem}.validated.jsonl"]
+    cmd = [sys.executable, str(tool), str(results), "--problems", str(problems),
+           "--urdf", str(robot_dir / mesh_urdf), "--srdf", str(robot_dir / srdf),
+           "--ee-link", ee_link, "--jobs", str(jobs), "--json", str(out)]
     print("$", " ".join(cmd), file=sys.stderr)
     # exit code 1: some claimed successes are not valid, which the verdicts record; the table goes on
     code = subprocess.run(cmd, stdout=subprocess.DEVNULL).returncode
     if code not in (0, 1):
-        raise SystemExit(f"table1: the validator failed on {stem} (exit code {code})")
+        raise SystemExit(f"the validator failed on {results} (exit code {code})")
 
 
 def machine_info() -> Dict[str, Any]:

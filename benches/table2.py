@@ -3,9 +3,12 @@
 
 For each seed: ``gfcs train`` on problems 1-``--train`` of every MotionBenchMaker class (timed), then both
 samplers solve problems ``--train``+1 to 50 of every class with one CMA-ES batch of the ``paper`` preset, with
-the same per-problem seed (``gfcs.learning.evaluate_first_batch``). Differences (learned − uniform) get 95 %
-bootstrap intervals over problems: success in points of percent, hand path and time over the problems both
-solve. Writes ``OUT/table2.jsonl`` (every row, with its seed) and the fragment ``benches/results/learning.md``.
+the same per-problem seed (``gfcs.learning.evaluate_first_batch``), each returned motion written to
+``OUT/seed<S>/`` and judged by the independent validator (``tools/check_trajectories.py`` on the Panda's
+collision meshes and SRDF, as Table I's): a row succeeds when gfcs claims it and the validator finds it valid.
+Differences (learned − uniform) get 95 % bootstrap intervals over problems: success in points of percent, hand
+path and time over the problems both solve. Writes ``OUT/table2.jsonl`` (every row, with its seed and
+``claimed_success``) and the fragment ``benches/results/learning.md``.
 
     python benches/table2.py --problems ../shared/mbm --seeds 0 1 2 --out runs/table2
     python benches/table2.py --problems ../shared/mbm --out runs/table2 --render   # from the rows only
@@ -22,6 +25,10 @@ from pathlib import Path
 from typing import Any, Dict, List, Sequence, Tuple
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from report import verdicts  # noqa: E402  (the benches import each other as scripts)
+from table1 import ROBOTS, run_validator  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 LABELS = ("No learning", "Learning")
@@ -40,6 +47,7 @@ def train(args: argparse.Namespace, seed: int) -> Tuple[Path, float]:
 
 
 def evaluate(args: argparse.Namespace, model: Path, seed: int) -> List[Dict[str, Any]]:
+    """Both samplers' rows of one seed, each judged by the validator (``success``: claimed and valid)."""
     from gfcs import problems
     from gfcs.learning import EBMSampler, evaluate_first_batch
     from gfcs.planning import UniformSampler
@@ -47,9 +55,22 @@ def evaluate(args: argparse.Namespace, model: Path, seed: int) -> List[Dict[str,
     suite = problems.load_mbm_dir(args.problems, robot=problems.mbm_panda(), skip=args.train,
                                   limit=args.test_limit, classes=args.classes)
     rows: List[Dict[str, Any]] = []
+    folder = args.out / f"seed{seed}"
+    folder.mkdir(parents=True, exist_ok=True)
     evaluate_first_batch(suite, UniformSampler(), EBMSampler(str(model)), labels=LABELS, seed=1000 * seed,
-                         preset="paper", progress=True, per_problem=rows)
-    return [{**r, "run_seed": seed} for r in rows]
+                         preset="paper", progress=True, per_problem=rows, results_dir=str(folder))
+    valid = verdicts(validate(args, folder))
+    return [{**r, "run_seed": seed, "claimed_success": bool(r["success"]),
+             "success": valid.get((r["problem"], r["result"]), (False, False))[0]} for r in rows]
+
+
+def validate(args: argparse.Namespace, folder: Path) -> Path:
+    """The validator's verdicts on the results in ``folder`` (the MotionBenchMaker Panda's meshes and SRDF,
+    beside the problems folder as in ../shared): the file it wrote."""
+    out = folder.with_name(folder.name + ".validated.jsonl")
+    run_validator(args.problems, args.problems.resolve().parent / ROBOTS["mbm_panda"][1], "mbm_panda", folder,
+                  out, args.jobs)
+    return out
 
 
 def bootstrap(values: np.ndarray, n: int = 10_000, seed: int = 0) -> Tuple[float, float, float]:
@@ -87,7 +108,8 @@ def render(rows: List[Dict[str, Any]], times: Dict[str, float], args: argparse.N
              + f"`: trained on problems 1-{args.train} of every MBM Panda class (the "
              f"paper preset, τ = 1 for the negatives and the sampler), tested on problems {args.train + 1}-"
              f"{50 if not args.test_limit else args.train + args.test_limit} "
-             "with one batch of 32, the same per-problem seed for both samplers. Training wall time per seed: "
+             "with one batch of 32, the same per-problem seed for both samplers; solved: claimed by gfcs and "
+             "valid by the independent validator (meshes, SRDF pairs, limits). Training wall time per seed: "
              + ", ".join(f"{float(t):.0f} s" for t in times.values()) + ".", "",
              "| seed | sampler | solved | mean hand path (m) | mean time (s) |", "|---|---|---|---|---|"]
     for s in seeds:
@@ -112,6 +134,7 @@ def main(argv: Sequence[str] = ()) -> int:
     p.add_argument("--test-limit", type=int, default=None, help="test problems per class (default: the rest)")
     p.add_argument("--classes", nargs="+", default=None, help="only these classes (default: all seven)")
     p.add_argument("--out", type=Path, default=Path("runs/table2"))
+    p.add_argument("--jobs", type=int, default=2, help="validator processes")
     p.add_argument("--render", action="store_true", help="write the fragment from OUT/table2.jsonl only")
     p.add_argument("--train-args", nargs=argparse.REMAINDER, default=[],
                    help="further gfcs train options (e.g. --executor ray), last")

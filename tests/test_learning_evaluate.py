@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 import numpy as np
@@ -25,7 +26,8 @@ class FakeSolver:
         metrics = {"success": success, "ee_length": 1.0 + i + (0.0 if learned else 0.5),
                    "cspace_length": 5.0 + 2 * i, "ee_ldj": -6.0 - i, "cspace_ldj": -7.0,
                    "min_clearance": 0.05, "final_error": 0.001}
-        return SimpleNamespace(solve_time=0.1 * (i + 1), wall_time=0.12 * (i + 1), cost=2.0 + i, metrics=metrics)
+        return SimpleNamespace(solve_time=0.1 * (i + 1), wall_time=0.12 * (i + 1), cost=2.0 + i, metrics=metrics,
+                               to_json=lambda: json.dumps({"problem": problem.name, "sampler": str(sampler)}))
 
 
 def test_rows_match_direct_statistics():
@@ -51,6 +53,17 @@ def test_rows_match_direct_statistics():
     assert len(raw) == 8 and raw[0]["label"] == "No learning" and raw[0]["batches"] == 1
     table = format_first_batch_table(rows)
     assert "Table II" in table and "| No learning | 50 | 4 |" in table and "| Learning | 100 | 4 |" in table
+
+
+def test_every_result_is_written_for_the_validator(tmp_path):
+    problems = [SimpleNamespace(name=f"box/000{i}", index=i) for i in range(2)]
+    raw = []
+    evaluate_first_batch(problems, None, "ebm", solve_fn=FakeSolver(), per_problem=raw, results_dir=str(tmp_path))
+    # the names of `gfcs bench --results-dir`: <class>_<NNNN>.<result>.json, the row naming its file
+    assert sorted(f.name for f in tmp_path.iterdir()) == [
+        "box_0000.learning.json", "box_0000.no-learning.json", "box_0001.learning.json", "box_0001.no-learning.json"]
+    assert [r["result"] for r in raw] == ["no-learning", "learning"] * 2
+    assert json.loads((tmp_path / "box_0001.learning.json").read_text()) == {"problem": "box/0001", "sampler": "ebm"}
 
 
 def test_bad_arguments():

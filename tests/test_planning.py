@@ -209,6 +209,56 @@ def test_solve_keeps_its_time_budget(retried_problem):
     assert r.attempts and all(a["outcome"] != "not run" or a["time"] == 0 for a in r.attempts)
 
 
+class _Clock:
+    """A settable stand-in for ``time.perf_counter`` in :mod:`gfcs.planning.budget`."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+
+def test_a_selection_spends_its_share_while_another_attempt_fits(monkeypatch):
+    from gfcs.planning import budget as _budget
+
+    clock = _Clock()
+    monkeypatch.setattr(_budget.time, "perf_counter", clock)
+    b = _budget.Budget(10.0)
+    b.observe_first_batch(0.4)
+    b.observe_selection(0.6)  # another attempt needs 1 s
+    clock.now = 102.0  # 8 s left
+    assert b.selection_deadline(0.5) == pytest.approx(106.0)
+    assert b.selection_deadline(1.0) == pytest.approx(110.0)
+    assert b.selection_deadline() == pytest.approx(110.0)
+    clock.now = 108.5  # 1.5 s left: after half of it no attempt would fit, so the selection may use it all
+    assert b.selection_deadline(0.5) == pytest.approx(110.0)
+    assert _budget.Budget(None).selection_deadline(0.5) is None
+
+
+def test_an_attempt_selects_within_its_share(retried_problem, monkeypatch):
+    seen = []
+    select = _attempts.select_candidate
+
+    def recording(*args, **kwargs):
+        deadline, now = args[9], time.perf_counter()
+        seen.append((deadline - now, args[10]))
+        return select(*args, **kwargs)
+
+    monkeypatch.setattr(_attempts, "select_candidate", recording)
+    r = planning.solve(retried_problem, time_limit=60.0, selection_share=0.25, **SMALL)
+    assert len(seen) == 2 and r.settings["selection_share"] == 0.25
+    first_left = 60.0 - r.attempts[0]["time"]  # about what the first selection had left
+    assert 0.2 * first_left < seen[0][0] <= 0.25 * 60.0
+    assert all(timing["first_verdict"] > 0 for _, timing in seen)
+    with pytest.raises(gfcs.GfcsError, match="selection_share"):
+        planning.solve(retried_problem, selection_share=0.0, **SMALL)
+    with pytest.raises(gfcs.GfcsError, match="selection_share"):
+        planning.solve(retried_problem, selection_share="half", **SMALL)
+    assert planning.get_preset("default").selection_share == 0.5
+    assert planning.get_preset("paper").selection_share == 1.0
+
+
 def test_paper_preset_is_the_method_as_written(retried_problem):
     r = planning.solve(retried_problem, preset="paper", batches=2, population=6, threads=1)
     s = r.settings

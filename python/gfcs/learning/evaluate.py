@@ -11,6 +11,7 @@ the sampler protocol works.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 from ._validate import ConfigError, check_positive_int
@@ -41,6 +42,7 @@ def evaluate_first_batch(
     progress: bool = False,
     per_problem: Optional[List[Dict[str, Any]]] = None,
     preset: str = "default",
+    results_dir: Optional[str] = None,
 ) -> List[Dict[str, Any]]:
     """Solve every problem with one CMA-ES batch warm-started by each sampler; one row per sampler.
 
@@ -58,6 +60,9 @@ def evaluate_first_batch(
         preset: the planner preset of the default ``solve_fn`` (``"default"`` or ``"paper"``).
         progress: tqdm bar over the problems.
         per_problem: if a list is given, the per-problem benchmark rows are appended to it.
+        results_dir: if given, every result is written there as ``<class>_<NNNN>.<result>.json`` (the names
+            of ``gfcs bench --results-dir``, which ``tools/check_trajectories.py`` judges), ``result`` being
+            the row's own key: the label in lower case, words joined by ``-``.
 
     Returns:
         ``[{"label", "n", "success" (percent), "ee_length": (mean, std) | None, "cspace_length",
@@ -85,8 +90,13 @@ def evaluate_first_batch(
         for label, sampler in zip(labels, (sampler_a, sampler_b)):
             res = solve_fn(problem, batches=1, population=population, n_commands=n_commands,
                            seed=seed + i, sampler=sampler)
-            rows.append(bench_row(str(getattr(problem, "name", i)), _GROUP, label, "gfcs", 1, seed + i,
-                                  float(res.solve_time), float(res.cost), res.metrics, float(res.wall_time)))
+            name = str(getattr(problem, "name", i))
+            row = bench_row(name, _GROUP, label, "gfcs", 1, seed + i, float(res.solve_time), float(res.cost),
+                            res.metrics, float(res.wall_time))
+            if results_dir is not None:
+                row["result"] = "-".join(label.lower().split())
+                Path(results_dir, f"{name.replace('/', '_')}.{row['result']}.json").write_text(res.to_json())
+            rows.append(row)
     if per_problem is not None:
         per_problem.extend(rows)
     summary = summarize(rows)[_GROUP]
