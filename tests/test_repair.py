@@ -209,3 +209,19 @@ def test_a_sweep_past_its_own_time_is_a_final_mesh_failure(touching):
     assert metrics.mesh_check(checker, scene, q, margin, deadline=time.perf_counter() - 1.0,
                               sweep_time=10.0)[2:] == (False, False)
     assert metrics.mesh_check(checker, scene, q, margin, sweep_time=60.0)[2:] == (True, True)
+
+
+@pytest.mark.parametrize("length", [5, 61, 200])
+def test_spread_keeps_the_path_length_and_centres_each_step(length):
+    """A path shorter than the Gaussian kernel (3σ each side) gets a spread of its own length, as a long one."""
+    from gfcs.planning.repair import _spread
+
+    sigma, at = 10.0, np.array([length // 2])
+    d = _spread(np.array([[1.0, -2.0]]), at, length, sigma)
+    assert d.shape == (length, 2)
+    s = np.arange(length)
+    taper = np.clip(np.minimum(s, length - 1 - s) / sigma, 0.0, 1.0)
+    # one step: the kernel (peak 1) centred on its sample, never divided by a weight below 1, then tapered
+    expected = np.exp(-0.5 * ((s - at[0]) / sigma) ** 2) * (np.abs(s - at[0]) <= 30) * taper
+    np.testing.assert_allclose(d[:, 0], expected, atol=1e-12)
+    np.testing.assert_allclose(d[:, 1], -2.0 * expected, atol=1e-12)

@@ -602,3 +602,22 @@ def test_a_failed_thin_sphere_solve_falls_back_to_the_covering_spheres(shelf):
     r = opt.solve(flagged, sphere_fallback=False, **single)
     assert not r.success and r.settings["sphere_model"] == "thin" and r.n_evaluations == 8
     assert r.fabric_config["obstacles"]["margin"] == pytest.approx(base + opt.THIN_SPHERE_MARGIN)
+
+
+def test_an_endpoint_grazing_the_meshes_gets_the_longer_sweep(sphere_and_mesh_sliders):
+    """The box face is at 0.2 + q and the ball's surface at 0.4: a goal at 0.1995 keeps 0.5 mm, within the
+    margin (0.1 mm) + 1 mm that the continuous check must certify; one at 0.15 keeps 50 mm."""
+    from gfcs.planning.endpoints import endpoint_grazes
+
+    spheres, checker, scene = sphere_and_mesh_sliders
+    near = Problem("near", spheres, scene, q0=[0.0], goal=[0.1995], mesh_checker=checker)
+    far = dataclasses.replace(near, goal=[0.15])
+    assert endpoint_grazes(near, metrics.DEFAULT_MESH_MARGIN)
+    assert not endpoint_grazes(far, metrics.DEFAULT_MESH_MARGIN)
+    assert endpoint_grazes(dataclasses.replace(far, q0=[0.1995]), metrics.DEFAULT_MESH_MARGIN)  # the start too
+    assert not endpoint_grazes(dataclasses.replace(near, goal=[0.1985]), metrics.DEFAULT_MESH_MARGIN)  # 1.5 mm
+    assert not endpoint_grazes(dataclasses.replace(near, mesh_checker=None), metrics.DEFAULT_MESH_MARGIN)
+    preset = gfcs.planning.get_preset("default")
+    for problem, cap in ((near, preset.grazing_sweep_time), (far, preset.sweep_time)):
+        r = opt.solve(problem, batches=1, population=4, threads=1, policies=[])
+        assert r.settings["sweep_time"] == cap

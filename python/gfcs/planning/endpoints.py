@@ -15,7 +15,7 @@ import numpy as np
 
 from gfcs.errors import CollisionError
 
-__all__ = ["check_endpoints"]
+__all__ = ["check_endpoints", "endpoint_grazes"]
 
 
 def check_endpoints(problem: Any) -> None:
@@ -44,3 +44,20 @@ def check_endpoints(problem: Any) -> None:
             raise CollisionError(f"problem '{problem.name}': the {state} state is in collision: the meshes "
                                  f"touch an obstacle ({-clearance * 1000:.3g} mm deep); MoveIt refuses such a "
                                  f"request (endpoint_check=False plans anyway)")
+
+
+def endpoint_grazes(problem: Any, margin: float) -> bool:
+    """Whether the start or the goal keeps its collision meshes within ``margin`` +
+    :data:`gfcs.metrics.INTERPOLATION_ALLOWANCE` [m] of the scene or of each other: every motion of the
+    problem then passes that near, so the continuous check must certify each candidate's path there, and no
+    candidate certifies faster than another. False without a :class:`gfcs.MeshChecker`."""
+    from gfcs._core import MeshChecker
+    from gfcs.metrics import INTERPOLATION_ALLOWANCE
+
+    checker = getattr(problem, "mesh_checker", None)
+    if not isinstance(checker, MeshChecker):
+        return False
+    near = float(margin) + INTERPOLATION_ALLOWANCE
+    q = np.asarray([problem.q0, problem.goal], dtype=np.float64)
+    return min(float(checker.min_clearance(problem.scene, q, cutoff=near)),
+               float(checker.min_self_clearance(q, cutoff=near))) <= near

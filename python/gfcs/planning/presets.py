@@ -61,6 +61,10 @@ class Preset:
         repair: the repair of candidates that fail only on the meshes (None: none).
         sweep_time: the time [s] the continuous mesh check of one candidate may take before the candidate
             counts as too near (:attr:`gfcs.planning.selection.SelectionOptions.sweep_time`; None: no cap).
+        grazing_sweep_time: the continuous check's cap [s] instead of ``sweep_time`` when the start or the goal
+            itself keeps its meshes within the margin + 1 mm of contact
+            (:func:`gfcs.planning.endpoints.endpoint_grazes`): every path then needs the sweep there, and a cap
+            that no candidate meets refuses them all (None: ``sweep_time`` always).
         endpoint_contact: every attempt plans with the endpoints' sphere contacts that the meshes clear: the
             self-collision margins of the sphere pairs the start or the goal brings nearer than the margin
             lowered, and the obstacle margins of the spheres the goal sinks into an obstacle, and the meshes
@@ -85,6 +89,7 @@ class Preset:
     stall_batches: int = 0
     repair: Optional[RepairOptions] = None
     sweep_time: Optional[float] = None
+    grazing_sweep_time: Optional[float] = None
     endpoint_contact: bool = False
     element_spheres: bool = False
     spheres_judge: bool = True
@@ -103,7 +108,7 @@ PRESETS: Dict[str, Preset] = {
                                                  limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
-                      repair=RepairOptions(), sweep_time=0.25, endpoint_contact=True, element_spheres=True,
+                      repair=RepairOptions(), sweep_time=0.25, grazing_sweep_time=1.0, endpoint_contact=True, element_spheres=True,
                       spheres_judge=False, selection_share=0.5),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),

@@ -163,8 +163,14 @@ def _spread(steps: np.ndarray, at: np.ndarray, length: int, sigma: float) -> np.
     hit = np.zeros(length)
     np.add.at(delta, at, steps)
     np.add.at(hit, at, 1.0)
-    weight = np.convolve(hit, w, mode="same")
-    d = np.stack([np.convolve(delta[:, j], w, mode="same") for j in range(dof)], axis=1)
+
+    def smooth(x: np.ndarray) -> np.ndarray:
+        # centred on the samples whatever their count (mode "same" returns the kernel's length when the
+        # path is shorter than the kernel)
+        return np.convolve(x, w, mode="full")[radius:radius + length]
+
+    weight = smooth(hit)
+    d = np.stack([smooth(delta[:, j]) for j in range(dof)], axis=1)
     d /= np.maximum(1.0, weight)[:, None]
     s = np.arange(length, dtype=np.float64)
     taper = np.clip(np.minimum(s, length - 1 - s) / max(sigma, 1.0), 0.0, 1.0)

@@ -40,7 +40,7 @@ from gfcs.planning.models import PlanningModel, RobotModels, model_named, models
 from gfcs.planning.policies import (CONTACT_SLACK, MoreCommands, PlanContext, default_policies,
                                     endpoint_contact)
 from gfcs.planning.presets import Preset, get_preset
-from gfcs.planning.endpoints import check_endpoints
+from gfcs.planning.endpoints import check_endpoints, endpoint_grazes
 from gfcs.planning.rollout import RolloutSettings, make_fabric
 from gfcs.planning.samplers import ApproachSampler, Sampler, UniformSampler
 from gfcs.planning.repair import RepairOptions
@@ -186,17 +186,21 @@ def solve(
                                   chosen.mesh_candidates if mesh_candidates is None else mesh_candidates, 1)
         stall = integer_at_least("stall_batches",
                                  chosen.stall_batches if stall_batches is None else stall_batches, 0)
+        sweep_time = chosen.sweep_time
+        if sweep_time is not None and chosen.grazing_sweep_time is not None \
+                and endpoint_grazes(problem, mesh_margin):
+            sweep_time = max(sweep_time, chosen.grazing_sweep_time)
         repair = chosen.repair if mesh_repair is None else (chosen.repair or RepairOptions()) if mesh_repair else None
         options = OptimOptions(batches, population, seed, threads, progress, top_m, sigma0, callback,
                                SelectionOptions(slack, checks, mesh_margin, repair=repair,
-                                                sweep_time=chosen.sweep_time, spheres_judge=judge),
+                                                sweep_time=sweep_time, spheres_judge=judge),
                                bool(record_first_batch),
                                stall, non_negative("stall_tol", stall_tol),
                                fraction("selection_share", chosen.selection_share if selection_share is None
                                         else selection_share))
         recorded.update(batches=int(batches), population=int(population), sigma0=float(sigma0),
                         top_m=int(top_m), length_slack=slack, mesh_repair=repair is not None,
-                        sweep_time=chosen.sweep_time, selection_share=options.selection_share,
+                        sweep_time=sweep_time, selection_share=options.selection_share,
                         **({"stall_batches": stall, "stall_tol": float(stall_tol)} if stall else {}))
         models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres),
                             chosen.element_spheres if element_spheres is None else bool(element_spheres))
