@@ -225,3 +225,26 @@ def test_spread_keeps_the_path_length_and_centres_each_step(length):
     expected = np.exp(-0.5 * ((s - at[0]) / sigma) ** 2) * (np.abs(s - at[0]) <= 30) * taper
     np.testing.assert_allclose(d[:, 0], expected, atol=1e-12)
     np.testing.assert_allclose(d[:, 1], -2.0 * expected, atol=1e-12)
+
+
+def test_no_repair_iteration_starts_that_would_end_past_the_deadline(touching, monkeypatch):
+    """With a constraint slowed to 20 ms a call, an iteration takes well over 0.1 s: with 0.15 s to go the
+    repair stops after its first iteration instead of running its eight."""
+    import time
+
+    from gfcs.planning import repair
+
+    problem, t, q = touching
+    plain = repair.path_constraint
+
+    def slow(*args, **kwargs):
+        time.sleep(0.02)
+        return plain(*args, **kwargs)
+
+    monkeypatch.setattr(repair, "path_constraint", slow)
+    options = RepairOptions(iterations=8)
+    _, free = repair_path(problem.robot, problem.scene, problem.mesh_checker, t, q, options)
+    assert free["iterations"] >= 2  # without a deadline it needs more than one
+    moved, record = repair_path(problem.robot, problem.scene, problem.mesh_checker, t, q, options,
+                                deadline=time.perf_counter() + 0.15)
+    assert record["iterations"] == 1 and moved is None and record["time"] < free["time"]

@@ -209,7 +209,11 @@ def repair_path(robot: Any, scene: Any, mesh_checker: Any, t: np.ndarray, q: np.
     record: Dict[str, Any] = {"iterations": 0, "states_moved": 0, "states_left": 0, "max_displacement": 0.0,
                               "min_h": np.nan}
     first_min = np.nan
+    # no iteration starts that would end past the deadline at the pace of the longest so far
+    longest, top = 0.0, time.perf_counter()
     for it in range(options.iterations + 1):
+        now = time.perf_counter()
+        longest, top = max(longest, now - top), now
         visit = _metrics.checked_indices(q)
         if known is None:
             values = constraint(q[visit])
@@ -226,7 +230,7 @@ def repair_path(robot: Any, scene: Any, mesh_checker: Any, t: np.ndarray, q: np.
         diverged = it >= 2 and record["min_h"] < first_min
         if (bad.size == 0 or it == options.iterations or diverged
                 or np.max(np.abs(q - original)) > options.max_displacement
-                or (deadline is not None and time.perf_counter() > deadline)):
+                or (deadline is not None and time.perf_counter() + longest > deadline)):
             break
         at = _thinned(bad, stride)
         steps = _least_steps(known[at], _gradients(constraint, q[at], known[at], options.fd_step),

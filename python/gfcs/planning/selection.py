@@ -251,7 +251,7 @@ def select_candidate(fabric: Any, problem: Any, opt: OptimResult, n_commands: in
     repairable = all(hasattr(mesh_checker, m) for m in ("shape_clearances", "pair_clearances"))
     if chosen is None and options.repair is not None and repairable:
         for candidate in [c for c in judged if mesh_contact_only(c.metrics)][:options.repair.candidates]:
-            if _past(deadline):
+            if _past(deadline, judging):  # a repair ends with a judgement of the moved path
                 break
             chosen = _repair(problem, candidate, mesh_checker, options, finish, settings.dt, deadline)
             if chosen is not None:
