@@ -186,6 +186,10 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                    help="after every other retry failed, start again up to K times with a fresh seed and twice "
                         "the population each time while the time budget lasts (IPOP-CMA-ES; default: the "
                         "preset's, 2 / none; 0: off)")
+    g.add_argument("--selection-share", type=float, metavar="F", default=None,
+                   help="share in (0, 1] of the time left that an attempt's candidate selection may spend while "
+                        "another attempt would still fit after it (default: the preset's, 0.5 / 1; 1: up to the "
+                        "end of the time budget)")
     g.add_argument("--no-mesh-repair", action="store_true",
                    help="do not repair candidates that failed only on the collision meshes (gfcs.planning.repair: "
                         "the path moved off its mesh contacts, re-timed and judged again; the default preset "
@@ -272,6 +276,7 @@ def _solve_options(args: argparse.Namespace, robot: Any) -> Dict[str, Any]:
         raise InvalidValueError(f"--time-limit must be a number of seconds ≥ 0 (0: no limit), got {args.time_limit}")
     given = {"length_slack": args.length_slack, "mesh_margin": args.mesh_margin,
              "stall_batches": args.stall_batches, "restarts": args.restarts,
+             "selection_share": args.selection_share,
              "mesh_repair": False if args.no_mesh_repair else None,
              "spheres_judge": True if args.spheres_judge else None}
     return {"preset": args.preset, "time_limit": args.time_limit or None, "settings": _settings(args),
