@@ -255,7 +255,7 @@ def test_an_attempt_selects_within_its_share(retried_problem, monkeypatch):
         planning.solve(retried_problem, selection_share=0.0, **SMALL)
     with pytest.raises(gfcs.GfcsError, match="selection_share"):
         planning.solve(retried_problem, selection_share="half", **SMALL)
-    assert planning.get_preset("default").selection_share == 0.5
+    assert planning.get_preset("default").selection_share == 0.75
     assert planning.get_preset("paper").selection_share == 1.0
 
 

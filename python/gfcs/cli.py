@@ -188,7 +188,7 @@ def _add_solver_options(p: argparse.ArgumentParser, methods_nargs: Optional[str]
                         "preset's, 2 / none; 0: off)")
     g.add_argument("--selection-share", type=float, metavar="F", default=None,
                    help="share in (0, 1] of the time left that an attempt's candidate selection may spend while "
-                        "another attempt would still fit after it (default: the preset's, 0.5 / 1; 1: up to the "
+                        "another attempt would still fit after it (default: the preset's, 0.75 / 1; 1: up to the "
                         "end of the time budget)")
     g.add_argument("--no-mesh-repair", action="store_true",
                    help="do not repair candidates that failed only on the collision meshes (gfcs.planning.repair: "

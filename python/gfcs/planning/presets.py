@@ -109,7 +109,7 @@ PRESETS: Dict[str, Preset] = {
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
                       repair=RepairOptions(), sweep_time=0.25, grazing_sweep_time=1.0, endpoint_contact=True, element_spheres=True,
-                      spheres_judge=False, selection_share=0.5),
+                      spheres_judge=False, selection_share=0.75),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,

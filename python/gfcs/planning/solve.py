@@ -147,7 +147,7 @@ def solve(
             the collision meshes alone judge collisions, as a mesh validator does (None: the preset's,
             off / on; :attr:`gfcs.planning.selection.SelectionOptions.spheres_judge`).
         selection_share: the share (in (0, 1]) of the time left that an attempt's candidate selection may
-            spend while another attempt would still fit after it (None: the preset's, 0.5 / 1; 1: up to the
+            spend while another attempt would still fit after it (None: the preset's, 0.75 / 1; 1: up to the
             end of the budget; :meth:`gfcs.planning.budget.Budget.selection_deadline`).
 
     Returns:
