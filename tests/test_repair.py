@@ -228,23 +228,29 @@ def test_spread_keeps_the_path_length_and_centres_each_step(length):
 
 
 def test_no_repair_iteration_starts_that_would_end_past_the_deadline(touching, monkeypatch):
-    """With a constraint slowed to 20 ms a call, an iteration takes well over 0.1 s: with 0.15 s to go the
-    repair stops after its first iteration instead of running its eight."""
-    import time
+    """On a clock that advances 1 s per constraint evaluation: with time for the first iteration and a bit
+    more, the repair does not start a second one that would end past the deadline."""
+    from types import SimpleNamespace
 
     from gfcs.planning import repair
 
     problem, t, q = touching
+    clock = SimpleNamespace(now=0.0)
     plain = repair.path_constraint
 
-    def slow(*args, **kwargs):
-        time.sleep(0.02)
+    def counted(*args, **kwargs):
+        clock.now += 1.0
         return plain(*args, **kwargs)
 
-    monkeypatch.setattr(repair, "path_constraint", slow)
-    options = RepairOptions(iterations=8)
-    _, free = repair_path(problem.robot, problem.scene, problem.mesh_checker, t, q, options)
-    assert free["iterations"] >= 2  # without a deadline it needs more than one
-    moved, record = repair_path(problem.robot, problem.scene, problem.mesh_checker, t, q, options,
-                                deadline=time.perf_counter() + 0.15)
-    assert record["iterations"] == 1 and moved is None and record["time"] < free["time"]
+    monkeypatch.setattr(repair, "path_constraint", counted)
+    monkeypatch.setattr(repair, "time", SimpleNamespace(perf_counter=lambda: clock.now))
+    _, once = repair_path(problem.robot, problem.scene, problem.mesh_checker, t, q, RepairOptions(iterations=1))
+    first = clock.now - 1.0  # the first iteration's evaluations (the second one's check costs one more)
+    assert once["iterations"] == 1 and first >= 2.0
+    clock.now = 0.0
+    _, free = repair_path(problem.robot, problem.scene, problem.mesh_checker, t, q, RepairOptions(iterations=8))
+    assert free["iterations"] >= 2  # without a deadline it runs more than one
+    clock.now = 0.0
+    moved, record = repair_path(problem.robot, problem.scene, problem.mesh_checker, t, q,
+                                RepairOptions(iterations=8), deadline=first + 1.5)
+    assert record["iterations"] == 1 and moved is None
