@@ -265,13 +265,12 @@ def run_attempt(problem: Any, fabric: Any, mesh_checker: Any, common: Dict[str, 
     if budget is not None and len(opt.batch_times):
         budget.observe_first_batch(float(opt.batch_times[0]))
     selection = dataclasses.replace(options.selection, clearance_floor=floor, self_clearance_floor=self_floor)
-    select_deadline = None if budget is None else budget.selection_deadline()
     first_batch, measuring = None, 0.0
     if options.first_batch:  # measured apart: its time is not the attempt's
         head_at = time.perf_counter()
         one = opt.first_batches(1)
         head = select_candidate(fabric, problem, one, n, settings, mesh_checker, selection, finish,
-                                options.threads, select_deadline)
+                                options.threads, None if budget is None else budget.end)
         first_batch = _result(head, one, common, settings_dict)
         measuring = time.perf_counter() - head_at
         first_batch.wall_time = float(one.batch_times[0]) + measuring
