@@ -132,3 +132,44 @@ def test_generate_plans_for_the_first_srdf_group_when_none_moves_exactly_the_rob
     request = (out / "bookshelf_tall" / "request0001.yaml").read_text()
     goal = request[request.index("goal_constraints"):]
     assert "group_name: six" in request and "arm_joint6" in goal and "arm_joint7" not in goal
+
+
+def _backward_tool_arm():
+    """The shipped Panda (joints renamed: not a Panda to the generator) with its end effector a frame on the
+    hand turned half a turn about x: its z axis points back up the arm, and the gripper approaches along −z."""
+    text = gfcs.panda_urdf().replace("panda_joint", "arm_joint")
+    tool = ('<link name="tool"/><joint name="tool_joint" type="fixed"><parent link="panda_hand"/>'
+            '<child link="tool"/><origin xyz="0 0 0" rpy="3.141592653589793 0 0"/></joint></robot>')
+    text = text[: text.rindex("</robot>")] + tool
+    panda = gfcs.Robot.panda()
+    spheres = list(zip(panda.sphere_links, panda.sphere_centers_local, panda.sphere_radii))
+    return gfcs.Robot.from_urdf(text, ee_link="tool", spheres=spheres, srdf=gfcs.panda_srdf())
+
+
+def test_targets_are_reached_along_the_robots_own_approach_axis():
+    panda = generators.tcp_along_approach(gfcs.Robot.panda())
+    np.testing.assert_array_equal(panda["point"], generators.PANDA_TCP)  # the Panda's problems unchanged
+    assert panda["axis"] == (0.0, 0.0, 1.0)
+    robot = _backward_tool_arm()
+    hand = generators.tcp_along_approach(robot)
+    assert hand["axis"] == (0.0, 0.0, -1.0)
+    np.testing.assert_allclose(hand["point"], -generators.PANDA_TCP, atol=1e-15)
+    problem = generators.generate("table_pick", 1, seed=0, robot=robot)[0]
+    # the target approaches from above: the gripper (the hand's z axis, the tool's −z) points down
+    poses = np.asarray(robot.link_poses(problem.goal))
+    gripper = poses[robot.link_index("panda_hand"), :3, 2]
+    assert gripper[2] < -np.cos(np.radians(30.0)), gripper
+
+
+def test_a_layout_without_a_start_starts_beside_a_ready_configuration_it_touches():
+    ready, near, far = np.zeros(2), np.ones(2), 2 * np.ones(2)
+    arm = _backward_tool_arm()
+
+    def free(q):
+        return q[0] > 1.5
+
+    assert generators._layout_start(arm, ready, lambda q: True, [near, far]) is ready
+    np.testing.assert_array_equal(generators._layout_start(arm, ready, free, [near, far]), far)
+    assert generators._layout_start(arm, ready, free, [near]) is None
+    # the Panda's layouts are drawn around its ready configuration: a scene it touches is redrawn
+    assert generators._layout_start(gfcs.Robot.panda(), ready, free, [near, far]) is None

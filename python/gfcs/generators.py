@@ -40,10 +40,11 @@ as MotionBenchMaker files with :func:`write_problems` (read back by :func:`gfcs.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -552,15 +553,12 @@ def _is_panda(robot: Any) -> bool:
     return robot.dof == READY.shape[0] and all(j.startswith("panda_joint") for j in robot.joint_names)
 
 
-def _ready(robot: Any, checker: Any = None, samples: int = 512) -> np.ndarray:
-    """The start of the layouts' problems: the Panda ready configuration for a 7-joint Panda; else the middle
-    of the joint ranges when it is free of self-contact (the sphere pairs at least :data:`SELF_MARGIN` apart
-    and, with a mesh ``checker``, the meshes too), else the configuration nearest it (in range-normalised
-    joint space) among ``samples`` seeded ones that is (an arm whose mid-range folds it into its torso).
-    The middle when none is."""
+def _self_free(robot: Any, checker: Any = None, samples: int = 512) -> Iterator[np.ndarray]:
+    """Configurations free of self-contact (the sphere pairs at least :data:`SELF_MARGIN` apart and, with a
+    mesh ``checker``, the meshes too), nearest the middle of the joint ranges first (in range-normalised joint
+    space): the middle itself, then ``samples`` seeded ones uniform in the limits. Lazy: the meshes are
+    checked only for the configurations taken."""
     lo, up = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
-    if _is_panda(robot):
-        return np.clip(READY, lo, up)
     mid = (lo + up) / 2
     candidates = np.vstack([mid, np.random.default_rng(0).uniform(lo, up, (int(samples), mid.size))])
     span = np.where(up > lo, up - lo, 1.0)
@@ -569,8 +567,36 @@ def _ready(robot: Any, checker: Any = None, samples: int = 512) -> np.ndarray:
     empty = None if checker is None else build_scene([])
     for q in candidates[clear]:
         if checker is None or _metrics.mesh_verdict(checker, empty, q[None, :])[2]:
-            return q
-    return mid
+            yield q
+
+
+def _ready(robot: Any, checker: Any = None, samples: int = 512) -> np.ndarray:
+    """The start of the layouts' problems: the Panda ready configuration for a 7-joint Panda; else the first of
+    :func:`_self_free` (the middle of the joint ranges when it is free of self-contact, else the free
+    configuration nearest it: an arm whose mid-range folds it into its torso); the middle when none is."""
+    lo, up = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
+    if _is_panda(robot):
+        return np.clip(READY, lo, up)
+    return next(_self_free(robot, checker, samples), (lo + up) / 2)
+
+
+#: How many of :func:`_self_free`'s configurations a layout without a start of its own may start from when
+#: :func:`_ready` touches its structures.
+START_ALTERNATIVES = 16
+
+
+def _layout_start(robot: Any, ready: np.ndarray, free: Callable[[np.ndarray], bool],
+                  alternatives: List[np.ndarray]) -> Optional[np.ndarray]:
+    """The start of a layout that draws none (a table to pick from): ``ready`` when ``free`` in its scene;
+    else, for a robot other than the Panda (whose ready configuration the layouts are drawn around), the first
+    of ``alternatives`` (:func:`_self_free`'s, nearest the middle of the ranges first) that is: an arm whose
+    ready configuration reaches forward into the structures (a humanoid's, hanging at its side) starts clear of
+    them. None when none is."""
+    if free(ready):
+        return ready
+    if _is_panda(robot):
+        return None
+    return next((q for q in alternatives if free(q)), None)
 
 
 def arm_mount(robot: Any, q: Optional[np.ndarray] = None) -> np.ndarray:
@@ -650,6 +676,20 @@ def _reachable_target(sample: Callable[[np.random.Generator], Target], rng: np.r
     return None
 
 
+def tcp_along_approach(robot: Any) -> Dict[str, Tuple[float, float, float]]:
+    """The hand's IK ``point`` and ``axis`` (:func:`inverse_kinematics`) for the layouts' targets: the robot's
+    approach axis (its profile's, or derived from its gripper: :func:`gfcs.profile.profile_for`) and the point
+    :data:`PANDA_TCP`'s distance along it. The Panda's (z axis, :data:`PANDA_TCP`) for a Panda and for every
+    hand whose frame points its z axis along the approach (ROS's flange convention); a hand whose approach is
+    another axis (a humanoid's wrist frame pointing back up its forearm) reaches targets with its fingers, not
+    its forearm."""
+    from gfcs.profile import profile_for
+
+    axis = np.asarray(profile_for(robot).approach_axis, dtype=np.float64)
+    point = float(np.linalg.norm(PANDA_TCP)) * axis
+    return {"point": tuple(float(x) for x in point), "axis": tuple(float(x) for x in axis)}
+
+
 #: The shipped Panda's :func:`arm_mount` [m]: the layouts are drawn about it.
 PANDA_MOUNT = (0.0, 0.0, 0.333)
 #: Workspace sphere of the Panda used to discard unreachable targets before IK: centre at the shoulder
@@ -676,8 +716,9 @@ def generate(
         seed: problem i depends only on (cls, seed, i).
         robot: default :meth:`gfcs.Robot.panda`. The layouts are drawn about a Panda's shoulder; for
             another robot they are scaled by ``scale`` and moved onto its shoulder (:func:`arm_mount`);
-            targets are for the point :data:`PANDA_TCP` of the end-effector link, approached along its z
-            axis (the flange normal of ROS descriptions).
+            targets are for the point of the end-effector link :data:`PANDA_TCP`'s distance along the
+            robot's approach axis, approached along that axis (:func:`tcp_along_approach`; the z axis, the
+            flange normal of ROS descriptions, for most).
         margin: obstacle clearance required of start and goal [m] (sphere model).
         min_distance: minimum ‖goal − start‖ [rad].
         max_scenes: scene re-draws allowed per problem before giving up.
@@ -705,7 +746,9 @@ def generate(
         raise InvalidValueError(f"scale must be a finite number > 0, got {scale}")
     if reach is PANDA_REACH and (scale != 1.0 or mount != PANDA_MOUNT):
         reach = (mount, PANDA_REACH[1] * scale)
+    hand = tcp_along_approach(robot)
     problems = []
+    alternatives: Optional[List[np.ndarray]] = None  # starts beside `ready`, computed when first needed
     for i in range(int(n)):
         rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(_CLASS_INDEX[name], i)))
         problem = None
@@ -716,13 +759,15 @@ def generate(
                 return is_collision_free(robot, scene, q, margin) and (
                     checker is None or _metrics.mesh_verdict(checker, scene, q)[2])
             if layout.start is None:
-                q0 = ready if free(ready) else None
+                if alternatives is None:
+                    alternatives = list(itertools.islice(_self_free(robot, checker), START_ALTERNATIVES))
+                q0 = _layout_start(robot, ready, free, alternatives)
             else:
                 q0 = None
                 for _ in range(5):
                     target = _reachable_target(layout.start, rng, reach)
                     q0 = None if target is None else inverse_kinematics(robot, target, rng, q_seed=ready,
-                                                                        accept=free)
+                                                                        accept=free, **hand)
                     if q0 is not None:
                         break
             if q0 is None:
@@ -733,7 +778,7 @@ def generate(
                     break
                 goal = inverse_kinematics(
                     robot, target, rng, q_seed=ready,
-                    accept=lambda q: free(q) and np.linalg.norm(q - q0) >= min_distance,
+                    accept=lambda q: free(q) and np.linalg.norm(q - q0) >= min_distance, **hand,
                 )
                 if goal is not None:
                     problem = Problem(
