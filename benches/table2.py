@@ -12,6 +12,8 @@ path and time over the problems both solve. Writes ``OUT/table2.jsonl`` (every r
 
     python benches/table2.py --problems ../shared/mbm --seeds 0 1 2 --out runs/table2
     python benches/table2.py --problems ../shared/mbm --out runs/table2 --render   # from the rows only
+
+Seeds run one at a time keep the others' rows (``--seeds 2`` after ``--seeds 0 1`` makes three).
 """
 
 from __future__ import annotations
@@ -98,6 +100,13 @@ def differences(rows: List[Dict[str, Any]]) -> Dict[str, Tuple[float, float, flo
     return out
 
 
+def read_rows(path: Path) -> List[Dict[str, Any]]:
+    """The rows of ``OUT/table2.jsonl`` (none when it does not exist yet)."""
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
 def render(rows: List[Dict[str, Any]], times: Dict[str, float], args: argparse.Namespace) -> List[str]:
     seeds = sorted({r["run_seed"] for r in rows})
     lines = ["## GFCS Table II: learned against uniform first batch", "",
@@ -142,14 +151,15 @@ def main(argv: Sequence[str] = ()) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     rows_file, times_file = args.out / "table2.jsonl", args.out / "train_times.json"
     times: Dict[str, float] = json.loads(times_file.read_text()) if times_file.is_file() else {}
+    rows = read_rows(rows_file)
     if not args.render:
-        rows: List[Dict[str, Any]] = []
-        for seed in args.seeds:
+        for seed in args.seeds:  # a seed's rows replace that seed's earlier ones; other seeds' are kept
             model, times[str(seed)] = train(args, seed)
-            rows += evaluate(args, model, seed)
+            rows = [r for r in rows if r["run_seed"] != seed] + evaluate(args, model, seed)
             rows_file.write_text("".join(json.dumps(r) + "\n" for r in rows))
             times_file.write_text(json.dumps(times))
-    rows = [json.loads(line) for line in rows_file.read_text().splitlines() if line.strip()]
+    if not rows:
+        p.error(f"no rows in {rows_file}: run it without --render first")
     lines = render(rows, times, args)
     (RESULTS / "learning.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
