@@ -77,3 +77,39 @@ def test_the_cli_and_bench_report_a_start_in_collision_by_name(problem, tmp_path
     rows = [json.loads(line) for line in out.read_text().splitlines()]
     assert code == 0 and rows and all(not r["success"] for r in rows if r.get("method") == "gfcs")
     assert any("start state is in collision" in str(r.get("error", "")) for r in rows)
+
+
+HELD_ARMS = """<robot name="held">
+  <link name="base"/>
+  <link name="a"><collision><origin xyz="0.5 0 0"/><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
+  <link name="b"><collision><origin xyz="0.5 0 0"/><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
+  <link name="s"><collision><geometry><sphere radius="0.05"/></geometry></collision></link>
+  <joint name="ja" type="revolute"><parent link="base"/><child link="a"/><origin xyz="0 0.15 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+  <joint name="jb" type="revolute"><parent link="base"/><child link="b"/><origin xyz="0 -0.15 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+  <joint name="js" type="prismatic"><parent link="base"/><child link="s"/><origin xyz="0 0 5"/>
+    <axis xyz="1 0 0"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
+</robot>"""
+
+
+def test_links_held_in_contact_by_the_joints_outside_the_group_refuse_every_problem():
+    """Two arms locked at the base (joints outside the planned slider) whose boxes face each other 0.1 m
+    apart; held at −0.3 rad, arm a's box crosses the gap. No motion of the slider moves them, and MoveIt checks
+    the pair: the problem is refused naming the two links, for any start."""
+    from gfcs.planning.endpoints import check_held_links
+
+    robot = gfcs.Robot.from_urdf(HELD_ARMS, active_joints=["js"])
+    apart = gfcs.MeshChecker(robot)
+    assert apart.self_contacts(np.zeros(1), 1.0) == []  # the fabric's and the trajectory's pairs: none
+    (a, b, gap), = apart.held_contacts(np.zeros(1), 0.2)
+    assert (a, b) == ("a", "b") and gap == pytest.approx(0.1, abs=1e-9)
+    check_held_links(apart, np.zeros(1), "apart")  # 0.1 m apart: nothing raised
+    touching = gfcs.MeshChecker(robot.with_locked_positions({"ja": -0.3}))
+    scene = gfcs.Scene()
+    problem = gfcs.problems.Problem(name="held/1", robot=touching.robot, scene=scene, q0=np.array([-0.5]),
+                               goal=np.array([0.5]), mesh_checker=touching)
+    with pytest.raises(gfcs.CollisionError, match=r"held/1.*links 'a' and 'b' touch.*ja"):
+        check_endpoints(problem)
+    with pytest.raises(gfcs.CollisionError, match="held/1"):
+        planning.solve(problem, batches=1, population=4, policies=[])

@@ -627,6 +627,10 @@ class MeshChecker:
     def self_contacts(self, q: ArrayLike, within: float = 0.0) -> List[Tuple[str, str, float]]:
         """The checked self-collision shape pairs nearer than ``within`` m (≥ 0) at q (dof,): (link a, link b,
         distance m), nearest first; ≤ 0 in contact (negative: penetration depth)."""
+    def held_contacts(self, q: ArrayLike, within: float = 0.0) -> List[Tuple[str, str, float]]:
+        """The link pairs that joints outside the active joints (locked at their held values) hold still
+        relative to each other, nearer than ``within`` m (≥ 0) at q (dof,): (link a, link b, distance m), nearest
+        first. No motion changes them; one in contact puts every state in collision, as MoveIt checks it."""
     def min_clearance(
         self, scene: Scene, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
     ) -> float:

@@ -393,14 +393,24 @@ def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:
     tips = getattr(args, "group_tips", None)
     if tips:
         suite = [dataclasses.replace(p, meta={**p.meta, "ee_links": list(tips)}) for p in suite]
+    checker = _mesh_checker(args, suite[0].robot) if suite else None
+    if checker is None:
+        return suite
+    return [dataclasses.replace(p, mesh_checker=problems.held_as_requested(checker, p.meta.get("start_state", {})))
+            for p in suite]
+
+
+def _mesh_checker(args: argparse.Namespace, robot: Any) -> Any:
+    """The mesh checker of ``--mesh-urdf`` (or of the URDF found for ``--robot URDF``,
+    :func:`gfcs.problems.mesh_urdf_for`) for ``robot``, or None when there is none."""
+    from gfcs import problems
+
     urdf = args.mesh_urdf
     if urdf is None and args.robot not in (None, "mbm"):
         urdf = problems.mesh_urdf_for(args.robot)
-    if urdf is None or not suite:
-        return suite
-    checker = problems.urdf_mesh_checker(urdf, suite[0].robot, mesh_dir=args.mesh_dir, srdf=args.srdf)
-    return [dataclasses.replace(p, mesh_checker=problems.held_as_requested(checker, p.meta.get("start_state", {})))
-            for p in suite]
+    if urdf is None:
+        return None
+    return problems.urdf_mesh_checker(urdf, robot, mesh_dir=args.mesh_dir, srdf=args.srdf)
 
 
 def _sampler(args: argparse.Namespace) -> Any:
@@ -786,6 +796,13 @@ def cmd_generate(args: argparse.Namespace) -> int:
         args.group = _first_group_unless_exact(args)
     robot = _robot(args)  # built once: a mesh robot's spheres are fitted here
     group = _planning_group(args, robot)
+    checker = _mesh_checker(args, robot)
+    if checker is not None:  # links the group cannot move apart would put every problem in collision
+        import numpy as np
+
+        from gfcs.planning.endpoints import check_held_links
+
+        check_held_links(checker, np.zeros(robot.dof), f"gfcs generate: {args.robot}")
     classes = args.classes or list(problems.CLASSES)
     total, written = 0, []
     for c in classes:

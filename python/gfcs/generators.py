@@ -40,6 +40,7 @@ as MotionBenchMaker files with :func:`write_problems` (read back by :func:`gfcs.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import math
 from dataclasses import dataclass
@@ -678,16 +679,30 @@ def _reachable_target(sample: Callable[[np.random.Generator], Target], rng: np.r
 
 def tcp_along_approach(robot: Any) -> Dict[str, Tuple[float, float, float]]:
     """The hand's IK ``point`` and ``axis`` (:func:`inverse_kinematics`) for the layouts' targets: the robot's
-    approach axis (its profile's, or derived from its gripper: :func:`gfcs.profile.profile_for`) and the point
-    :data:`PANDA_TCP`'s distance along it. The Panda's (z axis, :data:`PANDA_TCP`) for a Panda and for every
-    hand whose frame points its z axis along the approach (ROS's flange convention); a hand whose approach is
-    another axis (a humanoid's wrist frame pointing back up its forearm) reaches targets with its fingers, not
-    its forearm."""
-    from gfcs.profile import profile_for
+    approach axis (its profile's, or derived from its gripper: :func:`gfcs.profile.profile_for`), and on it the
+    point as deep inside the gripper's far end (:func:`gfcs.profile.gripper_reach`) as :data:`PANDA_TCP` lies
+    inside the shipped Panda's. :data:`PANDA_TCP` on the z axis for a Panda (and for a hand without spheres);
+    a hand whose approach is another axis (a wrist frame pointing back up the forearm) reaches targets with
+    its fingers, and a longer gripper with its own tips, not the arm's flange."""
+    from gfcs.profile import gripper_reach, profile_for
 
+    depth = float(np.linalg.norm(PANDA_TCP))
+    if _is_panda(robot):
+        return {"point": tuple(float(x) for x in PANDA_TCP), "axis": (0.0, 0.0, 1.0)}
     axis = np.asarray(profile_for(robot).approach_axis, dtype=np.float64)
-    point = float(np.linalg.norm(PANDA_TCP)) * axis
-    return {"point": tuple(float(x) for x in point), "axis": tuple(float(x) for x in axis)}
+    reach = gripper_reach(robot, axis)
+    if reach is not None:
+        depth = max(0.0, reach - _panda_tcp_inset())
+    return {"point": tuple(float(x) for x in depth * axis), "axis": tuple(float(x) for x in axis)}
+
+
+@functools.lru_cache(maxsize=1)
+def _panda_tcp_inset() -> float:
+    """How far [m] :data:`PANDA_TCP` lies inside the shipped Panda's gripper's far end along its approach."""
+    import gfcs
+    from gfcs.profile import gripper_reach
+
+    return float(gripper_reach(gfcs.Robot.panda(), (0.0, 0.0, 1.0))) - float(np.linalg.norm(PANDA_TCP))
 
 
 #: The shipped Panda's :func:`arm_mount` [m]: the layouts are drawn about it.
@@ -730,6 +745,8 @@ def generate(
     Raises:
         ValueError: unknown class, negative n.
         RuntimeError: no valid problem after ``max_scenes`` scenes (names the class, seed and index).
+        gfcs.CollisionError: two links that the joints outside the robot's active joints hold still touch
+            (:func:`gfcs.planning.endpoints.check_held_links`): every state would be in collision.
     """
     import gfcs
 
@@ -738,6 +755,10 @@ def generate(
         raise InvalidValueError(f"n must be ≥ 0, got {n}")
     robot = gfcs.Robot.panda() if robot is None else robot
     checker = mesh_checker_for(robot)
+    if isinstance(checker, gfcs.MeshChecker):  # links the group cannot move apart put every problem in collision
+        from gfcs.planning.endpoints import check_held_links
+
+        check_held_links(checker, np.zeros(robot.dof), f"generate('{name}')")
     ready = _ready(robot, checker)
     layout_fn = _LAYOUTS[name]
     mount = PANDA_MOUNT if _is_panda(robot) else tuple(float(c) for c in arm_mount(robot, ready))

@@ -24,11 +24,11 @@ import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Dict, Optional, Tuple, Union
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-__all__ = ["RobotProfile", "profile_for", "load_profile", "derive_approach_axis", "read_joint_limits_yaml",
+__all__ = ["RobotProfile", "profile_for", "load_profile", "derive_approach_axis", "gripper_reach", "read_joint_limits_yaml",
            "velocity_limits", "acceleration_limits", "PROFILE_DIR"]
 
 PathLike = Union[str, Path]
@@ -195,6 +195,26 @@ def _parent_links(robot: Any, q: np.ndarray, link: str) -> np.ndarray:
     if len(chain) < 2:
         return np.zeros(len(robot.link_names), dtype=bool)
     return chain[1] & ~chain[0]
+
+
+def gripper_reach(robot: Any, axis: Sequence[float], link: Optional[str] = None) -> Optional[float]:
+    """How far [m] the gripper reaches along ``axis`` (3,) (a unit vector in the frame of the end-effector link
+    ``link``, default ``robot.ee_link``): the largest c·axis + r over the collision spheres rigidly attached to
+    that link (centre c in its frame, radius r), at the middle of the joint ranges; None when no sphere is
+    attached there."""
+    link = robot.ee_link if link is None else link
+    rigid = _rigid_with_ee(robot, np.random.default_rng(0), link=link)
+    names = list(robot.link_names)
+    on = rigid[np.array([names.index(name) for name in robot.sphere_links], dtype=np.int64)] \
+        if len(robot.sphere_links) else np.zeros(0, dtype=bool)
+    if not on.any():
+        return None
+    q = 0.5 * (np.asarray(robot.lower, dtype=np.float64) + np.asarray(robot.upper, dtype=np.float64))
+    ee = np.asarray(robot.link_poses(q), dtype=np.float64)[int(robot.link_index(link))]
+    centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(-1, 3)[on]
+    local = (centres - ee[:3, 3]) @ ee[:3, :3]
+    radii = np.asarray(robot.sphere_radii, dtype=np.float64)[on]
+    return float(np.max(local @ np.asarray(axis, dtype=np.float64) + radii))
 
 
 def derive_approach_axis(robot: Any, link: Optional[str] = None) -> Tuple[float, float, float]:

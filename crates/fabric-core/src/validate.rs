@@ -127,6 +127,9 @@ pub struct MeshChecker {
     shapes: Vec<CollisionShape>,
     /// Shape index pairs `(i, j)`, `i < j`, checked for self-collision.
     self_pairs: Vec<(usize, usize)>,
+    /// Shape index pairs `(i, j)`, `i < j`, that locked joints hold still relative to each other (see
+    /// [`held_shape_pairs`]): constant over every motion, so checked at endpoints only.
+    held_pairs: Vec<(usize, usize)>,
     max_distance: f64,
 }
 
@@ -210,6 +213,52 @@ fn self_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usi
                 continue;
             }
             pairs.push((i, j));
+        }
+    }
+    pairs
+}
+
+/// Rigid-body label of each link when only fixed joints join links (locked joints count as moving):
+/// the bodies of the whole robot, whatever its active joints.
+fn fixed_bodies(robot: &Robot) -> Vec<usize> {
+    let mut bodies: Vec<usize> = (0..robot.joints.len()).collect();
+    for (child, joint) in robot.joints.iter().enumerate() {
+        if let Some(j) = joint {
+            if !j.movable {
+                bodies[child] = bodies[j.parent];
+            }
+        }
+    }
+    bodies
+}
+
+/// Shape index pairs that the robot's locked joints hold still relative to each other: shapes on links of
+/// one rigid body ([`Robot::rigid_bodies`]) that are on different bodies of the whole robot
+/// ([`fixed_bodies`]), not adjacent there (one joint between the bodies) and not disabled by the SRDF.
+/// MoveIt checks such a pair like any other; no motion of the active joints changes its distance, so a
+/// pair in contact at the held joint values puts every state in collision ([`MeshChecker::held_contacts`]).
+fn held_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usize)> {
+    let (rigid, bodies) = (robot.rigid_bodies(), fixed_bodies(robot));
+    let ordered = |a: usize, b: usize| (a.min(b), a.max(b));
+    let mut adjacent: Vec<(usize, usize)> = (0..bodies.len())
+        .filter_map(|child| {
+            let parent = robot.link_parent(child)?;
+            (bodies[parent] != bodies[child]).then(|| ordered(bodies[parent], bodies[child]))
+        })
+        .collect();
+    adjacent.sort_unstable();
+    let disabled = robot.disabled_collisions();
+    let mut pairs = Vec::new();
+    for (i, a) in shapes.iter().enumerate() {
+        for (j, b) in shapes.iter().enumerate().skip(i + 1) {
+            let (ba, bb) = (bodies[a.link], bodies[b.link]);
+            if rigid[a.link] == rigid[b.link]
+                && ba != bb
+                && adjacent.binary_search(&ordered(ba, bb)).is_err()
+                && !disabled.contains(&ordered(a.link, b.link))
+            {
+                pairs.push((i, j));
+            }
         }
     }
     pairs
@@ -425,10 +474,12 @@ impl MeshChecker {
             });
         }
         let self_pairs = self_shape_pairs(robot, &shapes);
+        let held_pairs = held_shape_pairs(robot, &shapes);
         Ok(MeshChecker {
             robot: robot.clone(),
             shapes,
             self_pairs,
+            held_pairs,
             max_distance: DEFAULT_MAX_DISTANCE,
         })
     }
@@ -469,6 +520,12 @@ impl MeshChecker {
     /// Shape index pairs `(i, j)`, `i < j`, checked by [`MeshChecker::self_clearance`].
     pub fn self_pairs(&self) -> &[(usize, usize)] {
         &self.self_pairs
+    }
+
+    /// Shape index pairs `(i, j)`, `i < j`, that locked joints hold still relative to each other
+    /// ([`MeshChecker::held_contacts`]).
+    pub fn held_pairs(&self) -> &[(usize, usize)] {
+        &self.held_pairs
     }
 
     /// A fresh per-thread workspace.
@@ -602,8 +659,20 @@ impl MeshChecker {
         ws: &mut MeshWorkspace,
         out: &mut [f64],
     ) -> Result<()> {
+        self.distances_of_pairs_within(&self.self_pairs, q, max, ws, out)
+    }
+
+    /// [`MeshChecker::pair_distances_within`] for the shape pairs `pairs`.
+    fn distances_of_pairs_within(
+        &self,
+        pairs: &[(usize, usize)],
+        q: &[f64],
+        max: f64,
+        ws: &mut MeshWorkspace,
+        out: &mut [f64],
+    ) -> Result<()> {
         self.place(q, ws)?;
-        for (k, &(i, j)) in self.self_pairs.iter().enumerate() {
+        for (k, &(i, j)) in pairs.iter().enumerate() {
             out[k] = f64::INFINITY;
             if aabb_gap(&ws.boxes[i], &ws.boxes[j]) - BOUND_SLACK > max {
                 continue;
@@ -859,16 +928,35 @@ impl MeshChecker {
     /// Errors: `Shape`, `NonFinite` (q), `Value` for a negative or non-finite `within`, or when parry
     /// cannot measure a pair.
     pub fn self_contacts(&self, q: &[f64], within: f64) -> Result<Vec<(usize, usize, f64)>> {
+        self.contacts_among(&self.self_pairs, q, within)
+    }
+
+    /// The shape pairs that locked joints hold still relative to each other (links on one rigid body of
+    /// this robot, on two of the whole robot; see [`held_shape_pairs`]) nearer than `within` (m, ≥ 0) at
+    /// q (dof,), as [`MeshChecker::self_contacts`]. Their distances depend on the locked joint values only:
+    /// a pair in contact puts every state of every motion in collision, as MoveIt checks it.
+    ///
+    /// Errors: as [`MeshChecker::self_contacts`].
+    pub fn held_contacts(&self, q: &[f64], within: f64) -> Result<Vec<(usize, usize, f64)>> {
+        self.contacts_among(&self.held_pairs, q, within)
+    }
+
+    /// The pairs of `pairs` nearer than `within` at q, nearest first.
+    fn contacts_among(
+        &self,
+        pairs: &[(usize, usize)],
+        q: &[f64],
+        within: f64,
+    ) -> Result<Vec<(usize, usize, f64)>> {
         if !(within.is_finite() && within >= 0.0) {
             return Err(FabricError::Value {
                 what: "within".to_string(),
                 message: format!("must be a finite distance >= 0 m, got {within}"),
             });
         }
-        let mut distances = vec![f64::INFINITY; self.self_pairs.len()];
-        self.pair_distances_within(q, within, &mut self.workspace(), &mut distances)?;
-        let mut out: Vec<(usize, usize, f64)> = self
-            .self_pairs
+        let mut distances = vec![f64::INFINITY; pairs.len()];
+        self.distances_of_pairs_within(pairs, q, within, &mut self.workspace(), &mut distances)?;
+        let mut out: Vec<(usize, usize, f64)> = pairs
             .iter()
             .zip(distances)
             .filter(|&(_, d)| d <= within)

@@ -532,3 +532,77 @@ fn self_clearance_closed_form() {
         assert!(checker.self_contacts(&[0.0, 0.0], bad).is_err(), "{bad}");
     }
 }
+
+/// Two arms on locked revolute joints about z at the base, each a 0.2 m cube 0.5 m out along x from its
+/// joint, joint `a` at y = +0.15 and `b` at y = −0.15, and an active slider `s` carrying a third cube far
+/// away. Held at 0 the two cubes face each other across 0.3 − 0.2 = 0.1 m; the locked positions `held`
+/// turn them.
+fn held_arms(held_a: f64, held_b: f64, srdf: Option<&str>) -> Robot {
+    let cube = r#"<collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision>"#;
+    let xml = format!(
+        r#"<robot name="held">
+          <link name="base"/>
+          <link name="a"><collision><origin xyz="0.5 0 0"/><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
+          <link name="b"><collision><origin xyz="0.5 0 0"/><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
+          <link name="s">{cube}</link>
+          <joint name="ja" type="revolute"><parent link="base"/><child link="a"/><origin xyz="0 0.15 0"/>
+            <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+          <joint name="jb" type="revolute"><parent link="base"/><child link="b"/><origin xyz="0 -0.15 0"/>
+            <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+          <joint name="js" type="prismatic"><parent link="base"/><child link="s"/><origin xyz="0 0 5"/>
+            <axis xyz="1 0 0"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
+        </robot>"#
+    );
+    let opts = RobotOptions {
+        active_joints: Some(vec!["js".to_string()]),
+        locked_positions: vec![("ja".to_string(), held_a), ("jb".to_string(), held_b)],
+        ..RobotOptions::default()
+    };
+    let mut robot = Robot::from_urdf_str(&xml, "<test>", &opts).expect("test URDF");
+    if let Some(s) = srdf {
+        robot
+            .set_self_collision_from_srdf(s, "<test>")
+            .expect("test SRDF");
+    }
+    robot
+}
+
+#[test]
+fn held_contacts_are_the_locked_links_that_touch_whatever_the_motion() {
+    // held at 0: 0.1 m apart, no contact, but measured within 0.2 m (closed form: the faces' gap)
+    let apart = MeshChecker::new(&held_arms(0.0, 0.0, None)).unwrap();
+    assert!(
+        apart.self_pairs().is_empty(),
+        "the slider's cube is adjacent to the base and far from a, b"
+    );
+    assert_eq!(apart.held_pairs(), [(0, 1)]);
+    assert!(apart.held_contacts(&[0.0], 0.0).unwrap().is_empty());
+    let near = apart.held_contacts(&[0.7], 0.2).unwrap();
+    assert_eq!(near.len(), 1);
+    assert!((near[0].2 - 0.1).abs() < TOL, "{near:?}");
+    // a turned towards b by 0.3 rad: its cube crosses the gap (the slider changes nothing)
+    let touching = MeshChecker::new(&held_arms(-0.3, 0.0, None)).unwrap();
+    for s in [-1.0, 0.0, 1.0] {
+        let c = touching.held_contacts(&[s], 0.0).unwrap();
+        assert_eq!(c.len(), 1, "at s = {s}");
+        assert!(c[0].2 <= 0.0);
+        let names = touching.robot().link_names();
+        let links = [
+            touching.shapes()[c[0].0].link,
+            touching.shapes()[c[0].1].link,
+        ];
+        assert_eq!(
+            [names[links[0]].as_str(), names[links[1]].as_str()],
+            ["a", "b"]
+        );
+    }
+    // the SRDF disables the pair: MoveIt does not check it, nor does the checker
+    let srdf =
+        r#"<robot name="held"><disable_collisions link1="b" link2="a" reason="Never"/></robot>"#;
+    let disabled = MeshChecker::new(&held_arms(-0.3, 0.0, Some(srdf))).unwrap();
+    assert!(disabled.held_contacts(&[0.0], 0.0).unwrap().is_empty());
+    // the two locked arms are one rigid body with the base: the fabric and the trajectory checks never
+    // see the pair, so the endpoints' check is the only one that can
+    let robot = held_arms(-0.3, 0.0, None);
+    assert_eq!(robot.rigid_bodies()[1], robot.rigid_bodies()[2]);
+}

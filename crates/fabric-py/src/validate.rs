@@ -106,6 +106,26 @@ impl PyMeshChecker {
         let name = |k: usize| names.get(shapes[k].link).cloned().unwrap_or_default();
         (name(i), name(j))
     }
+
+    /// `contacts(checker, q, within)` (the self or the held pairs) with the link names of each pair.
+    fn named_contacts(
+        &self,
+        py: Python<'_>,
+        q: &Bound<'_, PyAny>,
+        within: f64,
+        contacts: fn(&MeshChecker, &[f64], f64) -> fabric_core::Result<Vec<(usize, usize, f64)>>,
+    ) -> PyResult<Vec<(String, String, f64)>> {
+        let checker = &self.inner;
+        let q = convert::vector(q, "q", checker.robot().dof())?;
+        let found = guarded(py, || contacts(checker, &q, within))?;
+        Ok(found
+            .into_iter()
+            .map(|(i, j, d)| {
+                let (a, b) = self.pair_links(i, j);
+                (a, b, d)
+            })
+            .collect())
+    }
 }
 
 #[pymethods]
@@ -272,16 +292,22 @@ impl PyMeshChecker {
         q: &Bound<'_, PyAny>,
         within: f64,
     ) -> PyResult<Vec<(String, String, f64)>> {
-        let checker = &self.inner;
-        let q = convert::vector(q, "q", checker.robot().dof())?;
-        let contacts = guarded(py, || checker.self_contacts(&q, within))?;
-        Ok(contacts
-            .into_iter()
-            .map(|(i, j, d)| {
-                let (a, b) = self.pair_links(i, j);
-                (a, b, d)
-            })
-            .collect())
+        self.named_contacts(py, q, within, MeshChecker::self_contacts)
+    }
+
+    /// The link pairs that joints outside the robot's active joints (locked at their held values) hold
+    /// still relative to each other, nearer than `within` m (≥ 0) at q (dof,): a list of (link a, link b,
+    /// distance m), nearest first, as `self_contacts`. These pairs are on one rigid body of this robot, so
+    /// the fabric and the trajectory checks never measure them; MoveIt checks them like any other, and a
+    /// pair in contact puts every state of every motion in collision.
+    #[pyo3(signature = (q, within=0.0))]
+    fn held_contacts(
+        &self,
+        py: Python<'_>,
+        q: &Bound<'_, PyAny>,
+        within: f64,
+    ) -> PyResult<Vec<(String, String, f64)>> {
+        self.named_contacts(py, q, within, MeshChecker::held_contacts)
     }
 
     /// min over the states of q (T, dof) (or one state (dof,)) of `clearance`, m: the same value as

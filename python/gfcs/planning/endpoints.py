@@ -15,13 +15,30 @@ import numpy as np
 
 from gfcs.errors import CollisionError
 
-__all__ = ["check_endpoints", "endpoint_grazes"]
+__all__ = ["check_endpoints", "check_held_links", "endpoint_grazes"]
+
+
+def check_held_links(checker: Any, q: Any, what: str) -> None:
+    """Raise :class:`gfcs.CollisionError` (its message starting with ``what``) when two links that joints
+    outside the robot's active joints hold still relative to each other touch at their held values
+    (:meth:`gfcs.MeshChecker.held_contacts` at q (dof,)): MoveIt checks such a pair like any other, and no
+    motion of the active joints moves it apart, so every state is in collision."""
+    contacts = checker.held_contacts(np.asarray(q, dtype=np.float64), 0.0)
+    if contacts:
+        a, b, depth = contacts[0]
+        more = f" (and {len(contacts) - 1} more pair(s))" if len(contacts) > 1 else ""
+        held = ", ".join(sorted(checker.robot.locked_positions)[:4])
+        raise CollisionError(f"{what}: links '{a}' and '{b}' touch ({-depth * 1000:.3g} mm deep){more} at the held "
+                             f"values of the joints the group does not move ({held}, ...), so every state of "
+                             "every motion is in collision; hold those joints elsewhere (the request's start state) "
+                             "or disable the pair in the SRDF")
 
 
 def check_endpoints(problem: Any) -> None:
     """Raise :class:`gfcs.CollisionError` when the start ``problem.q0`` or the goal ``problem.goal`` puts the
     collision meshes of ``problem.mesh_checker`` in contact (distance ≤ 0) with the scene or with each other
-    (the SRDF's enabled link pairs); the message names the problem, the state, the links and the depth.
+    (the SRDF's enabled link pairs), or when links held still by the joints outside the group touch
+    (:func:`check_held_links`); the message names the problem, the state, the links and the depth.
     Nothing is checked for a problem without a :class:`gfcs.MeshChecker` (the sphere model is conservative by
     design; a duck-typed stand-in checker is not asked, so that it sees only the motions)."""
     from gfcs._core import MeshChecker
@@ -29,6 +46,7 @@ def check_endpoints(problem: Any) -> None:
     checker = getattr(problem, "mesh_checker", None)
     if not isinstance(checker, MeshChecker):
         return
+    check_held_links(checker, problem.q0, f"problem '{problem.name}'")
     for state, q in (("start", problem.q0), ("goal", problem.goal)):
         q = np.asarray(q, dtype=np.float64)
         contacts = checker.self_contacts(q, 0.0)

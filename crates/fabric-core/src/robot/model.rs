@@ -74,6 +74,9 @@ pub(crate) struct TreeJoint {
     pub scale: f64,
     /// Constant position part: the mimic offset, or the locked position.
     pub offset: f64,
+    /// Whether the URDF joint moves (revolute, continuous, prismatic), locked or not: a locked joint is
+    /// `Motion::Fixed` here, yet its two links are different bodies of the whole robot.
+    pub movable: bool,
 }
 
 impl TreeJoint {
@@ -315,6 +318,7 @@ mod tests {
             coord,
             scale,
             offset,
+            movable: true,
         }
     }
 

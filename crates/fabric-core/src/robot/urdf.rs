@@ -344,6 +344,7 @@ fn tree_joints(
             (origin, None)
         };
         let mut tj = TreeJoint {
+            movable: motion != Motion::Fixed,
             name: joint.name.clone(),
             parent,
             pre,
