@@ -113,7 +113,7 @@ impl PyMeshChecker {
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
         within: f64,
-        contacts: fn(&MeshChecker, &[f64], f64) -> fabric_core::Result<Vec<(usize, usize, f64)>>,
+        contacts: ContactQuery,
     ) -> PyResult<Vec<(String, String, f64)>> {
         let checker = &self.inner;
         let q = convert::vector(q, "q", checker.robot().dof())?;
@@ -127,6 +127,9 @@ impl PyMeshChecker {
             .collect())
     }
 }
+
+/// A contact query of the checker (`MeshChecker::self_contacts` or `held_contacts`): (shape i, shape j, m).
+type ContactQuery = fn(&MeshChecker, &[f64], f64) -> fabric_core::Result<Vec<(usize, usize, f64)>>;
 
 #[pymethods]
 impl PyMeshChecker {
