@@ -113,3 +113,31 @@ def test_links_held_in_contact_by_the_joints_outside_the_group_refuse_every_prob
         check_endpoints(problem)
     with pytest.raises(gfcs.CollisionError, match="held/1"):
         planning.solve(problem, batches=1, population=4, policies=[])
+
+
+ELBOW = """<robot name="elbow">
+  <link name="base"><collision><origin xyz="0.1 0 0"/><geometry><box size="0.2 0.1 0.1"/></geometry></collision></link>
+  <link name="arm"><collision><origin xyz="0.1 0 0"/><geometry><box size="0.2 0.1 0.1"/></geometry></collision></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0.21 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+</robot>"""
+
+
+def test_adjacent_links_the_srdf_leaves_enabled_are_checked_at_the_endpoints():
+    """Two boxes joined end to end, 1 cm apart, by a revolute joint: turned by 2.5 rad the arm's box folds
+    back into the base's. The planner never measures adjacent links; MoveIt checks them unless the SRDF disables them."""
+    folded = np.array([2.5])
+    enabled = gfcs.MeshChecker(gfcs.Robot.from_urdf(ELBOW, srdf='<robot name="elbow"/>'))
+    (a, b, depth), = enabled.adjacent_contacts(folded, 0.0)
+    assert (a, b) == ("base", "arm") and depth <= 0.0
+    assert enabled.adjacent_contacts(np.zeros(1), 0.0) == []  # stretched out: 1 cm apart
+    assert enabled.self_contacts(folded, 1.0) == []  # the pair the planner checks: none
+    problem = gfcs.problems.Problem(name="elbow/1", robot=enabled.robot, scene=gfcs.Scene(), q0=folded,
+                                    goal=np.zeros(1), mesh_checker=enabled)
+    with pytest.raises(gfcs.CollisionError, match=r"elbow/1.*start state.*adjacent links 'base' and 'arm'.*Adjacent"):
+        check_endpoints(problem)
+    srdf = '<robot name="elbow"><disable_collisions link1="base" link2="arm" reason="Adjacent"/></robot>'
+    for robot in (gfcs.Robot.from_urdf(ELBOW, srdf=srdf), gfcs.Robot.from_urdf(ELBOW)):  # disabled, or no SRDF
+        checker = gfcs.MeshChecker(robot)
+        assert checker.adjacent_contacts(folded, 0.0) == []
+        check_endpoints(dataclasses.replace(problem, robot=robot, mesh_checker=checker))

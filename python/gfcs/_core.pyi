@@ -631,6 +631,10 @@ class MeshChecker:
         """The link pairs that joints outside the active joints (locked at their held values) hold still
         relative to each other, nearer than ``within`` m (≥ 0) at q (dof,): (link a, link b, distance m), nearest
         first. No motion changes them; one in contact puts every state in collision, as MoveIt checks it."""
+    def adjacent_contacts(self, q: ArrayLike, within: float = 0.0) -> List[Tuple[str, str, float]]:
+        """The link pairs on adjacent rigid bodies (one movable joint between them) that the robot's SRDF leaves
+        enabled, nearer than ``within`` m (≥ 0) at q (dof,): (link a, link b, distance m), nearest first. The
+        planner does not measure them; MoveIt checks them. Empty without an SRDF."""
     def min_clearance(
         self, scene: Scene, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None
     ) -> float:

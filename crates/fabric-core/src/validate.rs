@@ -130,6 +130,9 @@ pub struct MeshChecker {
     /// Shape index pairs `(i, j)`, `i < j`, that locked joints hold still relative to each other (see
     /// [`held_shape_pairs`]): constant over every motion, so checked at endpoints only.
     held_pairs: Vec<(usize, usize)>,
+    /// Shape index pairs `(i, j)`, `i < j`, on adjacent rigid bodies that a loaded SRDF leaves enabled (see
+    /// [`adjacent_shape_pairs`]): checked at endpoints only.
+    adjacent_pairs: Vec<(usize, usize)>,
     max_distance: f64,
 }
 
@@ -191,14 +194,7 @@ fn load_scaled_mesh(path: &Path, scale: &Vector3<f64>, link: &str) -> Result<Tri
 fn self_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usize)> {
     let bodies = robot.rigid_bodies();
     let ordered = |a: usize, b: usize| (a.min(b), a.max(b));
-    let mut adjacent: Vec<(usize, usize)> = (0..bodies.len())
-        .filter_map(|child| {
-            let parent = robot.link_parent(child)?;
-            let (bp, bc) = (*bodies.get(parent)?, *bodies.get(child)?);
-            (bp != bc).then(|| ordered(bp, bc))
-        })
-        .collect();
-    adjacent.sort_unstable();
+    let adjacent = adjacent_bodies(robot);
     let disabled = robot.disabled_collisions();
     let mut pairs = Vec::new();
     for (i, a) in shapes.iter().enumerate() {
@@ -213,6 +209,47 @@ fn self_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usi
                 continue;
             }
             pairs.push((i, j));
+        }
+    }
+    pairs
+}
+
+/// Pairs (smaller, larger) of rigid bodies ([`Robot::rigid_bodies`]) joined by one movable joint, sorted.
+fn adjacent_bodies(robot: &Robot) -> Vec<(usize, usize)> {
+    let bodies = robot.rigid_bodies();
+    let mut adjacent: Vec<(usize, usize)> = (0..bodies.len())
+        .filter_map(|child| {
+            let parent = robot.link_parent(child)?;
+            let (bp, bc) = (*bodies.get(parent)?, *bodies.get(child)?);
+            (bp != bc).then(|| (bp.min(bc), bp.max(bc)))
+        })
+        .collect();
+    adjacent.sort_unstable();
+    adjacent
+}
+
+/// Shape index pairs on adjacent rigid bodies (one movable joint between them) whose links a loaded SRDF
+/// does not disable; none without an SRDF. The planner never measures adjacent links (their meshes
+/// usually meet at the joint); MoveIt checks every pair its SRDF leaves enabled, and MoveIt Setup Assistant
+/// disables adjacent ones, but an SRDF written for another tool may not ([`MeshChecker::adjacent_contacts`]).
+fn adjacent_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usize)> {
+    if !robot.has_srdf() {
+        return Vec::new();
+    }
+    let bodies = robot.rigid_bodies();
+    let ordered = |a: usize, b: usize| (a.min(b), a.max(b));
+    let adjacent = adjacent_bodies(robot);
+    let disabled = robot.disabled_collisions();
+    let mut pairs = Vec::new();
+    for (i, a) in shapes.iter().enumerate() {
+        for (j, b) in shapes.iter().enumerate().skip(i + 1) {
+            let (ba, bb) = (bodies[a.link], bodies[b.link]);
+            if ba != bb
+                && adjacent.binary_search(&ordered(ba, bb)).is_ok()
+                && !disabled.contains(&ordered(a.link, b.link))
+            {
+                pairs.push((i, j));
+            }
         }
     }
     pairs
@@ -234,27 +271,19 @@ fn fixed_bodies(robot: &Robot) -> Vec<usize> {
 
 /// Shape index pairs that the robot's locked joints hold still relative to each other: shapes on links of
 /// one rigid body ([`Robot::rigid_bodies`]) that are on different bodies of the whole robot
-/// ([`fixed_bodies`]), not adjacent there (one joint between the bodies) and not disabled by the SRDF.
-/// MoveIt checks such a pair like any other; no motion of the active joints changes its distance, so a
-/// pair in contact at the held joint values puts every state in collision ([`MeshChecker::held_contacts`]).
+/// ([`fixed_bodies`]) and whose links the SRDF does not disable. MoveIt checks such a pair like any other,
+/// adjacent links included (MoveIt Setup Assistant disables those; an SRDF written for another tool may
+/// not); no motion of the active joints changes its distance, so a pair in contact at the held joint values
+/// puts every state in collision ([`MeshChecker::held_contacts`]).
 fn held_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usize)> {
     let (rigid, bodies) = (robot.rigid_bodies(), fixed_bodies(robot));
     let ordered = |a: usize, b: usize| (a.min(b), a.max(b));
-    let mut adjacent: Vec<(usize, usize)> = (0..bodies.len())
-        .filter_map(|child| {
-            let parent = robot.link_parent(child)?;
-            (bodies[parent] != bodies[child]).then(|| ordered(bodies[parent], bodies[child]))
-        })
-        .collect();
-    adjacent.sort_unstable();
     let disabled = robot.disabled_collisions();
     let mut pairs = Vec::new();
     for (i, a) in shapes.iter().enumerate() {
         for (j, b) in shapes.iter().enumerate().skip(i + 1) {
-            let (ba, bb) = (bodies[a.link], bodies[b.link]);
             if rigid[a.link] == rigid[b.link]
-                && ba != bb
-                && adjacent.binary_search(&ordered(ba, bb)).is_err()
+                && bodies[a.link] != bodies[b.link]
                 && !disabled.contains(&ordered(a.link, b.link))
             {
                 pairs.push((i, j));
@@ -475,11 +504,13 @@ impl MeshChecker {
         }
         let self_pairs = self_shape_pairs(robot, &shapes);
         let held_pairs = held_shape_pairs(robot, &shapes);
+        let adjacent_pairs = adjacent_shape_pairs(robot, &shapes);
         Ok(MeshChecker {
             robot: robot.clone(),
             shapes,
             self_pairs,
             held_pairs,
+            adjacent_pairs,
             max_distance: DEFAULT_MAX_DISTANCE,
         })
     }
@@ -939,6 +970,15 @@ impl MeshChecker {
     /// Errors: as [`MeshChecker::self_contacts`].
     pub fn held_contacts(&self, q: &[f64], within: f64) -> Result<Vec<(usize, usize, f64)>> {
         self.contacts_among(&self.held_pairs, q, within)
+    }
+
+    /// The shape pairs on adjacent rigid bodies (one movable joint between them) that a loaded SRDF leaves
+    /// enabled (see [`adjacent_shape_pairs`]) nearer than `within` (m, ≥ 0) at q (dof,), as
+    /// [`MeshChecker::self_contacts`]: the planner does not measure them, MoveIt does.
+    ///
+    /// Errors: as [`MeshChecker::self_contacts`].
+    pub fn adjacent_contacts(&self, q: &[f64], within: f64) -> Result<Vec<(usize, usize, f64)>> {
+        self.contacts_among(&self.adjacent_pairs, q, within)
     }
 
     /// The pairs of `pairs` nearer than `within` at q, nearest first.

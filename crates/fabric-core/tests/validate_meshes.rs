@@ -536,7 +536,7 @@ fn self_clearance_closed_form() {
 /// Two arms on locked revolute joints about z at the base, each a 0.2 m cube 0.5 m out along x from its
 /// joint, joint `a` at y = +0.15 and `b` at y = −0.15, and an active slider `s` carrying a third cube far
 /// away. Held at 0 the two cubes face each other across 0.3 − 0.2 = 0.1 m; the locked positions `held`
-/// turn them.
+/// turn them. A cube `c` on a locked joint at the centre of `a`'s overlaps it: adjacent links, held.
 fn held_arms(held_a: f64, held_b: f64, srdf: Option<&str>) -> Robot {
     let cube = r#"<collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision>"#;
     let xml = format!(
@@ -545,6 +545,9 @@ fn held_arms(held_a: f64, held_b: f64, srdf: Option<&str>) -> Robot {
           <link name="a"><collision><origin xyz="0.5 0 0"/><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
           <link name="b"><collision><origin xyz="0.5 0 0"/><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
           <link name="s">{cube}</link>
+          <link name="c"><collision><origin xyz="0.1 0 0"/><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
+          <joint name="jc" type="revolute"><parent link="a"/><child link="c"/><origin xyz="0.5 0 0"/>
+            <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
           <joint name="ja" type="revolute"><parent link="base"/><child link="a"/><origin xyz="0 0.15 0"/>
             <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
           <joint name="jb" type="revolute"><parent link="base"/><child link="b"/><origin xyz="0 -0.15 0"/>
@@ -575,13 +578,33 @@ fn held_contacts_are_the_locked_links_that_touch_whatever_the_motion() {
         apart.self_pairs().is_empty(),
         "the slider's cube is adjacent to the base and far from a, b"
     );
-    assert_eq!(apart.held_pairs(), [(0, 1)]);
+    let srdf_c = r#"<robot name="held"><disable_collisions link1="a" link2="c" reason="Adjacent"/>
+      <disable_collisions link1="b" link2="c" reason="Never"/></robot>"#;
+    let apart = MeshChecker::new(&held_arms(0.0, 0.0, Some(srdf_c))).unwrap();
+    assert_eq!(
+        apart.held_pairs().len(),
+        1,
+        "a and b only: c is disabled against both"
+    );
     assert!(apart.held_contacts(&[0.0], 0.0).unwrap().is_empty());
     let near = apart.held_contacts(&[0.7], 0.2).unwrap();
     assert_eq!(near.len(), 1);
     assert!((near[0].2 - 0.1).abs() < TOL, "{near:?}");
+    // MoveIt checks adjacent links the SRDF leaves enabled: `c` overlaps `a`, whatever the slider does
+    let adjacent = MeshChecker::new(&held_arms(0.0, 0.0, None)).unwrap();
+    let c = adjacent.held_contacts(&[0.3], 0.0).unwrap();
+    let names = adjacent.robot().link_names();
+    let pair = |k: usize| {
+        let (i, j, _) = c[k];
+        [
+            names[adjacent.shapes()[i].link].as_str(),
+            names[adjacent.shapes()[j].link].as_str(),
+        ]
+    };
+    assert_eq!(c.len(), 1);
+    assert_eq!(pair(0), ["a", "c"]);
     // a turned towards b by 0.3 rad: its cube crosses the gap (the slider changes nothing)
-    let touching = MeshChecker::new(&held_arms(-0.3, 0.0, None)).unwrap();
+    let touching = MeshChecker::new(&held_arms(-0.3, 0.0, Some(srdf_c))).unwrap();
     for s in [-1.0, 0.0, 1.0] {
         let c = touching.held_contacts(&[s], 0.0).unwrap();
         assert_eq!(c.len(), 1, "at s = {s}");
@@ -597,8 +620,9 @@ fn held_contacts_are_the_locked_links_that_touch_whatever_the_motion() {
         );
     }
     // the SRDF disables the pair: MoveIt does not check it, nor does the checker
-    let srdf =
-        r#"<robot name="held"><disable_collisions link1="b" link2="a" reason="Never"/></robot>"#;
+    let srdf = r#"<robot name="held"><disable_collisions link1="b" link2="a" reason="Never"/>
+      <disable_collisions link1="a" link2="c" reason="Adjacent"/>
+      <disable_collisions link1="b" link2="c" reason="Never"/></robot>"#;
     let disabled = MeshChecker::new(&held_arms(-0.3, 0.0, Some(srdf))).unwrap();
     assert!(disabled.held_contacts(&[0.0], 0.0).unwrap().is_empty());
     // the two locked arms are one rigid body with the base: the fabric and the trajectory checks never

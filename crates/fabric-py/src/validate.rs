@@ -128,7 +128,8 @@ impl PyMeshChecker {
     }
 }
 
-/// A contact query of the checker (`MeshChecker::self_contacts` or `held_contacts`): (shape i, shape j, m).
+/// A contact query of the checker (`MeshChecker::self_contacts`, `held_contacts`, `adjacent_contacts`):
+/// (shape i, shape j, m).
 type ContactQuery = fn(&MeshChecker, &[f64], f64) -> fabric_core::Result<Vec<(usize, usize, f64)>>;
 
 #[pymethods]
@@ -311,6 +312,20 @@ impl PyMeshChecker {
         within: f64,
     ) -> PyResult<Vec<(String, String, f64)>> {
         self.named_contacts(py, q, within, MeshChecker::held_contacts)
+    }
+
+    /// The link pairs on adjacent rigid bodies (one movable joint between them) that the robot's SRDF
+    /// leaves enabled, nearer than `within` m (≥ 0) at q (dof,): a list of (link a, link b, distance m),
+    /// nearest first, as `self_contacts`. The planner never measures adjacent links; MoveIt checks every
+    /// pair its SRDF leaves enabled (MoveIt Setup Assistant disables adjacent ones). Empty without an SRDF.
+    #[pyo3(signature = (q, within=0.0))]
+    fn adjacent_contacts(
+        &self,
+        py: Python<'_>,
+        q: &Bound<'_, PyAny>,
+        within: f64,
+    ) -> PyResult<Vec<(String, String, f64)>> {
+        self.named_contacts(py, q, within, MeshChecker::adjacent_contacts)
     }
 
     /// min over the states of q (T, dof) (or one state (dof,)) of `clearance`, m: the same value as

@@ -18,6 +18,11 @@ from gfcs.errors import CollisionError
 __all__ = ["check_endpoints", "check_held_links", "endpoint_grazes"]
 
 
+def _depth(distance: float) -> str:
+    """How deep a contact of (signed) ``distance`` [m, ≤ 0] is, for messages."""
+    return f"{max(0.0, -distance) * 1000:.3g} mm deep"
+
+
 def check_held_links(checker: Any, q: Any, what: str) -> None:
     """Raise :class:`gfcs.CollisionError` (its message starting with ``what``) when two links that joints
     outside the robot's active joints hold still relative to each other touch at their held values
@@ -28,7 +33,7 @@ def check_held_links(checker: Any, q: Any, what: str) -> None:
         a, b, depth = contacts[0]
         more = f" (and {len(contacts) - 1} more pair(s))" if len(contacts) > 1 else ""
         held = ", ".join(sorted(checker.robot.locked_positions)[:4])
-        raise CollisionError(f"{what}: links '{a}' and '{b}' touch ({-depth * 1000:.3g} mm deep){more} at the held "
+        raise CollisionError(f"{what}: links '{a}' and '{b}' touch ({_depth(depth)}){more} at the held "
                              f"values of the joints the group does not move ({held}, ...), so every state of "
                              "every motion is in collision; hold those joints elsewhere (the request's start state) "
                              "or disable the pair in the SRDF")
@@ -37,8 +42,9 @@ def check_held_links(checker: Any, q: Any, what: str) -> None:
 def check_endpoints(problem: Any) -> None:
     """Raise :class:`gfcs.CollisionError` when the start ``problem.q0`` or the goal ``problem.goal`` puts the
     collision meshes of ``problem.mesh_checker`` in contact (distance ≤ 0) with the scene or with each other
-    (the SRDF's enabled link pairs), or when links held still by the joints outside the group touch
-    (:func:`check_held_links`); the message names the problem, the state, the links and the depth.
+    (the SRDF's enabled link pairs, adjacent links included), or when links held still by the joints outside
+    the group touch (:func:`check_held_links`); the message names the problem, the state, the links and the
+    depth.
     Nothing is checked for a problem without a :class:`gfcs.MeshChecker` (the sphere model is conservative by
     design; a duck-typed stand-in checker is not asked, so that it sees only the motions)."""
     from gfcs._core import MeshChecker
@@ -54,13 +60,20 @@ def check_endpoints(problem: Any) -> None:
             a, b, depth = contacts[0]
             more = f" (and {len(contacts) - 1} more pair(s))" if len(contacts) > 1 else ""
             raise CollisionError(f"problem '{problem.name}': the {state} state is in collision: the meshes of "
-                                 f"links '{a}' and '{b}' touch ({-depth * 1000:.3g} mm deep){more}; "
+                                 f"links '{a}' and '{b}' touch ({_depth(depth)}){more}; "
                                  f"MoveIt refuses such a request (endpoint_check=False plans anyway)")
+        contacts = checker.adjacent_contacts(q, 0.0)
+        if contacts:
+            a, b, depth = contacts[0]
+            raise CollisionError(f"problem '{problem.name}': the {state} state is in collision: the meshes of "
+                                 f"adjacent links '{a}' and '{b}' touch ({_depth(depth)}) and the SRDF "
+                                 "leaves the pair enabled, so MoveIt checks it (MoveIt Setup Assistant disables "
+                                 f'adjacent links: <disable_collisions link1="{a}" link2="{b}" reason="Adjacent"/>)')
         # distances up to a micrometre are measured exactly; nearer than 0 is contact
         clearance = float(checker.min_clearance(problem.scene, q, cutoff=1e-6))
         if clearance <= 0.0:
             raise CollisionError(f"problem '{problem.name}': the {state} state is in collision: the meshes "
-                                 f"touch an obstacle ({-clearance * 1000:.3g} mm deep); MoveIt refuses such a "
+                                 f"touch an obstacle ({_depth(clearance)}); MoveIt refuses such a "
                                  f"request (endpoint_check=False plans anyway)")
 
 

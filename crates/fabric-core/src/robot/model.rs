@@ -152,6 +152,8 @@ pub struct Robot {
     pub(crate) spheres: Vec<CollisionSphere>,
     /// Link pairs (i < j) whose collisions are disabled by an SRDF.
     pub(crate) disabled: Vec<(usize, usize)>,
+    /// Whether an SRDF was loaded ([`Robot::has_srdf`]).
+    pub(crate) srdf: bool,
     pub(crate) self_pairs: Vec<(usize, usize)>,
     pub(crate) geometry: Vec<LinkGeometry>,
     /// Inactive movable joints that are not mimic joints, with the position each is held at (rad or m).
@@ -280,6 +282,12 @@ impl Robot {
     /// [`Robot::set_self_collision_from_srdf`]).
     pub fn disabled_collisions(&self) -> &[(usize, usize)] {
         &self.disabled
+    }
+
+    /// Whether an SRDF was loaded ([`Robot::set_self_collision_from_srdf`]): its `<disable_collisions>`
+    /// then list every link pair MoveIt skips, adjacent links included.
+    pub fn has_srdf(&self) -> bool {
+        self.srdf
     }
 
     /// Collision spheres (centres in their link frames, m).

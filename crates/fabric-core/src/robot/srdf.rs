@@ -65,6 +65,7 @@ impl Robot {
         skipped.sort_unstable();
         skipped.dedup();
         self.set_disabled(disabled);
+        self.srdf = true;
         Ok(skipped)
     }
 

@@ -531,6 +531,7 @@ fn build(xml: &str, source: &str, opts: &RobotOptions, mesh_dir: Option<&Path>) 
         continuous,
         spheres,
         disabled: Vec::new(),
+        srdf: false,
         self_pairs: Vec::new(),
         geometry,
         locked,
@@ -571,6 +572,7 @@ impl Robot {
         )?;
         robot.spheres = self.spheres.clone();
         robot.disabled = self.disabled.clone();
+        robot.srdf = self.srdf;
         robot.self_pairs = self.self_pairs.clone();
         Ok(robot)
     }
