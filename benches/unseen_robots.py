@@ -59,6 +59,10 @@ CASES = (
          "tool0"),
     Case("PR2, both arms (14)", "pr2_description/urdf/pr2.urdf", "pr2_description/srdf/pr2.srdf",
          "l_wrist_roll_link", flags=("--group", "arms")),
+    Case("ANYmal B with a Kinova arm (6; 12 leg joints held)", "anymal_b_simple_description/robots/anymal-kinova.urdf",
+         "anymal_b_simple_description/srdf/anymal-kinova.srdf", "j2s6s200_end_effector", flags=("--group", "arm")),
+    Case("Unitree B1 with a Z1 arm (7; 12 leg joints held)", "b1_description/urdf/b1-z1.urdf",
+         "b1_description/srdf/b1-z1.srdf", "gripperMover", adjacent=True, flags=("--group", "arm")),
 )
 
 
@@ -148,9 +152,10 @@ def fragment(rows: List[Dict[str, object]], n: int) -> str:
         "`example-robot-data` package 6.0.0 (URDF, SRDF, collision meshes; no spheres: gfcs fits them), as a new "
         "user would run them: `gfcs generate --n {n}` (each class it can fill), `gfcs bench --method gfcs`, and "
         "`tools/check_trajectories.py` on the robot's meshes, SRDF pairs, limits and velocity limits. The Kinova's "
-        "and the Z1's SRDFs (written for Pinocchio) disable no pair; they are used with their adjacent pairs "
-        "disabled, as MoveIt Setup Assistant writes them. The UR3's SRDF has no group: its requests plan the "
-        "robot's joints.".format(n=n),
+        "and the Z1's SRDFs (written for Pinocchio) disable no pair, and the B1's leaves the Z1 gripper's two "
+        "halves enabled; they are used with their adjacent pairs disabled, as MoveIt Setup Assistant writes them. "
+        "The UR3's SRDF has no group: its requests plan the robot's joints. The legged robots' arm groups hold "
+        "the legs at 0.".format(n=n),
         "",
         "| robot (joints) | problems (classes) | solved | claims valid | median whole solve (s) "
         "| max speed/limit | min mesh clearance (mm) |",
