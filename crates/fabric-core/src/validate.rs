@@ -188,30 +188,39 @@ fn load_scaled_mesh(path: &Path, scale: &Vector3<f64>, link: &str) -> Result<Tri
     })
 }
 
-/// Shape index pairs checked for self-collision: shapes on links of different rigid bodies
-/// ([`Robot::rigid_bodies`]) that are not adjacent (one movable joint between the bodies) and whose
-/// links are not disabled by the SRDF ([`Robot::disabled_collisions`]).
-fn self_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usize)> {
-    let bodies = robot.rigid_bodies();
-    let ordered = |a: usize, b: usize| (a.min(b), a.max(b));
-    let adjacent = adjacent_bodies(robot);
+/// Shape index pairs `(i, j)`, `i < j`, whose links the SRDF does not disable
+/// ([`Robot::disabled_collisions`]) and for which `keep(link i, link j)` holds.
+fn enabled_shape_pairs(
+    robot: &Robot,
+    shapes: &[CollisionShape],
+    keep: impl Fn(usize, usize) -> bool,
+) -> Vec<(usize, usize)> {
     let disabled = robot.disabled_collisions();
     let mut pairs = Vec::new();
     for (i, a) in shapes.iter().enumerate() {
         for (j, b) in shapes.iter().enumerate().skip(i + 1) {
-            let (Some(&ba), Some(&bb)) = (bodies.get(a.link), bodies.get(b.link)) else {
-                continue;
-            };
-            if ba == bb
-                || adjacent.binary_search(&ordered(ba, bb)).is_ok()
-                || disabled.contains(&ordered(a.link, b.link))
-            {
-                continue;
+            let link_pair = (a.link.min(b.link), a.link.max(b.link));
+            if keep(a.link, b.link) && !disabled.contains(&link_pair) {
+                pairs.push((i, j));
             }
-            pairs.push((i, j));
         }
     }
     pairs
+}
+
+/// Whether rigid bodies `a` and `b` are one movable joint apart: `adjacent` from [`adjacent_bodies`].
+fn are_adjacent(adjacent: &[(usize, usize)], a: usize, b: usize) -> bool {
+    adjacent.binary_search(&(a.min(b), a.max(b))).is_ok()
+}
+
+/// Shape index pairs checked for self-collision: shapes on links of different rigid bodies
+/// ([`Robot::rigid_bodies`]) that are not adjacent (one movable joint between the bodies) and whose
+/// links are not disabled by the SRDF ([`Robot::disabled_collisions`]).
+fn self_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usize)> {
+    let (bodies, adjacent) = (robot.rigid_bodies(), adjacent_bodies(robot));
+    enabled_shape_pairs(robot, shapes, |a, b| {
+        bodies[a] != bodies[b] && !are_adjacent(&adjacent, bodies[a], bodies[b])
+    })
 }
 
 /// Pairs (smaller, larger) of rigid bodies ([`Robot::rigid_bodies`]) joined by one movable joint, sorted.
@@ -236,23 +245,10 @@ fn adjacent_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize,
     if !robot.has_srdf() {
         return Vec::new();
     }
-    let bodies = robot.rigid_bodies();
-    let ordered = |a: usize, b: usize| (a.min(b), a.max(b));
-    let adjacent = adjacent_bodies(robot);
-    let disabled = robot.disabled_collisions();
-    let mut pairs = Vec::new();
-    for (i, a) in shapes.iter().enumerate() {
-        for (j, b) in shapes.iter().enumerate().skip(i + 1) {
-            let (ba, bb) = (bodies[a.link], bodies[b.link]);
-            if ba != bb
-                && adjacent.binary_search(&ordered(ba, bb)).is_ok()
-                && !disabled.contains(&ordered(a.link, b.link))
-            {
-                pairs.push((i, j));
-            }
-        }
-    }
-    pairs
+    let (bodies, adjacent) = (robot.rigid_bodies(), adjacent_bodies(robot));
+    enabled_shape_pairs(robot, shapes, |a, b| {
+        bodies[a] != bodies[b] && are_adjacent(&adjacent, bodies[a], bodies[b])
+    })
 }
 
 /// Rigid-body label of each link when only fixed joints join links (locked joints count as moving):
@@ -277,20 +273,9 @@ fn fixed_bodies(robot: &Robot) -> Vec<usize> {
 /// puts every state in collision ([`MeshChecker::held_contacts`]).
 fn held_shape_pairs(robot: &Robot, shapes: &[CollisionShape]) -> Vec<(usize, usize)> {
     let (rigid, bodies) = (robot.rigid_bodies(), fixed_bodies(robot));
-    let ordered = |a: usize, b: usize| (a.min(b), a.max(b));
-    let disabled = robot.disabled_collisions();
-    let mut pairs = Vec::new();
-    for (i, a) in shapes.iter().enumerate() {
-        for (j, b) in shapes.iter().enumerate().skip(i + 1) {
-            if rigid[a.link] == rigid[b.link]
-                && bodies[a.link] != bodies[b.link]
-                && !disabled.contains(&ordered(a.link, b.link))
-            {
-                pairs.push((i, j));
-            }
-        }
-    }
-    pairs
+    enabled_shape_pairs(robot, shapes, |a, b| {
+        rigid[a] == rigid[b] && bodies[a] != bodies[b]
+    })
 }
 
 /// Whether `inner` lies inside `outer` (closed boxes).
