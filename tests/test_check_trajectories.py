@@ -422,3 +422,34 @@ def test_links_of_one_rigid_body_are_not_checked_against_each_other(tmp_path):
     assert frozenset(("post", "post_2")) in default.disabled and frozenset(("link", "post")) not in default.disabled
     strict = ct.RobotModel(tmp_path / "split.urdf", None, "link", rigid_pairs=True)
     assert frozenset(("post", "post_2")) not in strict.disabled
+
+
+def test_joints_the_trajectory_does_not_move_stay_at_the_request_start(slider, tmp_path):
+    """A second slider y carries a 0.2 m cube `holder` along z; the result's trajectory moves x alone. Held at
+    y = 0 (the request names no y, or names 0) the holder's cube sits on the link's; the request's start at
+    y = 0.5 lifts it 0.3 m clear, as MoveIt keeps a joint outside the group where the start state holds it."""
+    problems, _, _ = slider
+    held = URDF.replace("</robot>", """<link name="holder"><collision><geometry><box size="0.2 0.2 0.2"/></geometry>
+      </collision></link>
+      <joint name="y" type="prismatic"><parent link="base"/><child link="holder"/><axis xyz="0 0 1"/>
+        <limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>""")
+    urdf = tmp_path / "held.urdf"
+    urdf.write_text(held)
+    folder = problems / "slide"
+    folder.mkdir(parents=True, exist_ok=True)
+    verdicts = {}
+    for number, y in (("0001", 0.5), ("0002", 0.0)):
+        (folder / f"scene{number}.yaml").write_text(SCENE)
+        (folder / f"request{number}.yaml").write_text(
+            f"start_state: {{joint_state: {{name: [x, y], position: [0.0, {y}]}}}}\n"
+            "goal_constraints: [{joint_constraints: [{joint_name: x, position: 0.1}]}]\n")
+        out = write_result(tmp_path, f"slide/{number}", "gf", np.linspace(0.0, 0.1, 5).reshape(-1, 1), True)
+        doc = json.loads(out.read_text())
+        doc["trajectory"]["joint_names"] = ["x"]
+        out.write_text(json.dumps(doc))
+        checked = out.parent / f"checked{number}.jsonl"
+        ct.main(["--problems", str(problems), "--urdf", str(urdf), "--ee-link", "link", "--jobs", "1",
+                 "--json", str(checked), str(out)])
+        verdicts[y] = json.loads(checked.read_text().splitlines()[0])
+    assert verdicts[0.5]["valid"] and verdicts[0.5]["self_clearance"] == pytest.approx(0.3, abs=1e-6)
+    assert not verdicts[0.0]["valid"] and verdicts[0.0]["self_clearance"] <= 0.0

@@ -141,3 +141,16 @@ def test_adjacent_links_the_srdf_leaves_enabled_are_checked_at_the_endpoints():
         checker = gfcs.MeshChecker(robot)
         assert checker.adjacent_contacts(folded, 0.0) == []
         check_endpoints(dataclasses.replace(problem, robot=robot, mesh_checker=checker))
+
+
+def test_generate_hold_parses_joints_outside_the_group_and_names_bad_items():
+    from gfcs.cli import _held_positions
+
+    robot = gfcs.Robot.from_urdf(HELD_ARMS, active_joints=["js"])
+    assert _held_positions(["ja=0.4", "jb=-1"], robot) == {"ja": 0.4, "jb": -1.0}
+    for item, why in (("js=0.1", "is planned"), ("nope=1", "not a movable joint"), ("ja", "JOINT=VALUE"),
+                      ("ja=x", "JOINT=VALUE"), ("ja=nan", "JOINT=VALUE")):
+        with pytest.raises(gfcs.InvalidValueError, match=why):
+            _held_positions([item], robot)
+    moved = robot.with_locked_positions(_held_positions(["ja=-0.3"], robot))
+    assert gfcs.MeshChecker(moved).held_contacts(np.zeros(1), 0.0)[0][:2] == ("a", "b")

@@ -579,14 +579,17 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
         raise ValueError(f"{request_path}: goal link {goal.link!r} is not a link of {model.path}")
     lo, up, vel = model.limits(names)
     n = q.shape[0]
-    cfg = {name: q[:, k] for k, name in enumerate(names)}
+    # joints the trajectory does not move stay where the request's start state holds them, as MoveIt keeps
+    # them (0 where it names none)
+    held = {name: start.get(name, 0.0) for name in model.actuated if name not in names}
+    cfg = {**{name: np.full(n, v) for name, v in held.items()}, **{name: q[:, k] for k, name in enumerate(names)}}
     links = set(model.parts_links()) | {model.ee_link} | ({goal.link} if pose_goal else set())
     poses = model.fk(cfg, links, n)
 
     # the recomputed kinematics against yourdfpy's own: first state, and a pose goal's link at the last
-    fk_error = fk_difference(model, names, q[0], {l: poses[l][0] for l in links})
+    fk_error = fk_difference(model, names, q[0], {l: poses[l][0] for l in links}, held)
     if pose_goal:
-        fk_error = max(fk_error, fk_difference(model, names, q[-1], {goal.link: poses[goal.link][-1]}))
+        fk_error = max(fk_error, fk_difference(model, names, q[-1], {goal.link: poses[goal.link][-1]}, held))
         goal_fields = pose_goal_errors(goal, poses[goal.link][-1])
     else:
         diff = q[-1] - np.array([goal[n] for n in names])
@@ -662,9 +665,11 @@ def check_result(result: Dict[str, Any], model: RobotModel, scene_path: Path, re
     return out
 
 
-def fk_difference(model: RobotModel, names: Sequence[str], q: np.ndarray, poses: Dict[str, np.ndarray]) -> float:
-    """Largest difference between the recomputed link ``poses`` (4x4) of the configuration q and yourdfpy's."""
-    model.urdf.update_cfg({name: float(v) for name, v in zip(names, q)})
+def fk_difference(model: RobotModel, names: Sequence[str], q: np.ndarray, poses: Dict[str, np.ndarray],
+                  held: Dict[str, float]) -> float:
+    """Largest difference between the recomputed link ``poses`` (4x4) of the configuration q of the joints
+    ``names``, the others at ``held`` (joint -> value), and yourdfpy's."""
+    model.urdf.update_cfg({**held, **{name: float(v) for name, v in zip(names, q)}})
     return max(float(np.abs(model.urdf.get_transform(l, model.base) - T).max()) for l, T in poses.items())
 
 

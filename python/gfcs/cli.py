@@ -788,6 +788,25 @@ def _register_bench(sub: Any) -> None:
 
 
 # ------------------------------------------------------------------------------------------ generate
+def _held_positions(items: Sequence[str], robot: Any) -> Dict[str, float]:
+    """``--hold JOINT=VALUE ...`` as {joint: value}; InvalidValueError naming an item that is not
+    JOINT=number or a joint the robot does not hold (an active joint, or no joint of the robot)."""
+    held: Dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            held[name] = float(value) if sep and name else math.nan
+        except ValueError:
+            held[name] = math.nan
+        if not math.isfinite(held[name]):
+            raise InvalidValueError(f"--hold {item!r}: expected JOINT=VALUE with a finite number (rad or m)")
+        if name not in robot.locked_positions:
+            moved = "is planned (in the group)" if name in robot.joint_names else "is not a movable joint of the robot"
+            raise InvalidValueError(f"--hold {item!r}: joint {name!r} {moved}; held joints: "
+                                    f"{', '.join(sorted(robot.locked_positions)[:8]) or 'none'}")
+    return held
+
+
 def cmd_generate(args: argparse.Namespace) -> int:
     """`gfcs generate`: write generated problems as MotionBenchMaker files."""
     from gfcs import generators, problems
@@ -795,6 +814,8 @@ def cmd_generate(args: argparse.Namespace) -> int:
     if not getattr(args, "group", None) and getattr(args, "srdf", None) and args.robot not in (None, "mbm"):
         args.group = _first_group_unless_exact(args)
     robot = _robot(args)  # built once: a mesh robot's spheres are fitted here
+    if args.hold:
+        robot = robot.with_locked_positions(_held_positions(args.hold, robot))
     group = _planning_group(args, robot)
     checker = _mesh_checker(args, robot)
     if checker is not None:  # links the group cannot move apart would put every problem in collision
@@ -802,7 +823,8 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
         from gfcs.planning.endpoints import check_held_links
 
-        check_held_links(checker, np.zeros(robot.dof), f"gfcs generate: {args.robot}")
+        checker = problems.held_as_requested(checker, robot.locked_positions)
+        check_held_links(checker, np.zeros(robot.dof), f"gfcs generate: {args.robot} (--hold moves held joints)")
     classes = args.classes or list(problems.CLASSES)
     total, written = 0, []
     for c in classes:
@@ -865,6 +887,9 @@ def _register_generate(sub: Any) -> None:
     p.add_argument("--pose-goals", action="store_true",
                    help="write each goal as the hand TCP's pose (position within 1 mm, orientation within "
                         "0.01 rad; MoveIt position and orientation constraints) instead of joint positions")
+    p.add_argument("--hold", nargs="+", metavar="JOINT=VALUE", default=[],
+                   help="hold joints outside the planned group at these positions (rad or m; default 0, or the "
+                        "middle of a range without 0); written into every request's start state")
     _add_robot_options(p)
     p.set_defaults(func=cmd_generate)
 
