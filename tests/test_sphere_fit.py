@@ -52,6 +52,26 @@ def test_an_l_shaped_link_is_covered_by_spheres_along_both_arms():
     assert np.any(centres[:, 0] > 0.25) and np.any(centres[:, 1] > 0.25)
 
 
+#: A thin cylinder on an offset, turned origin (a gripper finger tip of a ROS description): the SLSQP refinement
+#: of one of its clusters steps off to a centre ~1e25 m away.
+THIN_CYLINDER = """<robot name="finger"><link name="base"/>
+  <link name="tip"><collision><origin rpy="0 0 3.14159265359" xyz="0 -0.0045 -0.015"/>
+    <geometry><cylinder length="0.037" radius="0.008"/></geometry></collision></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="tip"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" velocity="1"/></joint></robot>"""
+
+
+def test_a_refinement_that_diverges_keeps_the_iterations_sphere(tmp_path):
+    urdf = tmp_path / "finger.urdf"
+    urdf.write_text(THIN_CYLINDER)
+    spheres = fitted_spheres(gfcs.Robot.from_urdf(str(urdf)))
+    assert spheres
+    # every sphere hugs the 37 mm x 16 mm cylinder: within its half-diagonal of its axis' middle
+    for _, centre, radius in spheres:
+        assert radius <= np.hypot(0.037, 0.016) / 2 + 0.002
+        assert np.linalg.norm(np.asarray(centre) - [0.0, -0.0045, -0.015]) <= 0.037
+
+
 def test_the_fit_is_reproducible_and_a_subsample_still_covers_every_point():
     pts = _box_points((0.5, 0.1, 0.05), n=20000, seed=3)  # more points than the fit iterates over
     a, b = fit_link_spheres(pts), fit_link_spheres(pts)

@@ -60,6 +60,9 @@ def _enclosing_sphere(points: np.ndarray, iterations: int = 100) -> Tuple[np.nda
     the one that covers every point from the centre found."""
     from scipy.optimize import minimize
 
+    def cover_radius(centre: np.ndarray) -> float:
+        return float(np.sqrt(np.max(np.einsum("ij,ij->i", points - centre, points - centre))))
+
     hull = _hull(points)
     c = hull.mean(axis=0)
     for i in range(1, iterations + 1):
@@ -72,9 +75,11 @@ def _enclosing_sphere(points: np.ndarray, iterations: int = 100) -> Tuple[np.nda
                                     "fun": lambda x: x[3] ** 2 - np.einsum("ij,ij->i", hull - x[:3], hull - x[:3]),
                                     "jac": lambda x: np.c_[2.0 * (hull - x[:3]), np.full(hull.shape[0], 2.0 * x[3])]},
                        options={"maxiter": 100, "ftol": 1e-10})
-        if np.all(np.isfinite(res.x)):
+        # SLSQP can step far off on a degenerate hull (a thin cylinder's); its centre is kept only when it
+        # covers the points with a smaller sphere than the iterations' centre
+        if np.all(np.isfinite(res.x)) and cover_radius(res.x[:3]) < cover_radius(c):
             c = res.x[:3]
-    return c, float(np.sqrt(np.max(np.einsum("ij,ij->i", points - c, points - c))))
+    return c, cover_radius(c)
 
 
 def _kmeans(points: np.ndarray, k: int, iterations: int = 20) -> np.ndarray:
