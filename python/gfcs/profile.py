@@ -197,24 +197,49 @@ def _parent_links(robot: Any, q: np.ndarray, link: str) -> np.ndarray:
     return chain[1] & ~chain[0]
 
 
+@dataclass(frozen=True)
+class _Hand:
+    """The collision spheres at the middle of the joint ranges ``q`` (dof,), with the link poses ``poses``
+    (L, 4, 4), the sphere centres ``centres`` (S, 3) in the world frame, their radii (S,) and links
+    ``sphere_link`` (S,), ``rigid`` (L,): the links rigidly attached to the end-effector link, and ``on`` (S,):
+    the spheres on them."""
+
+    q: np.ndarray
+    poses: np.ndarray
+    centres: np.ndarray
+    radii: np.ndarray
+    sphere_link: np.ndarray
+    rigid: np.ndarray
+    on: np.ndarray
+
+
+def _hand(robot: Any, link: str) -> Optional[_Hand]:
+    """The spheres of the hand at the end-effector link ``link`` (:class:`_Hand`); None when no sphere is
+    rigidly attached to it."""
+    rigid = _rigid_with_ee(robot, np.random.default_rng(0), link=link)
+    names = list(robot.link_names)
+    sphere_link = np.array([names.index(name) for name in robot.sphere_links], dtype=np.int64)
+    on = rigid[sphere_link] if sphere_link.size else np.zeros(0, dtype=bool)
+    if not on.any():
+        return None
+    q = 0.5 * (np.asarray(robot.lower, dtype=np.float64) + np.asarray(robot.upper, dtype=np.float64))
+    return _Hand(q, np.asarray(robot.link_poses(q), dtype=np.float64),
+                 np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(-1, 3),
+                 np.asarray(robot.sphere_radii, dtype=np.float64), sphere_link, rigid, on)
+
+
 def gripper_reach(robot: Any, axis: Sequence[float], link: Optional[str] = None) -> Optional[float]:
     """How far [m] the gripper reaches along ``axis`` (3,) (a unit vector in the frame of the end-effector link
     ``link``, default ``robot.ee_link``): the largest c·axis + r over the collision spheres rigidly attached to
     that link (centre c in its frame, radius r), at the middle of the joint ranges; None when no sphere is
     attached there."""
     link = robot.ee_link if link is None else link
-    rigid = _rigid_with_ee(robot, np.random.default_rng(0), link=link)
-    names = list(robot.link_names)
-    on = rigid[np.array([names.index(name) for name in robot.sphere_links], dtype=np.int64)] \
-        if len(robot.sphere_links) else np.zeros(0, dtype=bool)
-    if not on.any():
+    hand = _hand(robot, link)
+    if hand is None:
         return None
-    q = 0.5 * (np.asarray(robot.lower, dtype=np.float64) + np.asarray(robot.upper, dtype=np.float64))
-    ee = np.asarray(robot.link_poses(q), dtype=np.float64)[int(robot.link_index(link))]
-    centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(-1, 3)[on]
-    local = (centres - ee[:3, 3]) @ ee[:3, :3]
-    radii = np.asarray(robot.sphere_radii, dtype=np.float64)[on]
-    return float(np.max(local @ np.asarray(axis, dtype=np.float64) + radii))
+    ee = hand.poses[int(robot.link_index(link))]
+    local = (hand.centres[hand.on] - ee[:3, 3]) @ ee[:3, :3]
+    return float(np.max(local @ np.asarray(axis, dtype=np.float64) + hand.radii[hand.on]))
 
 
 def derive_approach_axis(robot: Any, link: Optional[str] = None) -> Tuple[float, float, float]:
@@ -228,26 +253,19 @@ def derive_approach_axis(robot: Any, link: Optional[str] = None) -> Tuple[float,
     effector's is used instead: a tool extends away from the arm. Snapped to the nearest axis of the
     end-effector frame when within 25° of it. The z axis when the robot has no spheres there."""
     link = robot.ee_link if link is None else link
-    rng = np.random.default_rng(0)
-    rigid = _rigid_with_ee(robot, rng, link=link)
-    names = list(robot.link_names)
-    sphere_link = np.array([names.index(name) for name in robot.sphere_links], dtype=np.int64)
-    on_body = rigid[sphere_link] if sphere_link.size else np.zeros(0, dtype=bool)
-    if not on_body.any():
+    hand = _hand(robot, link)
+    if hand is None:
         return (0.0, 0.0, 1.0)
-    q = 0.5 * (np.asarray(robot.lower, dtype=np.float64) + np.asarray(robot.upper, dtype=np.float64))
-    poses = np.asarray(robot.link_poses(q), dtype=np.float64)
-    centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(-1, 3)
-    weights = np.asarray(robot.sphere_radii, dtype=np.float64) ** 3
+    poses, weights = hand.poses, hand.radii ** 3
 
     def centroid(on: np.ndarray) -> np.ndarray:
-        return weights[on] @ centres[on] / weights[on].sum()
+        return weights[on] @ hand.centres[on] / weights[on].sum()
 
-    tool = centroid(on_body)
+    tool = centroid(hand.on)
     # the body's origin: among the rigidly attached links, the one nearest the base in the link order
-    body_origin = poses[int(np.flatnonzero(rigid)[0]), :3, 3]
+    body_origin = poses[int(np.flatnonzero(hand.rigid)[0]), :3, 3]
     d = tool - body_origin
-    on_parent = _parent_links(robot, q, link)[sphere_link]
+    on_parent = _parent_links(robot, hand.q, link)[hand.sphere_link]
     if on_parent.any():
         away = tool - centroid(on_parent)
         if float(d @ away) <= 0.0:
