@@ -28,7 +28,7 @@ import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 ROOT = Path(__file__).resolve().parents[1]
 FRAGMENT = ROOT / "benches" / "results" / "unseen_robots.md"
@@ -38,7 +38,8 @@ RETRY_LABEL = "Ours (5 b, retry)"
 @dataclass(frozen=True)
 class Case:
     """One robot: its title, URDF and SRDF (relative to ``<share>/example-robot-data/robots``), the link whose
-    pose the validator reports, whether to add the adjacent pairs to the SRDF, and extra CLI flags."""
+    pose the validator reports, whether to add the adjacent pairs to the SRDF, extra CLI flags, and a rewrite
+    of the SRDF text (applied first) where the package's does not fit its URDF."""
 
     title: str
     urdf: str
@@ -46,6 +47,20 @@ class Case:
     ee_link: str
     adjacent: bool = False
     flags: Tuple[str, ...] = field(default_factory=tuple)
+    rewrite: Optional[Callable[[str], str]] = None
+
+
+def baxter_srdf(text: str) -> str:
+    """The package's Baxter SRDF made MoveIt's: its group names every joint with a ``baxter/`` prefix that the
+    URDF's joints lack (MoveIt would find no joint), and it has no arm groups; MoveIt's Baxter configuration
+    has ``left_arm``, ``right_arm`` and ``both_arms`` (shoulder s0 to wrist w2)."""
+    def arm(side: str) -> str:
+        return "".join(f'<joint name="{side}_{j}"/>' for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2"))
+
+    groups = (f'<group name="left_arm">{arm("left")}</group><group name="right_arm">{arm("right")}</group>'
+              f'<group name="both_arms">{arm("left")}{arm("right")}</group>')
+    text = text.replace("baxter/", "")
+    return text.replace("</robot>", groups + "</robot>")
 
 
 CASES = (
@@ -63,6 +78,8 @@ CASES = (
          "anymal_b_simple_description/srdf/anymal-kinova.srdf", "j2s6s200_end_effector", flags=("--group", "arm")),
     Case("Unitree B1 with a Z1 arm (7; 12 leg joints held)", "b1_description/urdf/b1-z1.urdf",
          "b1_description/srdf/b1-z1.srdf", "gripperMover", adjacent=True, flags=("--group", "arm")),
+    Case("Baxter, both arms (14)", "baxter_description/urdf/baxter.urdf", "baxter_description/srdf/baxter_manipulation.srdf",
+         "left_wrist", flags=("--group", "both_arms"), rewrite=baxter_srdf),
 )
 
 
@@ -106,6 +123,10 @@ def bench_case(case: Case, share: Path, out: Path, n: int, jobs: int) -> Dict[st
     log = folder / "log.txt"
     log.write_text("")
     urdf, srdf = robots / case.urdf, robots / case.srdf
+    if case.rewrite is not None:
+        written = folder / (srdf.stem + "_moveit.srdf")
+        written.write_text(case.rewrite(srdf.read_text()))
+        srdf = written
     if case.adjacent:
         written = folder / (srdf.stem + "_adjacent.srdf")
         written.write_text(adjacent_srdf(urdf, srdf))
@@ -155,7 +176,8 @@ def fragment(rows: List[Dict[str, object]], n: int) -> str:
         "and the Z1's SRDFs (written for Pinocchio) disable no pair, and the B1's leaves the Z1 gripper's two "
         "halves enabled; they are used with their adjacent pairs disabled, as MoveIt Setup Assistant writes them. "
         "The UR3's SRDF has no group: its requests plan the robot's joints. The legged robots' arm groups hold "
-        "the legs at 0.".format(n=n),
+        "the legs at 0. The Baxter's SRDF prefixes its joints with `baxter/`, which its URDF does not, and has "
+        "no arm group: it is used with the prefix removed and MoveIt's `both_arms` group added.".format(n=n),
         "",
         "| robot (joints) | problems (classes) | solved | claims valid | median whole solve (s) "
         "| max speed/limit | min mesh clearance (mm) |",

@@ -154,3 +154,19 @@ def test_generate_hold_parses_joints_outside_the_group_and_names_bad_items():
             _held_positions([item], robot)
     moved = robot.with_locked_positions(_held_positions(["ja=-0.3"], robot))
     assert gfcs.MeshChecker(moved).held_contacts(np.zeros(1), 0.0)[0][:2] == ("a", "b")
+
+
+def test_generate_refuses_a_hold_that_puts_held_links_in_contact(tmp_path, capsys):
+    """`gfcs generate --hold` with the held arm crossing the gap: one refusal naming the links and --hold,
+    before any class is drawn (the generator checks the robot's meshes, which the CLI hands it)."""
+    from gfcs import cli
+
+    urdf, srdf = tmp_path / "held.urdf", tmp_path / "held.srdf"
+    urdf.write_text(HELD_ARMS)
+    srdf.write_text('<robot name="held"><group name="slider"><joint name="js"/></group></robot>')
+    code = cli.main(["generate", "--robot", str(urdf), "--srdf", str(srdf), "--group", "slider",
+                     "--hold", "ja=-0.3", "--out", str(tmp_path / "out"), "--n", "1"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "links 'a' and 'b' touch" in err and "--hold" in err
+    assert not (tmp_path / "out").exists()

@@ -31,7 +31,7 @@ import sys
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
-from gfcs.errors import GenerationError, InvalidValueError
+from gfcs.errors import CollisionError, GenerationError, InvalidValueError
 
 __all__ = [
     "main",
@@ -818,21 +818,18 @@ def cmd_generate(args: argparse.Namespace) -> int:
         robot = robot.with_locked_positions(_held_positions(args.hold, robot))
     group = _planning_group(args, robot)
     checker = _mesh_checker(args, robot)
-    if checker is not None:  # links the group cannot move apart would put every problem in collision
-        import numpy as np
-
-        from gfcs.planning.endpoints import check_held_links
-
+    if checker is not None:
         checker = problems.held_as_requested(checker, robot.locked_positions)
-        check_held_links(checker, np.zeros(robot.dof), f"gfcs generate: {args.robot} (--hold moves held joints)")
     classes = args.classes or list(problems.CLASSES)
     total, written = 0, []
     for c in classes:
         try:  # a class this robot cannot be given (its layouts are sized for a Panda-sized arm) ends alone
-            suite = generators.generate(c, args.n, seed=args.seed, robot=robot)
+            suite = generators.generate(c, args.n, seed=args.seed, robot=robot, mesh_checker=checker)
         except GenerationError as e:
             print(f"gfcs: generate: {e}", file=sys.stderr)
             continue
+        except CollisionError as e:  # held links in contact: every class would fail alike
+            raise CollisionError(f"gfcs generate: {args.robot}: {e} (--hold JOINT=VALUE moves a held joint)") from None
         generators.write_problems(suite, args.out, pose_goals=args.pose_goals, group=group)
         total += len(suite)
         written.append(problems.canonical_class(c))
@@ -888,8 +885,8 @@ def _register_generate(sub: Any) -> None:
                    help="write each goal as the hand TCP's pose (position within 1 mm, orientation within "
                         "0.01 rad; MoveIt position and orientation constraints) instead of joint positions")
     p.add_argument("--hold", nargs="+", metavar="JOINT=VALUE", default=[],
-                   help="hold joints outside the planned group at these positions (rad or m; default 0, or the "
-                        "middle of a range without 0); written into every request's start state")
+                   help="hold joints outside the planned group at these positions (rad or m; default 0 clamped into "
+                        "the joint's limits); written into every request's start state")
     _add_robot_options(p)
     p.set_defaults(func=cmd_generate)
 

@@ -722,6 +722,7 @@ def generate(
     max_scenes: int = 30,
     reach: Optional[Tuple[Sequence[float], float]] = PANDA_REACH,
     scale: Optional[float] = None,
+    mesh_checker: Any = None,
 ) -> List[Problem]:
     """``n`` seeded problems of class ``cls`` (see the module docstring for the classes).
 
@@ -741,6 +742,9 @@ def generate(
             all); the default fits the Panda (radius scaled by ``scale``, centred on the shoulder).
         scale: factor [> 0] on every layout length (structures, their distances, targets, the default
             reach); None: :func:`workspace_scale` (1 for a Panda).
+        mesh_checker: the :class:`gfcs.MeshChecker` of ``robot``'s collision meshes, which starts and goals
+            clear and the problems carry; None: :func:`gfcs.problems.mesh_checker_for` (the MotionBenchMaker
+            and shipped Pandas' own, none for other robots).
 
     Raises:
         ValueError: unknown class, negative n.
@@ -754,7 +758,7 @@ def generate(
     if int(n) < 0:
         raise InvalidValueError(f"n must be ≥ 0, got {n}")
     robot = gfcs.Robot.panda() if robot is None else robot
-    checker = mesh_checker_for(robot)
+    checker = mesh_checker_for(robot) if mesh_checker is None else mesh_checker
     if isinstance(checker, gfcs.MeshChecker):  # links the group cannot move apart put every problem in collision
         from gfcs.planning.endpoints import check_held_links
 
