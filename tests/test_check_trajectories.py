@@ -120,6 +120,16 @@ def test_unreadable_results_are_reported_not_raised(slider, tmp_path):
     assert code == 2 and "no " in r["error"] and "scene0009.yaml" in r["error"]
 
 
+def test_a_robot_without_the_end_effector_link_is_one_clear_error(slider, capsys):
+    """The model is loaded before the worker pool: a pool whose initializer raises respawns its workers
+    forever."""
+    _, _, write = slider
+    with pytest.raises(SystemExit) as e:
+        run(slider, [write("0001", [0.0, 0.1], 0.0, 0.1)], ee="panda_hand")
+    assert e.value.code == 2
+    assert "no link 'panda_hand' (--ee-link); its links: base, link, post" in capsys.readouterr().err
+
+
 def test_branch_and_bound_finds_the_exact_minimum():
     rng = np.random.default_rng(3)
     for _ in range(20):

@@ -369,7 +369,7 @@ class RobotModel:
         self.ee_link = ee_link
         self.links = {l.name for l in robot.links}
         if ee_link not in self.links:
-            raise ValueError(f"{urdf}: no link {ee_link!r}")
+            raise ValueError(f"{urdf}: no link {ee_link!r} (--ee-link); its links: {', '.join(sorted(self.links))}")
         self.parts = [self._part(link.name, c, root) for link in robot.links for c in link.collisions]
         disabled = set()
         if srdf is not None:
@@ -688,10 +688,12 @@ _ARGS: Optional[argparse.Namespace] = None
 
 
 def _init(args: argparse.Namespace) -> None:
+    """Load the robot model (a forked worker inherits the parent's)."""
     global _MODEL, _ARGS
     _ARGS = args
-    _MODEL = RobotModel(Path(args.urdf), Path(args.srdf) if args.srdf else None, args.ee_link,
-                        Path(args.mesh_dir) if args.mesh_dir else None, rigid_pairs=args.rigid_pairs)
+    if _MODEL is None:
+        _MODEL = RobotModel(Path(args.urdf), Path(args.srdf) if args.srdf else None, args.ee_link,
+                            Path(args.mesh_dir) if args.mesh_dir else None, rigid_pairs=args.rigid_pairs)
 
 
 def _check_file(path: str) -> Dict[str, Any]:
@@ -768,6 +770,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     files = result_files(args.results)
     if not files:
         p.error("no result files found")
+    global _MODEL
+    _MODEL = None  # this run's robot, loaded here first: a worker whose initializer fails is replaced forever
+    try:
+        _init(args)
+    except (OSError, ValueError, ET.ParseError) as e:
+        p.error(str(e))
     with multiprocessing.Pool(args.jobs, initializer=_init, initargs=(args,)) as pool:
         rows = pool.map(_check_file, files, chunksize=1)
     text = "\n".join(json.dumps(r) for r in rows) + "\n"
