@@ -37,7 +37,7 @@ RETRY_LABEL = "Ours (5 b, retry)"
 
 @dataclass(frozen=True)
 class Case:
-    """One robot: its title, URDF and SRDF (relative to ``<share>/example-robot-data/robots``), the link whose
+    """One robot: its title, URDF and SRDF (relative to ``<share>/example-robot-data/robots``; "" for none), the link whose
     pose the validator reports, whether to add the adjacent pairs to the SRDF, extra CLI flags, and a rewrite
     of the SRDF text (applied first) where the package's does not fit its URDF."""
 
@@ -78,6 +78,7 @@ CASES = (
          "anymal_b_simple_description/srdf/anymal-kinova.srdf", "j2s6s200_end_effector", flags=("--group", "arm")),
     Case("Unitree B1 with a Z1 arm (7; 12 leg joints held)", "b1_description/urdf/b1-z1.urdf",
          "b1_description/srdf/b1-z1.srdf", "gripperMover", adjacent=True, flags=("--group", "arm")),
+    Case("SO-100 (6, gripper joint planned)", "so_arm_description/urdf/so100.urdf", "", "jaw", adjacent=True),
     Case("Baxter, both arms (14)", "baxter_description/urdf/baxter.urdf", "baxter_description/srdf/baxter_manipulation.srdf",
          "left_wrist", flags=("--group", "both_arms"), rewrite=baxter_srdf),
 )
@@ -123,6 +124,9 @@ def bench_case(case: Case, share: Path, out: Path, n: int, jobs: int) -> Dict[st
     log = folder / "log.txt"
     log.write_text("")
     urdf, srdf = robots / case.urdf, robots / case.srdf
+    if not case.srdf:  # a description without an SRDF: an empty one, for the adjacent pairs below
+        srdf = folder / (urdf.stem + ".srdf")
+        srdf.write_text(f'<robot name="{urdf.stem}"></robot>')
     if case.rewrite is not None:
         written = folder / (srdf.stem + "_moveit.srdf")
         written.write_text(case.rewrite(srdf.read_text()))
@@ -177,7 +181,8 @@ def fragment(rows: List[Dict[str, object]], n: int) -> str:
         "halves enabled; they are used with their adjacent pairs disabled, as MoveIt Setup Assistant writes them. "
         "The UR3's SRDF has no group: its requests plan the robot's joints. The legged robots' arm groups hold "
         "the legs at 0. The Baxter's SRDF prefixes its joints with `baxter/`, which its URDF does not, and has "
-        "no arm group: it is used with the prefix removed and MoveIt's `both_arms` group added.".format(n=n),
+        "no arm group: it is used with the prefix removed and MoveIt's `both_arms` group added. The SO-100 has no "
+        "SRDF: one with its adjacent pairs disabled is written, and its requests plan all six joints.".format(n=n),
         "",
         "| robot (joints) | problems (classes) | solved | claims valid | median whole solve (s) "
         "| max speed/limit | min mesh clearance (mm) |",
