@@ -9,9 +9,10 @@ Measured, in this order (the machine should be quiet: the load average at the st
 2. **The fabric step from Python against the `fabrics` package** (``benches/compare_fabrics.py``, once per
    engine, ``--repeats`` interleaved runs; `fabrics` runs in its own environment, ``--fabrics-python``, since
    it pins numpy 1.26): medians of the per-step times, and their ratio.
-3. **The built-in problem from the shell** (``python -m gfcs solve --json``, ``--repeats`` runs, with every
-   batch and with ``--stall-batches 1``): the optimisation, the first batch, the whole solve (the result's
-   ``wall_time``) and the wall time of the process.
+3. **The built-in problem from the shell** (``python -m gfcs solve --json``, ``--repeats`` runs, as the
+   default preset runs it (early stop after two stalled batches) and with every batch, ``--stall-batches 0``):
+   the optimisation, the first batch, the whole solve (the result's ``wall_time``) and the wall time of the
+   process.
 4. **Early stop of CMA-ES** on the first 10 MotionBenchMaker Panda problems of each class
    (``gfcs bench --time-limit 0 --stall-batches K``, K = 0, 1, 2): success, time and path lengths.
 5. **Scaling curves** (``benches/scaling.py``): tables, fitted exponents and ``docs/figures/scaling.png``.
@@ -158,7 +159,7 @@ def verdict(value: float, target: float, larger_is_better: bool = False) -> str:
 
 
 def write(args: argparse.Namespace, m: Dict[str, Any], crit: Dict[str, Dict[str, float]],
-          cmp_runs: List[Dict[str, Any]], solves: List[Dict[str, float]], stall_solves: List[Dict[str, float]],
+          cmp_runs: List[Dict[str, Any]], solves: List[Dict[str, float]], default_solves: List[Dict[str, float]],
           stall: Dict[int, List[Dict[str, Any]]], curves: Dict[str, List[Dict[str, Any]]]) -> str:
     L: List[str] = ["## Speed", ""]
     L.append(f"Written by `python benches/speed.py` on {m['cpu']} ({m['cores']} cores), commit {m['commit']}, "
@@ -185,7 +186,8 @@ def write(args: argparse.Namespace, m: Dict[str, Any], crit: Dict[str, Dict[str,
     L.append(f"| built-in problem: five batches (optimisation) | ≤ 0.3 s | {med(opt):.3f} s | {verdict(med(opt), 0.3)} |")
     L.append(f"| built-in problem: five batches and selection (whole solve) | ≤ 0.3 s | {med([s['solve'] for s in solves]):.3f} s | {verdict(med([s['solve'] for s in solves]), 0.3)} |")
     L.append(f"| built-in problem: first batch | ≤ 0.06 s | {med([s['first_batch'] for s in solves]):.3f} s | {verdict(med([s['first_batch'] for s in solves]), 0.06)} |")
-    L.append(f"| `gfcs solve` from the shell | ≤ 0.5 s | {med([s['shell'] for s in solves]):.3f} s | {verdict(med([s['shell'] for s in solves]), 0.5)} |")
+    shell = med([s['shell'] for s in default_solves])
+    L.append(f"| `gfcs solve` from the shell | ≤ 0.5 s | {shell:.3f} s | {verdict(shell, 0.5)} |")
 
     L += ["", f"**Fabric step from Python against `fabrics`** (`benches/compare_fabrics.py`: the MBM Panda with "
           f"{cmp_runs[0]['gfcs']['spheres']} spheres and {cmp_runs[0]['gfcs']['self_pairs']} self pairs, "
@@ -216,7 +218,7 @@ def write(args: argparse.Namespace, m: Dict[str, Any], crit: Dict[str, Dict[str,
     L += ["", f"**The built-in problem** (`python -m gfcs solve --json x.json`, {len(solves)} runs each; s):", "",
           "| | batches | optimisation | first batch | whole solve | process wall time | cost t* |",
           "|---|---|---|---|---|---|---|"]
-    for label, rows in (("every batch", solves), ("`--stall-batches 1`", stall_solves)):
+    for label, rows in (("default (early stop)", default_solves), ("every batch, `--stall-batches 0`", solves)):
         L.append(f"| {label} | {rows[0]['batches']} | {span([r['optimisation'] for r in rows])} | "
                  f"{span([r['first_batch'] for r in rows])} | {span([r['solve'] for r in rows])} | "
                  f"{span([r['shell'] for r in rows])} | {span([r['cost'] for r in rows], fmt='.2f')} |")
@@ -229,7 +231,8 @@ def write(args: argparse.Namespace, m: Dict[str, Any], crit: Dict[str, Dict[str,
         return [r for r in rows if r.get("label") == label and "error" not in r]
     L += ["", "**Early stop of CMA-ES** (`solve(..., stall_batches=K, stall_tol=0.01)`, CLI `--stall-batches K`: "
           "after a batch, the optimisation stops when the last K batches lowered the best cost by at most 1 % of "
-          "it, `gfcs.planning.gfcop.stalled`; off in both presets, so the paper preset keeps all its batches). "
+          "it, `gfcs.planning.gfcop.stalled`; K = 2 in the default preset, 0 in the paper preset, which keeps all its "
+          "batches). "
           f"The first {args.stall_limit} MBM Panda problems of each class, `--time-limit 0` so that the budget plays no part:",
           "", "```bash", f"gfcs bench --problems ../shared/mbm --robot mbm --limit {args.stall_limit} --method gfcs "
           "--time-limit 0 --stall-batches K", "```", "",
@@ -295,8 +298,8 @@ def main(argv: Sequence[str] = ()) -> int:
                   file=sys.stderr)
         raw["criterion"] = criterion(args.measurement_time)
         raw["fabrics"] = compare_fabrics(args.fabrics_python, args.repeats)
-        raw["solves"] = builtin_solves(args.repeats)
-        raw["stall_solves"] = builtin_solves(args.repeats, ["--stall-batches", "1"])
+        raw["solves"] = builtin_solves(args.repeats, ["--stall-batches", "0"])
+        raw["default_solves"] = builtin_solves(args.repeats)
         raw["stall"] = stall_study(args.stall_limit, (0, 1, 2))
         raw["curves"] = scaling(args.scaling_repeat, ROOT / "docs" / "figures" / "scaling.png")
         raw["options"] = {k: getattr(args, k) for k in ("measurement_time", "stall_limit", "scaling_repeat")}
@@ -304,7 +307,7 @@ def main(argv: Sequence[str] = ()) -> int:
     opts = argparse.Namespace(**raw["options"])
     stall = {int(k): v for k, v in raw["stall"].items()}
     args.out.write_text(write(opts, raw["machine"], raw["criterion"], raw["fabrics"], raw["solves"],
-                              raw["stall_solves"], stall, raw["curves"]))
+                              raw["default_solves"], stall, raw["curves"]))
     print(f"wrote {args.out}", file=sys.stderr)
     return 0
 

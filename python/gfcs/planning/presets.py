@@ -3,15 +3,17 @@
 * ``default``: the planner as the project ships it: the approach/retract warm start, the command blend, the
   near-optimal shortest-hand-path choice, mesh-validated candidate selection with the repair of candidates
   that fail only on the meshes (:mod:`gfcs.planning.repair`), the finished trajectory
-  (smooth start, goal blend, velocity and acceleration re-timing), the thin-then-covering sphere models and
-  every retry policy (:func:`gfcs.planning.policies.default_policies`).
+  (smooth start, goal blend, velocity and acceleration re-timing), the thin-then-covering sphere models,
+  every retry policy (:func:`gfcs.planning.policies.default_policies`), and an attempt's optimisation ended
+  once two batches in a row lowered its best cost by at most 1 % (:func:`gfcs.planning.gfcop.stalled`).
 * ``paper``: GFCS as the paper writes it (GFCS Sec. IV-A, Alg. 1): a uniform first batch (or the learned
   sampler when one is given), the lowest-cost candidate of eq. 4, the command switch of eq. 7 (no blend),
   the goal tolerance ε = 0.01 rad, the goal commanded as it is, eq. 4's cost without a collision term, no
   stall exit, the paper's
   barriers (no braking cap or damper, exact curvature: ``braking_time`` and ``min_curvature_radius`` 0),
   the robot's own spheres, no retries, no mesh repair and the trajectory as the fabric integrates it (no re-timing, no
-  blend). With a mesh model the returned motion is still judged on the meshes; it is not chosen by them.
+  blend), every batch run. With a mesh model the returned motion is still judged on the meshes; it is not
+  chosen by them.
 
 Both presets keep a time budget when one is given (``time_limit``): a budget bounds how long a solve may
 run, it does not change the method. :func:`gfcs.planning.solve.solve` has no budget unless asked;
@@ -104,12 +106,15 @@ PRESETS: Dict[str, Preset] = {
     # counts as reached and the blend covers the rest. Success is judged at metrics.DEFAULT_SUCCESS_TOL
     # (0.01 rad) on the finished trajectory, spheres and meshes included. collision_penalty 100 s: success
     # requires a collision-free motion, so colliding candidates rank behind collision-free ones.
+    # stall_batches 2: the best cost of most solves is found in the first batches (docs/tuning.md: the MBM
+    # Panda's 350 problems solved alike, median whole solve 0.32 -> 0.19 s, mean hand path +0.4 %; the
+    # Fetch's within its run-to-run spread), and a failing attempt hands over to the next retry sooner.
     "default": Preset("default", RolloutSettings(tol=0.02, capture_tol=0.05, collision_penalty=100.0,
                                                  limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
                       repair=RepairOptions(), sweep_time=0.25, grazing_sweep_time=1.0, endpoint_contact=True,
-                      element_spheres=True, spheres_judge=False, selection_share=0.75),
+                      element_spheres=True, spheres_judge=False, selection_share=0.75, stall_batches=2),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,
