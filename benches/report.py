@@ -249,7 +249,9 @@ def table1_section() -> List[str]:
              "success. \"Paths valid, speeds not checked\" counts, of the "
              "judged motions, those the validator passes on everything but the URDF velocity limits: the `paper` preset is "
              "GFCS as written, which does not time its motions to the robot's limits (the UR5's arm joints "
-             "allow 0.5 rad/s). The paper's rows are its Table I "
+             "allow 0.5 rad/s). \"5 b\" is at most five batches: the `default` preset ends an attempt's "
+             "optimisation after two batches that lowered its best cost by at most 1 %, the `paper` preset runs "
+             "all five. The paper's rows are its Table I "
              "(`benches/data/paper_table1.json`; its 50 problems per class are not these).", ""]
     if machine.is_file():
         runs = json.loads(machine.read_text())
