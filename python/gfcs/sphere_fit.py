@@ -56,8 +56,9 @@ def _hull(points: np.ndarray) -> np.ndarray:
 def _enclosing_sphere(points: np.ndarray, iterations: int = 100) -> Tuple[np.ndarray, float]:
     """(centre (3,), radius) of a sphere containing every one of ``points`` (M, 3), the smallest to within
     the solver's tolerance: Bădoiu-Clarkson iterations (the centre steps toward the farthest point by
-    1/(i + 1)) start SLSQP on min r subject to ‖p − c‖² ≤ r² over the hull's vertices, and the radius is then
-    the one that covers every point from the centre found."""
+    1/(i + 1)) start SLSQP on min r subject to ‖p − c‖² ≤ r² over the hull's vertices, whose centre is kept
+    when it covers the points with a smaller radius; the radius is the one that covers every point from the
+    centre kept."""
     from scipy.optimize import minimize
 
     def cover_radius(centre: np.ndarray) -> float:
