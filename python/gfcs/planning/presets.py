@@ -106,9 +106,9 @@ PRESETS: Dict[str, Preset] = {
     # counts as reached and the blend covers the rest. Success is judged at metrics.DEFAULT_SUCCESS_TOL
     # (0.01 rad) on the finished trajectory, spheres and meshes included. collision_penalty 100 s: success
     # requires a collision-free motion, so colliding candidates rank behind collision-free ones.
-    # stall_batches 2: the best cost of most solves is found in the first batches (docs/tuning.md: the MBM
-    # Panda's 350 problems solved alike, median whole solve 0.32 -> 0.19 s, mean hand path +0.4 %; the
-    # Fetch's within its run-to-run spread), and a failing attempt hands over to the next retry sooner.
+    # stall_batches 2: the best cost of most solves is found in the first batches, so later batches cost time
+    # for paths within a few percent (measured in docs/tuning.md), and a failing attempt hands over to the next
+    # retry sooner.
     "default": Preset("default", RolloutSettings(tol=0.02, capture_tol=0.05, collision_penalty=100.0,
                                                  limit_hold_off=0.015),
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
