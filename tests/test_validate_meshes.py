@@ -437,7 +437,7 @@ def test_mesh_retry_tries_one_and_two_commands(shelf):
     # six trajectories touch (two checked per attempt): one and two commands at the plain margin and one
     # command 2 mm wider fail; two commands 2 mm wider succeed
     flagged = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=6))
-    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, thin_spheres=False)
+    r = opt.solve(flagged, batches=1, population=8, seed=0, mesh_candidates=2, thin_spheres=False, max_commands=2)
     assert r.success and r.commands.shape == (2, 7) and r.settings["commands_tried"] == [1, 2, 1, 2]
     assert r.settings["obstacle_margins_tried"] == pytest.approx([base, base, base + 0.002, base + 0.002])
 
@@ -446,7 +446,7 @@ def test_mesh_retries_widen_the_margin_step_by_step(shelf):
     base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
     # ten trajectories touch: five attempts fail (two checked each); a single mesh retry stops after four,
     # the default second one, 4 mm wider, succeeds with two commands
-    kw = dict(batches=1, population=8, seed=0, mesh_candidates=2, thin_spheres=False, restarts=0)
+    kw = dict(batches=1, population=8, seed=0, mesh_candidates=2, thin_spheres=False, restarts=0, max_commands=2)
     once = opt.solve(dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10)),
                      mesh_retries=1, **kw)
     assert not once.success and once.settings["commands_tried"] == [1, 2, 1, 2]
@@ -571,14 +571,14 @@ def test_the_cli_no_retry_options_turn_every_retry_off(shelf):
     # every candidate of every attempt touches a mesh: each retry would run and be listed
     hopeless = dataclasses.replace(shelf, mesh_checker=FlaggingChecker(shelf.robot, bad=10**6))
     retried = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2)
-    # thin spheres: 1, 2 commands, 1, 2 with the margin 2 mm wider, 1, 2 4 mm wider; then the same on the
+    # thin spheres: 1-4 commands, 1-4 with the margin 2 mm wider, 1-4 4 mm wider; then the same on the
     # covering spheres; then all of it again in each of the two restarts
-    assert not retried.success and retried.settings["commands_tried"] == [1, 2, 1, 2, 1, 2] * 2 * 3
+    assert not retried.success and retried.settings["commands_tried"] == [1, 2, 3, 4] * 3 * 2 * 3
     base = gfcs.FabricConfig.defaults().to_dict()["obstacles"]["margin"]
     thin = base + opt.THIN_SPHERE_MARGIN
     assert retried.settings["obstacle_margins_tried"] == pytest.approx(
-        [m + k * 0.002 for m in (thin, base) for k in (0, 0, 1, 1, 2, 2)] * 3)
-    assert [a["settings"]["restart"] for a in retried.attempts] == [0] * 12 + [1] * 12 + [2] * 12
+        [m + k * 0.002 for m in (thin, base) for k in (0,) * 4 + (1,) * 4 + (2,) * 4] * 3)
+    assert [a["settings"]["restart"] for a in retried.attempts] == [0] * 24 + [1] * 24 + [2] * 24
     once = opt.solve(hopeless, batches=1, population=8, seed=0, mesh_candidates=2, **cli._no_retry())
     assert not once.success and "commands_tried" not in once.settings and once.n_evaluations == 8
     assert once.settings["sphere_model"] == "thin"  # the thin spheres are the first model, not a retry

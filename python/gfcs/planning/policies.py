@@ -5,8 +5,8 @@ attempt; the first proposal runs, and the solve ends when an attempt succeeds, w
 or when the time budget leaves no room for another. An empty list is a solve without retries. The
 ``default`` preset's list, in order (:func:`default_policies`):
 
-* :class:`MoreCommands`: the same attempt with one more free command (an approach corridor entered in two
-  steps);
+* :class:`MoreCommands`: the same attempt with one more free command, up to :data:`MORE_COMMANDS` more than
+  the solve's n (an approach corridor entered in steps, the arm led around a board by the extra commands);
 * :class:`WiderMargin`: after a round whose attempts failed only because a collision *mesh* touched
   (spheres clear, goal reached), a new round with the obstacle margin one step wider;
 * :class:`GoalContact`: when the goal itself puts collision spheres nearer the obstacles than the fabric's
@@ -39,7 +39,12 @@ from gfcs.planning.models import RobotModels
 
 __all__ = ["Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "MeshCover", "ModelCascade",
            "Restart", "default_policies", "goal_contact", "endpoint_self_contact", "endpoint_contact",
-           "EndpointContact", "cover_self_margins", "mesh_contacts", "CONTACT_SLACK"]
+           "EndpointContact", "cover_self_margins", "mesh_contacts", "CONTACT_SLACK", "MORE_COMMANDS"]
+
+#: The default policies' most free commands beyond the solve's n (:class:`MoreCommands`). Three: the Fetch's
+#: shelf and cage problems that two commands leave unsolved are solved with a third or fourth, each attempt
+#: ending early on its stalled optimisation (measured in docs/tuning.md).
+MORE_COMMANDS = 3
 
 
 @dataclass
@@ -381,7 +386,7 @@ class Restart:
         return Attempt(context.models.planning[0], context.n_commands, restart=k + 1)
 
 
-def default_policies(more_commands: int = 1, margin_step: float = 0.002, margin_rounds: int = 2,
+def default_policies(more_commands: int = MORE_COMMANDS, margin_step: float = 0.002, margin_rounds: int = 2,
                      goal_contact_slack: float = 0.002, cascade: bool = True,
                      mesh_cover: float = 0.0, restarts: int = 2) -> List[Any]:
     """The ``default`` preset's policies in order: :class:`MoreCommands`, :class:`WiderMargin`,

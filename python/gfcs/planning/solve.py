@@ -37,7 +37,7 @@ from gfcs.planning.budget import Budget
 from gfcs.planning.finish import FinishOptions, rollout_commands, with_raw_ldj
 from gfcs.planning.gfcop import BatchInfo
 from gfcs.planning.models import PlanningModel, RobotModels, model_named, models_for, with_robot
-from gfcs.planning.policies import (CONTACT_SLACK, MoreCommands, PlanContext, default_policies,
+from gfcs.planning.policies import (CONTACT_SLACK, MORE_COMMANDS, MoreCommands, PlanContext, default_policies,
                                     endpoint_contact)
 from gfcs.planning.presets import Preset, get_preset
 from gfcs.planning.endpoints import check_endpoints, endpoint_grazes
@@ -130,7 +130,7 @@ def solve(
             the attempts' times nor in ``wall_time``.
         max_commands, mesh_retry_margin, mesh_retries, goal_contact_slack, sphere_fallback, restarts:
             parameters of the default policies (:func:`gfcs.planning.policies.default_policies`), used when
-            ``policies`` is None: the most free commands (default n + 1 with the preset's sampler, n with
+            ``policies`` is None: the most free commands (default n + 3 with the preset's sampler, n with
             one of your own), the wider-margin step [m] and rounds (0.002, 2), the goal-contact slack [m]
             (0.002), whether the model cascade runs (True), and the IPOP restarts once every other policy
             declined (2; :class:`gfcs.planning.policies.Restart`).
@@ -270,7 +270,7 @@ def _policies(preset: Preset, policies: Optional[Sequence[Any]], sampler: Any, n
     if not given:
         chosen = preset.policies()
         return [p for p in chosen if not isinstance(p, MoreCommands)] if sampler is not None else chosen
-    default_max = n_commands + 1 if sampler is None else n_commands
+    default_max = n_commands + MORE_COMMANDS if sampler is None else n_commands
     most = integer_at_least("max_commands", default_max if max_commands is None else max_commands, 1)
     if most < n_commands:
         raise InvalidValueError(f"max_commands must be ≥ n_commands ({n_commands}), got {max_commands}")
