@@ -63,6 +63,19 @@ def baxter_srdf(text: str) -> str:
     return text.replace("</robot>", groups + "</robot>")
 
 
+def romeo_srdf(text: str) -> str:
+    """The package's MoveIt SRDF of Romeo (Setup Assistant's collision matrix) with arm groups added: its only
+    group, ``all``, moves the legs, the head and the hands too; a manipulation configuration has ``left_arm``,
+    ``right_arm`` and ``both_arms`` (shoulder pitch to wrist pitch)."""
+    def arm(side: str) -> str:
+        return "".join(f'<joint name="{side}{j}"/>' for j in ("ShoulderPitch", "ShoulderYaw", "ElbowRoll", "ElbowYaw",
+                                                             "WristRoll", "WristYaw", "WristPitch"))
+
+    groups = (f'<group name="left_arm">{arm("L")}</group><group name="right_arm">{arm("R")}</group>'
+              f'<group name="both_arms">{arm("L")}{arm("R")}</group>')
+    return text.replace("</robot>", groups + "</robot>")
+
+
 CASES = (
     Case("UFactory xArm7 (7 joints)", "xarm_description/urdf/xarm7.urdf", "xarm_description/srdf/xarm7.srdf",
          "link_eef"),
@@ -81,6 +94,10 @@ CASES = (
     Case("SO-100 (6, gripper joint planned)", "so_arm_description/urdf/so100.urdf", "", "jaw", adjacent=True),
     Case("Baxter, both arms (14)", "baxter_description/urdf/baxter.urdf", "baxter_description/srdf/baxter_manipulation.srdf",
          "left_wrist", flags=("--group", "both_arms"), rewrite=baxter_srdf),
+    Case("Romeo, left arm (7; legs, head and hands held)", "romeo_description/urdf/romeo.urdf",
+         "romeo_description/srdf/romeo_moveit.srdf", "l_wrist", flags=("--group", "left_arm"), rewrite=romeo_srdf),
+    Case("Romeo, both arms (14)", "romeo_description/urdf/romeo.urdf", "romeo_description/srdf/romeo_moveit.srdf",
+         "l_wrist", flags=("--group", "both_arms"), rewrite=romeo_srdf),
 )
 
 
@@ -119,7 +136,8 @@ def run(cmd: List[str], log: Path) -> str:
 def bench_case(case: Case, share: Path, out: Path, n: int, jobs: int) -> Dict[str, object]:
     """Generate, plan and validate one robot; its row of the table."""
     robots = share / "example-robot-data" / "robots"
-    folder = out / case.urdf.split("/")[0]
+    group = case.flags[case.flags.index("--group") + 1] if "--group" in case.flags else ""
+    folder = out / "_".join(filter(None, (case.urdf.split("/")[0], group)))  # one folder per robot and group
     folder.mkdir(parents=True, exist_ok=True)
     log = folder / "log.txt"
     log.write_text("")
@@ -181,7 +199,8 @@ def fragment(rows: List[Dict[str, object]], n: int) -> str:
         "halves enabled; they are used with their adjacent pairs disabled, as MoveIt Setup Assistant writes them. "
         "The UR3's SRDF has no group: its requests plan the robot's joints. The legged robots' arm groups hold "
         "the legs at 0. The Baxter's SRDF prefixes its joints with `baxter/`, which its URDF does not, and has "
-        "no arm group: it is used with the prefix removed and MoveIt's `both_arms` group added. The SO-100 has no "
+        "no arm group: it is used with the prefix removed and MoveIt's `both_arms` group added. Romeo's MoveIt SRDF "
+        "has only a whole-body group: its arm groups are added, the rest held at 0. The SO-100 has no "
         "SRDF: one with its adjacent pairs disabled is written, and its requests plan all six joints.".format(n=n),
         "",
         "| robot (joints) | problems (classes) | solved | claims valid | median whole solve (s) "

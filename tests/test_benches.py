@@ -237,3 +237,15 @@ def test_unseen_robots_disables_the_adjacent_pairs_setup_assistant_would(tmp_pat
     # base-a through the geometry-less flange; a-b kept once; b-c added; base-c and a-c stay checked
     assert pairs == {frozenset(p) for p in (("base", "a"), ("a", "b"), ("b", "c"))}
     assert root.find("group").get("name") == "arm"
+
+
+def test_unseen_robots_adds_romeos_arm_groups():
+    unseen = load_script("benches/unseen_robots.py")
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(unseen.romeo_srdf('<robot name="romeo"><group name="all"><joint name="waist"/></group>'
+                                           '</robot>'))
+    groups = {g.get("name"): [j.get("name") for j in g.iter("joint")] for g in root.iter("group")}
+    assert groups["left_arm"][0] == "LShoulderPitch" and groups["right_arm"][-1] == "RWristPitch"
+    assert len(groups["left_arm"]) == 7 and groups["both_arms"] == groups["left_arm"] + groups["right_arm"]
+    assert groups["all"] == ["waist"]
