@@ -25,7 +25,6 @@ import statistics
 import subprocess
 import sys
 import time
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Tuple
@@ -38,14 +37,16 @@ RETRY_LABEL = "Ours (5 b, retry)"
 @dataclass(frozen=True)
 class Case:
     """One robot: its title, URDF and SRDF (relative to ``<share>/example-robot-data/robots``; "" for none), the link whose
-    pose the validator reports, whether to add the adjacent pairs to the SRDF, extra CLI flags, and a rewrite
-    of the SRDF text (applied first) where the package's does not fit its URDF."""
+    pose the validator reports, whether to add the adjacent pairs to the SRDF or the whole collision matrix
+    ``gfcs collision-matrix`` writes (MoveIt Setup Assistant's), extra CLI flags, and a rewrite of the SRDF text
+    (applied first) where the package's does not fit its URDF."""
 
     title: str
     urdf: str
     srdf: str
     ee_link: str
     adjacent: bool = False
+    matrix: bool = False
     flags: Tuple[str, ...] = field(default_factory=tuple)
     rewrite: Optional[Callable[[str], str]] = None
 
@@ -61,6 +62,13 @@ def baxter_srdf(text: str) -> str:
               f'<group name="both_arms">{arm("left")}{arm("right")}</group>')
     text = text.replace("baxter/", "")
     return text.replace("</robot>", groups + "</robot>")
+
+
+def tiago_srdf(text: str) -> str:
+    """An SRDF for TIAGo (the package has none) with the ``arm_torso`` group of its MoveIt configuration: the
+    lift (prismatic) and the seven arm joints."""
+    joints = "".join(f'<joint name="{j}"/>' for j in ["torso_lift_joint"] + [f"arm_{i}_joint" for i in range(1, 8)])
+    return text.replace("</robot>", f'<group name="arm_torso">{joints}</group></robot>')
 
 
 def romeo_srdf(text: str) -> str:
@@ -91,9 +99,11 @@ CASES = (
          "anymal_b_simple_description/srdf/anymal-kinova.srdf", "j2s6s200_end_effector", flags=("--group", "arm")),
     Case("Unitree B1 with a Z1 arm (7; 12 leg joints held)", "b1_description/urdf/b1-z1.urdf",
          "b1_description/srdf/b1-z1.srdf", "gripperMover", adjacent=True, flags=("--group", "arm")),
-    Case("SO-100 (6, gripper joint planned)", "so_arm_description/urdf/so100.urdf", "", "jaw", adjacent=True),
+    Case("SO-100 (6, gripper joint planned)", "so_arm_description/urdf/so100.urdf", "", "jaw", matrix=True),
     Case("Baxter, both arms (14)", "baxter_description/urdf/baxter.urdf", "baxter_description/srdf/baxter_manipulation.srdf",
          "left_wrist", flags=("--group", "both_arms"), rewrite=baxter_srdf),
+    Case("TIAGo, lift and arm (8; head and hand held)", "tiago_description/robots/tiago.urdf", "", "arm_tool_link",
+         matrix=True, flags=("--group", "arm_torso"), rewrite=tiago_srdf),
     Case("Romeo, left arm (7; legs, head and hands held)", "romeo_description/urdf/romeo.urdf",
          "romeo_description/srdf/romeo_moveit.srdf", "l_wrist", flags=("--group", "left_arm"), rewrite=romeo_srdf),
     Case("Romeo, both arms (14)", "romeo_description/urdf/romeo.urdf", "romeo_description/srdf/romeo_moveit.srdf",
@@ -104,23 +114,9 @@ CASES = (
 def adjacent_srdf(urdf: Path, srdf: Path) -> str:
     """``srdf`` with a ``disable_collisions`` (reason "Adjacent") for every pair of links of ``urdf`` with
     collision geometry that the kinematic tree joins directly, links without geometry skipped."""
-    tree = ET.parse(urdf).getroot()
-    solid = {link.get("name") for link in tree.findall("link") if link.find("collision") is not None}
-    parent = {j.find("child").get("link"): j.find("parent").get("link") for j in tree.findall("joint")}
+    from gfcs.collision_matrix import DisabledPair, adjacent_pairs, srdf_with_pairs
 
-    def solid_parent(link: str) -> Optional[str]:
-        p = parent.get(link)
-        while p is not None and p not in solid:
-            p = parent.get(p)
-        return p
-
-    root = ET.parse(srdf).getroot()
-    have = {frozenset((e.get("link1"), e.get("link2"))) for e in root.iter("disable_collisions")}
-    for link in sorted(solid):
-        p = solid_parent(link)
-        if p is not None and frozenset((p, link)) not in have:
-            ET.SubElement(root, "disable_collisions", link1=p, link2=link, reason="Adjacent")
-    return ET.tostring(root, encoding="unicode")
+    return srdf_with_pairs([DisabledPair(p, c, "Adjacent") for p, c in adjacent_pairs(urdf)], "", srdf)
 
 
 def run(cmd: List[str], log: Path) -> str:
@@ -152,6 +148,11 @@ def bench_case(case: Case, share: Path, out: Path, n: int, jobs: int) -> Dict[st
     if case.adjacent:
         written = folder / (srdf.stem + "_adjacent.srdf")
         written.write_text(adjacent_srdf(urdf, srdf))
+        srdf = written
+    if case.matrix:
+        written = folder / (srdf.stem + "_matrix.srdf")
+        run([sys.executable, "-m", "gfcs", "collision-matrix", str(urdf), "--mesh-dir", str(share), "--srdf", str(srdf),
+             "-o", str(written), "--no-progress"], log)
         srdf = written
     robot = ["--robot", str(urdf), "--srdf", str(srdf), "--mesh-dir", str(share), *case.flags]
     problems, results, rows, verdicts = (folder / "problems", folder / "results", folder / "bench.jsonl",
@@ -200,8 +201,9 @@ def fragment(rows: List[Dict[str, object]], n: int) -> str:
         "The UR3's SRDF has no group: its requests plan the robot's joints. The legged robots' arm groups hold "
         "the legs at 0. The Baxter's SRDF prefixes its joints with `baxter/`, which its URDF does not, and has "
         "no arm group: it is used with the prefix removed and MoveIt's `both_arms` group added. Romeo's MoveIt SRDF "
-        "has only a whole-body group: its arm groups are added, the rest held at 0. The SO-100 has no "
-        "SRDF: one with its adjacent pairs disabled is written, and its requests plan all six joints.".format(n=n),
+        "has only a whole-body group: its arm groups are added, the rest held at 0. The SO-100 and TIAGo have no "
+        "SRDF: `gfcs collision-matrix` writes one (MoveIt Setup Assistant's matrix, 10,000 samples), TIAGo's with "
+        "the `arm_torso` group of its MoveIt configuration; the SO-100's requests plan all six joints.".format(n=n),
         "",
         "| robot (joints) | problems (classes) | solved | claims valid | median whole solve (s) "
         "| max speed/limit | min mesh clearance (mm) |",

@@ -50,6 +50,8 @@ EXTERNAL_COMMANDS: Dict[str, Tuple[Tuple[str, ...], str, str, Optional[str]]] = 
                     "gfcs.experiments.orientation"), "register_cli",
                    "the papers' experiments (GF Sec. VI particles, Sec. VII Panda; GFCS Sec. V reactivity)", None),
     "plot": (("gfcs.plots",), "register_cli", "plot benchmark rows (success rate, EE path length)", None),
+    "collision-matrix": (("gfcs.collision_matrix",), "register_cli",
+                         "the SRDF collision matrix MoveIt Setup Assistant would write, for a bare URDF", None),
 }
 
 #: Class of the built-in problem ``gfcs solve`` uses without --scene.
