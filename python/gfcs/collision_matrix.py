@@ -45,7 +45,7 @@ __all__ = ["ADJACENT_SAMPLES", "DisabledPair", "adjacent_pairs", "adjacent_body_
 #: The reasons of Setup Assistant's matrix, in the order they are decided.
 REASONS = ("Adjacent", "Default", "Always", "Never")
 #: The adjacent-body pairs are measured one configuration at a time, on this many of the samples at most
-#: (their mesh distances, of links that meet at a joint, cost about 1 ms per configuration on the Fetch).
+#: (their mesh distances, of links that meet at a joint, take about 2.5 ms per configuration on the Fetch).
 ADJACENT_SAMPLES = 1000
 PathLike = Union[str, Path]
 

@@ -105,7 +105,7 @@ def mesh_contacts(record: AttemptRecord, mesh_margin: float) -> Tuple[str, ...]:
 class MoreCommands:
     """After a failed plan attempt with n < ``n_commands + extra`` commands: the same with n + 1."""
 
-    extra: int = 1
+    extra: int = MORE_COMMANDS
     name: str = "more commands"
 
     def __post_init__(self) -> None:
