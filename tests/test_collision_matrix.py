@@ -7,7 +7,7 @@ import pytest
 
 from gfcs import cli
 from gfcs.collision_matrix import adjacent_body_pairs, adjacent_pairs, collision_matrix, srdf_with_pairs
-from gfcs.errors import InvalidValueError
+from gfcs.errors import FormatError, InvalidValueError, IoError
 
 
 def _box(size, xyz):
@@ -87,9 +87,9 @@ def test_bad_arguments_name_themselves(urdf, tmp_path):
     for kwargs, name in ((dict(samples=0), "samples"), (dict(always=0.0), "always"), (dict(contact=-1.0), "contact")):
         with pytest.raises(InvalidValueError, match=name):
             collision_matrix(urdf, **kwargs)
-    with pytest.raises(InvalidValueError, match="cannot read the URDF"):
+    with pytest.raises(IoError, match="missing.urdf: cannot read URDF"):
         collision_matrix(tmp_path / "missing.urdf")
     bad = tmp_path / "bad.srdf"
     bad.write_text("<robot")
-    with pytest.raises(InvalidValueError, match="cannot read the SRDF"):
+    with pytest.raises(FormatError, match="bad.srdf"):
         srdf_with_pairs([], "cm", bad)

@@ -38,6 +38,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from gfcs.errors import InvalidValueError
+from gfcs.srdf_groups import collision_links, read_urdf_tree, read_xml
 
 __all__ = ["ADJACENT_SAMPLES", "DisabledPair", "adjacent_pairs", "adjacent_body_pairs", "movable_joints", "collision_matrix", "srdf_with_pairs",
            "register_cli", "REASONS"]
@@ -59,25 +60,14 @@ class DisabledPair:
     reason: str
 
 
-def _urdf_root(urdf: PathLike) -> ET.Element:
-    try:
-        return ET.parse(str(urdf)).getroot()
-    except (OSError, ET.ParseError) as e:
-        raise InvalidValueError(f"{urdf}: cannot read the URDF: {e}") from e
-
-
 def adjacent_pairs(urdf: PathLike) -> List[Tuple[str, str]]:
     """(parent, child) of every pair of links with collision geometry that the kinematic tree of ``urdf``
     joins directly, links without geometry skipped (Setup Assistant's "Adjacent"); sorted by child."""
-    tree = _urdf_root(urdf)
-    solid = {link.get("name") for link in tree.findall("link") if link.find("collision") is not None}
-    parent = {j.find("child").get("link"): j.find("parent").get("link") for j in tree.findall("joint")}
+    tree = read_urdf_tree(urdf)
+    solid = set(collision_links(urdf))
 
     def solid_parent(link: str) -> Optional[str]:
-        p = parent.get(link)
-        while p is not None and p not in solid:
-            p = parent.get(p)
-        return p
+        return next((a for a in tree.ancestors(link) if a in solid), None)
 
     return [(p, link) for link in sorted(solid) if (p := solid_parent(link)) is not None]
 
@@ -87,32 +77,20 @@ def adjacent_body_pairs(urdf: PathLike) -> List[Tuple[str, str]]:
     joined by fixed joints form one body), sorted: the pairs gfcs's self-collision model leaves out as
     adjacent, a superset of :func:`adjacent_pairs` (a link fixed to its parent's body and a sibling on a
     joint of that body, say)."""
-    tree = _urdf_root(urdf)
-    solid = {link.get("name") for link in tree.findall("link") if link.find("collision") is not None}
-    names = [link.get("name") for link in tree.findall("link")]
-    body = {n: n for n in names}
-
-    def find(n: str) -> str:
-        while body[n] != n:
-            body[n] = body[body[n]]
-            n = body[n]
-        return n
-
-    joints = [(j.find("parent").get("link"), j.find("child").get("link"), j.get("type")) for j in tree.findall("joint")]
-    for parent, child, kind in joints:
-        if kind == "fixed" and parent in body and child in body:
-            body[find(child)] = find(parent)
-    joined = {frozenset((find(p), find(c))) for p, c, kind in joints
-              if kind != "fixed" and p in body and c in body and find(p) != find(c)}
-    return sorted((a, b) for a in solid for b in solid
-                  if a < b and frozenset((find(a), find(b))) in joined)
+    tree = read_urdf_tree(urdf)
+    solid = collision_links(urdf)
+    body = {link: link for link in tree.links}
+    for j in tree.joints:  # tree order: a parent's body is settled before its children's
+        if j.type == "fixed":
+            body[j.child] = body[j.parent]
+    joined = {frozenset((body[j.parent], body[j.child])) for j in tree.joints if j.type != "fixed"}
+    return sorted((a, b) for a in solid for b in solid if a < b and frozenset((body[a], body[b])) in joined)
 
 
 def movable_joints(urdf: PathLike) -> List[str]:
     """The joints of ``urdf`` that move on their own (revolute, continuous, prismatic; not mimic joints),
-    in file order: the configuration space the matrix samples."""
-    return [j.get("name") for j in _urdf_root(urdf).findall("joint")
-            if j.get("type") in ("revolute", "continuous", "prismatic") and j.find("mimic") is None]
+    in tree order: the configuration space the matrix samples."""
+    return [j.name for j in read_urdf_tree(urdf).joints if j.active]
 
 
 def _samples(robot: Any, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -151,7 +129,7 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
     """The link pairs of ``urdf`` that Setup Assistant's collision matrix disables (module docstring), sorted
     by link names. ``mesh_dir`` resolves ``package://`` mesh paths; ``samples`` configurations (≥ 1) drawn
     with ``seed``; ``always`` in (0, 1]; ``contact`` [m, ≥ 0]. Raises InvalidValueError for bad arguments, a
-    URDF without collision geometry or one that cannot be read."""
+    URDF without collision geometry; gfcs.IoError / gfcs.FormatError for one that cannot be read."""
     import gfcs
 
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
@@ -164,7 +142,7 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
     # (MeshChecker.adjacent_contacts), which MoveIt checks unless the matrix disables them
     with tempfile.TemporaryDirectory() as tmp:
         bare = Path(tmp) / "bare.srdf"
-        bare.write_text(f'<robot name="{_urdf_root(urdf).get("name") or "robot"}"/>')
+        bare.write_text('<robot name="robot"/>')
         robot = gfcs.Robot.from_urdf(str(urdf), mesh_dir=None if mesh_dir is None else str(mesh_dir),
                                      active_joints=movable_joints(urdf), srdf=str(bare))
     checker = gfcs.MeshChecker(robot)
@@ -208,13 +186,7 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
 def srdf_with_pairs(pairs: Sequence[DisabledPair], robot_name: str, srdf: Optional[PathLike] = None) -> str:
     """SRDF text: ``srdf`` (its groups and other elements kept; a new ``<robot name=robot_name>`` when None)
     with a ``<disable_collisions>`` for each of ``pairs`` that it does not disable already."""
-    if srdf is None:
-        root = ET.Element("robot", name=robot_name)
-    else:
-        try:
-            root = ET.parse(str(srdf)).getroot()
-        except (OSError, ET.ParseError) as e:
-            raise InvalidValueError(f"{srdf}: cannot read the SRDF: {e}") from e
+    root = ET.Element("robot", name=robot_name) if srdf is None else read_xml(srdf, "SRDF")[0]
     have = {frozenset((e.get("link1"), e.get("link2"))) for e in root.iter("disable_collisions")}
     for p in pairs:
         if frozenset((p.link1, p.link2)) not in have:
@@ -231,7 +203,7 @@ def _cmd(args: argparse.Namespace) -> int:
                              always=args.always, contact=args.contact, threads=args.threads,
                              progress=not args.no_progress)
     counts = {r: sum(p.reason == r for p in pairs) for r in REASONS}
-    name = _urdf_root(args.urdf).get("name") or Path(args.urdf).stem
+    name = read_xml(args.urdf, "URDF")[0].get("name") or Path(args.urdf).stem
     text = srdf_with_pairs(pairs, name, args.srdf)
     if args.out:
         Path(args.out).write_text(text)

@@ -38,7 +38,9 @@ __all__ = [
     "UrdfTree",
     "SrdfGroup",
     "GroupResolution",
+    "read_xml",
     "read_urdf_tree",
+    "collision_links",
     "read_srdf_groups",
     "resolve_group",
     "robot_for_group",
@@ -136,7 +138,7 @@ class GroupResolution:
     skipped: Tuple[str, ...] = ()
 
 
-def _read_xml(source: PathOrXml, what: str) -> Tuple[ET.Element, str]:
+def read_xml(source: PathOrXml, what: str) -> Tuple[ET.Element, str]:
     """The root element of ``source`` (a path, or XML text starting with ``<``) and its name for messages.
     ``IoError`` for an unreadable or oversized file, ``FormatError`` for malformed XML, both naming it."""
     text_given = isinstance(source, str) and source.lstrip().startswith("<")
@@ -169,7 +171,7 @@ def read_urdf_tree(urdf: PathOrXml) -> UrdfTree:
         gfcs.IoError: unreadable or oversized file. gfcs.FormatError: malformed XML, a joint without name,
             type, parent or child, or links that do not form one tree (the message names the file).
     """
-    root_el, source = _read_xml(urdf, "URDF")
+    root_el, source = read_xml(urdf, "URDF")
     joints: List[UrdfJoint] = []
     for el in root_el.findall("joint"):
         parent, child, mimic = el.find("parent"), el.find("child"), el.find("mimic")
@@ -201,6 +203,13 @@ def read_urdf_tree(urdf: PathOrXml) -> UrdfTree:
     return UrdfTree(source=source, root=roots[0], joints=tuple(ordered))
 
 
+def collision_links(urdf: PathOrXml) -> List[str]:
+    """The links of a URDF (path or XML text) that have ``<collision>`` geometry, in file order; errors as
+    :func:`read_urdf_tree`'s."""
+    root_el, _ = read_xml(urdf, "URDF")
+    return [str(el.get("name")) for el in root_el.findall("link") if el.find("collision") is not None]
+
+
 def read_srdf_groups(srdf: PathOrXml) -> Dict[str, SrdfGroup]:
     """The ``<group>`` elements of an SRDF (path or XML text), by name, in document order.
 
@@ -208,7 +217,7 @@ def read_srdf_groups(srdf: PathOrXml) -> Dict[str, SrdfGroup]:
         gfcs.IoError / gfcs.FormatError: as :func:`read_urdf_tree`; also a group or member without its
             name attributes (the message names the file and the group).
     """
-    root_el, source = _read_xml(srdf, "SRDF")
+    root_el, source = read_xml(srdf, "SRDF")
     groups: Dict[str, SrdfGroup] = {}
     for el in root_el.findall("group"):
         name = el.get("name")
