@@ -134,7 +134,7 @@ def test_adjacent_links_the_srdf_leaves_enabled_are_checked_at_the_endpoints():
     assert enabled.self_contacts(folded, 1.0) == []  # the pair the planner checks: none
     problem = gfcs.problems.Problem(name="elbow/1", robot=enabled.robot, scene=gfcs.Scene(), q0=folded,
                                     goal=np.zeros(1), mesh_checker=enabled)
-    with pytest.raises(gfcs.CollisionError, match=r"elbow/1.*start state.*adjacent links 'base' and 'arm'.*Adjacent"):
+    with pytest.raises(gfcs.CollisionError, match=r"elbow/1.*start state.*adjacent links 'base' and 'arm'.*Adjacent.*gfcs collision-matrix"):
         check_endpoints(problem)
     srdf = '<robot name="elbow"><disable_collisions link1="base" link2="arm" reason="Adjacent"/></robot>'
     for robot in (gfcs.Robot.from_urdf(ELBOW, srdf=srdf), gfcs.Robot.from_urdf(ELBOW)):  # disabled, or no SRDF

@@ -68,7 +68,8 @@ def check_endpoints(problem: Any) -> None:
             raise CollisionError(f"problem '{problem.name}': the {state} state is in collision: the meshes of "
                                  f"adjacent links '{a}' and '{b}' touch ({_depth(depth)}) and the SRDF "
                                  "leaves the pair enabled, so MoveIt checks it (MoveIt Setup Assistant disables "
-                                 f'adjacent links: <disable_collisions link1="{a}" link2="{b}" reason="Adjacent"/>)')
+                                 f'adjacent links: <disable_collisions link1="{a}" link2="{b}" reason="Adjacent"/>; '
+                                 "`gfcs collision-matrix` writes its whole matrix)")
         # distances up to a micrometre are measured exactly; nearer than 0 is contact
         clearance = float(checker.min_clearance(problem.scene, q, cutoff=1e-6))
         if clearance <= 0.0:
