@@ -40,8 +40,8 @@ import numpy as np
 from gfcs.errors import InvalidValueError
 from gfcs.srdf_groups import collision_links, read_urdf_tree, read_xml
 
-__all__ = ["ADJACENT_SAMPLES", "DisabledPair", "adjacent_pairs", "adjacent_body_pairs", "movable_joints", "collision_matrix", "srdf_with_pairs",
-           "register_cli", "REASONS"]
+__all__ = ["ADJACENT_SAMPLES", "DisabledPair", "REASONS", "adjacent_pairs", "adjacent_body_pairs", "movable_joints",
+           "collision_matrix", "srdf_with_pairs", "register_cli"]
 
 #: The reasons of Setup Assistant's matrix, in the order they are decided.
 REASONS = ("Adjacent", "Default", "Always", "Never")
