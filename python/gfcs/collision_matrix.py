@@ -223,7 +223,11 @@ def register_cli(sub: Any) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "collision-matrix", help="write the SRDF collision matrix MoveIt Setup Assistant would (for a URDF "
                                  "without a MoveIt configuration)",
-        description=__doc__.split("\n\n")[1] + " Writes the SRDF (stdout unless -o).")
+        description="Disable the link pairs MoveIt Setup Assistant would, each with its reason: Adjacent (a joint "
+                    "joins them), Default (in contact at the default configuration), Always (in contact in at least "
+                    "--always of --samples random configurations), Never (in none of them); every other pair stays "
+                    "enabled. Contact is measured on the URDF's collision meshes and primitives. Writes the SRDF "
+                    "(stdout unless -o) and a summary on stderr.")
     p.add_argument("urdf", help="robot URDF with collision geometry")
     p.add_argument("--mesh-dir", help="directory resolving package:// mesh paths")
     p.add_argument("--srdf", help="SRDF to add the pairs to (its groups kept; default: a new one)")
