@@ -83,12 +83,20 @@ def test_the_command_writes_the_srdf_and_json(urdf, tmp_path, capsys):
     assert len(list(ET.parse(out).getroot().iter("disable_collisions"))) == len(report["pairs"])
 
 
-def test_bad_arguments_name_themselves(urdf, tmp_path):
+def test_bad_arguments_name_themselves(urdf, tmp_path, capsys):
     for kwargs, name in ((dict(samples=0), "samples"), (dict(always=0.0), "always"), (dict(contact=-1.0), "contact")):
         with pytest.raises(InvalidValueError, match=name):
             collision_matrix(urdf, **kwargs)
     with pytest.raises(IoError, match="missing.urdf: cannot read URDF"):
         collision_matrix(tmp_path / "missing.urdf")
+    still = tmp_path / "still.urdf"
+    still.write_text('<robot name="s"><link name="a"/></robot>')
+    with pytest.raises(InvalidValueError, match="still.urdf: no movable joint"):
+        collision_matrix(still)
+    # the command refuses an unwritable -o before it samples
+    assert cli.main(["collision-matrix", str(urdf), "-o", str(tmp_path / "no" / "such.srdf")]) == 2
+    err = capsys.readouterr().err
+    assert "-o" in err and "does not exist" in err
     bad = tmp_path / "bad.srdf"
     bad.write_text("<robot")
     with pytest.raises(FormatError, match="bad.srdf"):

@@ -132,6 +132,9 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
     URDF without collision geometry; gfcs.IoError / gfcs.FormatError for one that cannot be read."""
     import gfcs
 
+    joints = movable_joints(urdf)
+    if not joints:
+        raise InvalidValueError(f"{urdf}: no movable joint (revolute, continuous or prismatic) to sample")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InvalidValueError(f"samples must be an integer >= 1, got {samples!r}")
     if not 0.0 < float(always) <= 1.0:
@@ -144,7 +147,7 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
         bare = Path(tmp) / "bare.srdf"
         bare.write_text('<robot name="robot"/>')
         robot = gfcs.Robot.from_urdf(str(urdf), mesh_dir=None if mesh_dir is None else str(mesh_dir),
-                                     active_joints=movable_joints(urdf), srdf=str(bare))
+                                     active_joints=joints, srdf=str(bare))
     checker = gfcs.MeshChecker(robot)
     adjacent_bodies = [tuple(p) for p in adjacent_body_pairs(urdf)]
     pairs: List[DisabledPair] = [DisabledPair(*sorted(p), "Adjacent") for p in adjacent_pairs(urdf)]
@@ -199,6 +202,9 @@ def _cmd(args: argparse.Namespace) -> int:
     import json
     import sys
 
+    from gfcs.cli import _writable_file
+
+    _writable_file(args.out, "-o")  # before sampling, so that a long run does not end in a write error
     pairs = collision_matrix(args.urdf, mesh_dir=args.mesh_dir, samples=args.samples, seed=args.seed,
                              always=args.always, contact=args.contact, threads=args.threads,
                              progress=not args.no_progress)
