@@ -12,7 +12,7 @@ disabled pair its reason:
 * ``"Default"``: the pair touches at the default configuration (every joint at 0, clamped into its limits);
 * ``"Always"``: the pair touches in at least ``always`` (0.95) of the sampled configurations;
 * ``"Never"``: the pair touches in none of ``samples`` (10,000) configurations drawn uniformly within the
-  joint limits (continuous joints over [−π, π]).
+  joint limits (a continuous joint within the core's [−2π, 2π], :mod:`gfcs.joints`).
 
 Every other pair stays enabled. "Touches" means the collision meshes and primitives of the two links come
 within ``contact`` (0 m: in contact) of each other, measured by :class:`gfcs.MeshChecker`. Like Setup
@@ -93,15 +93,6 @@ def movable_joints(urdf: PathLike) -> List[str]:
     return [j.name for j in read_urdf_tree(urdf).joints if j.active]
 
 
-def _samples(robot: Any, n: int, rng: np.random.Generator) -> np.ndarray:
-    """(n, dof) configurations uniform within the limits; continuous joints over [−π, π]."""
-    lo = np.asarray(robot.lower, dtype=np.float64)
-    up = np.asarray(robot.upper, dtype=np.float64)
-    lo = np.where(np.isfinite(lo), lo, -np.pi)
-    up = np.where(np.isfinite(up), up, np.pi)
-    return rng.uniform(lo, up, size=(n, lo.shape[0]))
-
-
 def _link_contacts(checker: Any, q: np.ndarray, contact: float, threads: Optional[int],
                    adjacent_bodies: Sequence[Tuple[str, str]]) -> Dict[Tuple[str, str], np.ndarray]:
     """Link pair (sorted names) -> (T,) bool: its shapes come within ``contact`` m at each configuration of
@@ -152,7 +143,9 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
     adjacent_bodies = [tuple(p) for p in adjacent_body_pairs(urdf)]
     pairs: List[DisabledPair] = [DisabledPair(*sorted(p), "Adjacent") for p in adjacent_pairs(urdf)]
     decided = {(p.link1, p.link2) for p in pairs}
-    default = np.clip(np.zeros(robot.dof), robot.lower, robot.upper)
+    # the core's box of each joint (a continuous joint's is [−2π, 2π]: every angle, twice)
+    lower, upper = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
+    default = np.clip(np.zeros(robot.dof), lower, upper)
     for key, hit in sorted(_link_contacts(checker, default[None, :], contact, threads, adjacent_bodies).items()):
         if key not in decided and hit[0]:
             pairs.append(DisabledPair(*key, "Default"))
@@ -169,7 +162,8 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
     for start in range(0, int(samples), chunk):
         n = min(chunk, int(samples) - start)
         measured = adjacent_bodies if start < ADJACENT_SAMPLES else ()
-        for key, hit in _link_contacts(checker, _samples(robot, n, rng), contact, threads, measured).items():
+        q = rng.uniform(lower, upper, size=(n, robot.dof))
+        for key, hit in _link_contacts(checker, q, contact, threads, measured).items():
             counts[key] = counts.get(key, 0) + int(hit.sum())
             totals[key] = totals.get(key, 0) + n
         if bar is not None:
