@@ -128,7 +128,7 @@ fn obstacle_leaf_matches_finite_differences_static_and_moving() {
         scene.query(&tp.x, f64::INFINITY, &mut samples);
         assert_eq!(samples.len(), 1);
         let mut jac = vec![0.0; n];
-        let leaf = obstacle_leaf(&tp, r, 0.0, &samples[0], 0.0, &mut jac);
+        let leaf = obstacle_leaf(&tp, r, 0.0, &samples[0], 0.0, true, &mut jac);
         let h = 1e-4;
         let (xm, x0, xp) = (x_at(-h, None), x_at(0.0, None), x_at(h, None));
         assert!((leaf.x - x0).abs() < 1e-12);
@@ -176,10 +176,10 @@ fn curvature_bound_only_scales_the_hessian_term() {
     scene.query(&tp.x, f64::INFINITY, &mut samples);
     let s = samples[0];
     let mut jac = vec![0.0; robot.dof()];
-    let exact = obstacle_leaf(&tp, r, 0.0, &s, 0.0, &mut jac);
-    let flat = obstacle_leaf(&tp, r, 0.0, &s, 1e12, &mut jac);
+    let exact = obstacle_leaf(&tp, r, 0.0, &s, 0.0, true, &mut jac);
+    let flat = obstacle_leaf(&tp, r, 0.0, &s, 1e12, true, &mut jac);
     let rho = 1.0 / s.hessian.norm() * 2.0; // halves the Hessian term
-    let half = obstacle_leaf(&tp, r, 0.0, &s, rho, &mut jac);
+    let half = obstacle_leaf(&tp, r, 0.0, &s, rho, true, &mut jac);
     let hess_term = exact.jdot_qdot - flat.jdot_qdot;
     assert!(hess_term.abs() > 1e-6, "the test needs a curved field");
     assert!((half.jdot_qdot - (flat.jdot_qdot + 0.5 * hess_term)).abs() < 1e-12);
@@ -230,5 +230,66 @@ fn self_collision_leaf_matches_finite_differences() {
             let g = (x_at(&qp) - x_at(&qm)) / (2.0 * h);
             assert!((jac[k] - g).abs() < 1e-6);
         }
+    }
+}
+
+/// `obstacle_leaf` without curvature (the engine's path for a leaf of zero metric) gives the same x, ẋ and
+/// J, J̇q̇ = 0, and the root it builds with m = 0 is the same to the bit as with the full J̇q̇: the root
+/// uses J̇q̇ only multiplied by m.
+#[test]
+fn obstacle_leaf_without_curvature_changes_no_bit_of_a_zero_metric_root() {
+    use fabric_core::fabric::leaves::obstacle_value;
+    use fabric_core::fabric::root::RootSystem;
+    let robot = Robot::panda();
+    let mut ws = KinematicsWorkspace::new(&robot);
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let n = robot.dof();
+    for trial in 0..50 {
+        let (q, qd) = random_state(&robot, &mut rng);
+        let k = rng.gen_range(0..robot.spheres().len());
+        let r = robot.spheres()[k].radius;
+        let c = center(&robot, &mut ws, k, &q);
+        let shape = match trial % 3 {
+            0 => Shape::Sphere { radius: 0.03 },
+            1 => Shape::Cuboid {
+                half_extents: Vector3::new(0.05, 0.02, 0.04),
+            },
+            _ => Shape::Cylinder {
+                half_height: 0.05,
+                radius: 0.02,
+            },
+        };
+        let velocity = Vector3::new(0.1, -0.2, 0.05) * (trial % 2) as f64;
+        let scene = obstacle_near(&c, r, shape, &mut rng, velocity);
+        let tp = sphere_point(&robot, &mut ws, k, &q, &qd);
+        let mut samples = Vec::new();
+        scene.query(&tp.x, f64::INFINITY, &mut samples);
+        let s = samples[0];
+        let (mut jac_full, mut jac_flat) = (vec![0.0; n], vec![0.0; n]);
+        let full = obstacle_leaf(&tp, r, 0.002, &s, 0.01, true, &mut jac_full);
+        let bare = obstacle_leaf(&tp, r, 0.002, &s, 0.01, false, &mut jac_flat);
+        assert_eq!((full.x, full.xd, full.width), (bare.x, bare.xd, bare.width));
+        assert_eq!((full.x, full.xd), obstacle_value(&tp, r, 0.002, &s));
+        assert_eq!(jac_full, jac_flat);
+        assert_eq!(bare.jdot_qdot, 0.0);
+        let (mut a, mut b) = (RootSystem::new(n), RootSystem::new(n));
+        for (root, leaf) in [(&mut a, &full), (&mut b, &bare)] {
+            root.clear();
+            // a zero-metric barrier: ξ = f = 0, only the forcing slope
+            root.add_scalar(
+                &jac_full[..leaf.width],
+                leaf.jdot_qdot,
+                0.0,
+                0.0,
+                0.0,
+                -0.3,
+                0.0,
+            );
+        }
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(a.m.as_slice()), bits(b.m.as_slice()));
+        assert_eq!(bits(a.xi.as_slice()), bits(b.xi.as_slice()));
+        assert_eq!(bits(a.f.as_slice()), bits(b.f.as_slice()));
+        assert_eq!(bits(a.grad.as_slice()), bits(b.grad.as_slice()));
     }
 }

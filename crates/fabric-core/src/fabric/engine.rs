@@ -33,7 +33,7 @@ use nalgebra::Vector3;
 use super::components::{Attractor, Barrier, BarrierEval};
 use super::config::{FabricConfig, GoalSpace};
 use super::energy::{ConstantMass, TanhMass};
-use super::leaves::{obstacle_leaf, self_collision_leaf, LeafState};
+use super::leaves::{obstacle_leaf, obstacle_value, self_collision_leaf, LeafState};
 use super::root::RootSystem;
 use super::speed::EeMotion;
 use crate::error::{check_finite, check_len, check_policy_inputs, FabricError, Result};
@@ -848,19 +848,23 @@ impl Fabric {
                             continue;
                         };
                         diag.min_clearance = diag.min_clearance.min(sample.distance - r);
+                        let margin = margins.map_or(ob.margin, |m| m[k]);
+                        if sample.distance - r - margin >= ob.influence {
+                            continue;
+                        }
                         ensure_sphere(robot, ws, k);
+                        // the barrier before the row Jacobian: a leaf of zero metric needs no J̇q̇
+                        let (x, xd) = obstacle_value(&ws.spheres[k], r, margin, &sample);
+                        let bv = self.obstacles.eval(x, xd, ws.with_potential);
                         let leaf = obstacle_leaf(
                             &ws.spheres[k],
                             r,
-                            margins.map_or(ob.margin, |m| m[k]),
+                            margin,
                             &sample,
                             ob.min_curvature_radius,
+                            bv.m != 0.0,
                             &mut ws.jrow,
                         );
-                        if leaf.x >= ob.influence {
-                            continue;
-                        }
-                        let bv = self.obstacles.eval(leaf.x, leaf.xd, ws.with_potential);
                         add_barrier_leaf(&mut ws.root, &ws.jrow, &leaf, &bv);
                         leaves += 1;
                     }

@@ -45,35 +45,60 @@ pub struct LeafState {
 /// is scaled by min(1, 1/(ρ‖H‖_F)), i.e. surface features sharper than ρ are treated as if rounded to
 /// radius ρ. With ρ = 0 the exact Hessian is used. (Near box edges the exact curvature 1/d of the
 /// distance field makes J̇q̇ ~ ‖ċ‖²/d, too stiff for explicit integration at dt = 0.01 s.)
+///
+/// With `curvature` false, J̇q̇ is not computed and returned as 0: for a leaf whose metric is zero (a
+/// barrier moving away, [`SwitchedEnergy1D`](super::energy::SwitchedEnergy1D)), where the root only
+/// uses it multiplied by that zero metric (M J̇q̇ in ξ̃ and f̃), about 40 % of the obstacle leaves of a
+/// cluttered scene. x and ẋ are [`obstacle_value`]'s.
 pub fn obstacle_leaf(
     c: &TaskPoint,
     radius: f64,
     margin: f64,
     sample: &DistanceSample,
     min_curvature_radius: f64,
+    curvature: bool,
     jac: &mut [f64],
 ) -> LeafState {
     let g = &sample.gradient;
-    let rel = c.xd - sample.velocity;
+    let (x, xd) = obstacle_value(c, radius, margin, sample);
     let (row, zero) = jac.split_at_mut(c.width.min(jac.len()));
     for (j, col) in row.iter_mut().zip(c.jac.as_slice().chunks_exact(3)) {
         *j = g.x * col[0] + g.y * col[1] + g.z * col[2];
     }
     zero.fill(0.0);
-    // ‖H‖_F = 0 on flat features (faces): skip the square root
-    let h_norm2 = sample.hessian.norm_squared();
-    let h_norm = if h_norm2 > 0.0 { h_norm2.sqrt() } else { 0.0 };
-    let scale = if min_curvature_radius * h_norm > 1.0 {
-        1.0 / (min_curvature_radius * h_norm)
+    let jdot_qdot = if curvature {
+        let rel = c.xd - sample.velocity;
+        // ‖H‖_F = 0 on flat features (faces): skip the square root
+        let h_norm2 = sample.hessian.norm_squared();
+        let h_norm = if h_norm2 > 0.0 { h_norm2.sqrt() } else { 0.0 };
+        let scale = if min_curvature_radius * h_norm > 1.0 {
+            1.0 / (min_curvature_radius * h_norm)
+        } else {
+            1.0
+        };
+        g.dot(&c.jdot_qdot) + scale * rel.dot(&(sample.hessian * rel))
     } else {
-        1.0
+        0.0
     };
     LeafState {
-        x: sample.distance - radius - margin,
-        xd: g.dot(&rel),
-        jdot_qdot: g.dot(&c.jdot_qdot) + scale * rel.dot(&(sample.hessian * rel)),
+        x,
+        xd,
+        jdot_qdot,
         width: row.len(),
     }
+}
+
+/// The value x = d(c) − r − margin (m) and rate ẋ = ∇dᵀ (ċ − v_o) (m/s) of an obstacle leaf: what a
+/// barrier needs before the leaf's Jacobian ([`obstacle_leaf`] returns the same two numbers).
+#[inline]
+pub fn obstacle_value(
+    c: &TaskPoint,
+    radius: f64,
+    margin: f64,
+    sample: &DistanceSample,
+) -> (f64, f64) {
+    let rel = c.xd - sample.velocity;
+    (sample.distance - radius - margin, sample.gradient.dot(&rel))
 }
 
 /// Self-collision leaf between spheres (c_a, r_a) and (c_b, r_b); writes J (n,) into `jac`. See the module

@@ -312,6 +312,7 @@ impl Rmpflow {
                     c.margin,
                     &sample,
                     c.min_curvature_radius,
+                    true,
                     &mut ws.jrow,
                 );
                 let r = leaves::collision(c, leaf.x, leaf.xd);
