@@ -106,25 +106,26 @@ pub(crate) fn eval_world(
     p: &Vector3<f64>,
     max_distance: f64,
 ) -> Option<SurfaceDistance> {
-    let local = to_local(rot, trans, p);
+    // the obstacle-frame point, for every shape but the sphere (rotation-invariant: world frame)
+    let local = || to_local(rot, trans, p);
     let f = Frame {
         rot,
         max: max_distance,
     };
     match shape {
-        Shape::Sphere { radius } => f.about_point(&local, 1.0, *radius, Vector3::z()),
-        Shape::Cuboid { half_extents } => cuboid(&f, &local, half_extents),
+        Shape::Sphere { radius } => sphere(rot, &(p - trans), *radius, max_distance),
+        Shape::Cuboid { half_extents } => cuboid(&f, &local(), half_extents),
         Shape::Cylinder {
             half_height,
             radius,
-        } => cylinder(&f, &local, *half_height, *radius),
+        } => cylinder(&f, &local(), *half_height, *radius),
         Shape::Capsule {
             half_height,
             radius,
-        } => capsule(&f, &local, *half_height, *radius),
-        Shape::HalfSpace => f.flat(local.z, column(rot, 2)),
-        Shape::TriMesh(m) => trimesh(&f, m, &local),
-        Shape::PointCloud(pc) => point_cloud(&f, pc, &local),
+        } => capsule(&f, &local(), *half_height, *radius),
+        Shape::HalfSpace => f.flat(local().z, column(rot, 2)),
+        Shape::TriMesh(m) => trimesh(&f, m, &local()),
+        Shape::PointCloud(pc) => point_cloud(&f, pc, &local()),
     }
 }
 
@@ -317,6 +318,33 @@ fn sign_of(v: f64) -> f64 {
     } else {
         -1.0
     }
+}
+
+/// Sphere of radius `radius` about the world offset `v = p − c`: d = |v| − radius, gradient v/|v|,
+/// Hessian (I − uuᵀ)/|v|, all in the world frame (a sphere's distance does not depend on its rotation, so
+/// no rotation is applied: the same bits as [`Frame::about_point`] on the obstacle-frame offset when the
+/// rotation is the identity). At `|v| ≤ SINGULAR_EPS` (the centre): flat, along the obstacle's local z.
+#[inline(always)]
+fn sphere(rot: &Matrix3<f64>, v: &Vector3<f64>, radius: f64, max: f64) -> Option<SurfaceDistance> {
+    let r = v.norm();
+    let d = r - radius;
+    if beyond(d, max) {
+        return None;
+    }
+    if r <= SINGULAR_EPS {
+        return Some(SurfaceDistance {
+            distance: d,
+            gradient: column(rot, 2),
+            hessian: Matrix3::zeros(),
+        });
+    }
+    let inv = 1.0 / r;
+    let u = v * inv;
+    Some(SurfaceDistance {
+        distance: d,
+        gradient: u,
+        hessian: curvature(inv, &[(-inv, u)]),
+    })
 }
 
 /// Box of half extents `h`: face (Hessian 0), edge or corner outside; nearest face inside. The face
