@@ -23,8 +23,10 @@
 //! per link at its bounding centre, a 1-Lipschitz bound per sphere, then one exact sample (gradient,
 //! Hessian) per (sphere, obstacle) pair left, fetched by storage position (no id lookup).
 //!
-//! Sphere Jacobians are computed only for spheres that own at least one leaf. Nothing allocates per call
-//! once the workspace exists (the scene queries append into reused buffers).
+//! Sphere Jacobians are computed only for spheres that own at least one leaf, and an obstacle leaf's
+//! J̇q̇ only when its barrier's metric is nonzero (the root uses it multiplied by that metric; a leaf
+//! moving away has none). Nothing allocates per call once the workspace exists (the scene queries append
+//! into reused buffers).
 
 use std::sync::Arc;
 
