@@ -33,12 +33,12 @@ import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from gfcs.errors import InvalidValueError
-from gfcs.srdf_groups import collision_links, read_urdf_tree, read_xml
+from gfcs.srdf_groups import PathOrXml, UrdfTree, collision_links, read_urdf_tree, read_xml
 
 __all__ = ["ADJACENT_SAMPLES", "DisabledPair", "REASONS", "adjacent_pairs", "adjacent_body_pairs", "movable_joints",
            "collision_matrix", "srdf_with_pairs", "register_cli"]
@@ -48,7 +48,7 @@ REASONS = ("Adjacent", "Default", "Always", "Never")
 #: The adjacent-body pairs are measured one configuration at a time, on this many of the samples at most
 #: (their mesh distances, of links that meet at a joint, take about 2.5 ms per configuration on the Fetch).
 ADJACENT_SAMPLES = 1000
-PathLike = Union[str, Path]
+PathLike = PathOrXml
 
 
 @dataclass(frozen=True)
@@ -63,13 +63,7 @@ class DisabledPair:
 def adjacent_pairs(urdf: PathLike) -> List[Tuple[str, str]]:
     """(parent, child) of every pair of links with collision geometry that the kinematic tree of ``urdf``
     joins directly, links without geometry skipped (Setup Assistant's "Adjacent"); sorted by child."""
-    tree = read_urdf_tree(urdf)
-    solid = set(collision_links(urdf))
-
-    def solid_parent(link: str) -> Optional[str]:
-        return next((a for a in tree.ancestors(link) if a in solid), None)
-
-    return [(p, link) for link in sorted(solid) if (p := solid_parent(link)) is not None]
+    return _adjacent_pairs(read_urdf_tree(urdf), collision_links(urdf))
 
 
 def adjacent_body_pairs(urdf: PathLike) -> List[Tuple[str, str]]:
@@ -77,8 +71,27 @@ def adjacent_body_pairs(urdf: PathLike) -> List[Tuple[str, str]]:
     joined by fixed joints form one body), sorted: the pairs gfcs's self-collision model leaves out as
     adjacent, a superset of :func:`adjacent_pairs` (a link fixed to its parent's body and a sibling on a
     joint of that body, say)."""
-    tree = read_urdf_tree(urdf)
-    solid = collision_links(urdf)
+    return _adjacent_body_pairs(read_urdf_tree(urdf), collision_links(urdf))
+
+
+def movable_joints(urdf: PathLike) -> List[str]:
+    """The joints of ``urdf`` that move on their own (revolute, continuous, prismatic; not mimic joints),
+    in tree order: the configuration space the matrix samples."""
+    return _movable_joints(read_urdf_tree(urdf))
+
+
+def _adjacent_pairs(tree: UrdfTree, solid_links: Sequence[str]) -> List[Tuple[str, str]]:
+    """:func:`adjacent_pairs` of a parsed tree and its links with collision geometry."""
+    solid = set(solid_links)
+
+    def solid_parent(link: str) -> Optional[str]:
+        return next((a for a in tree.ancestors(link) if a in solid), None)
+
+    return [(p, link) for link in sorted(solid) if (p := solid_parent(link)) is not None]
+
+
+def _adjacent_body_pairs(tree: UrdfTree, solid: Sequence[str]) -> List[Tuple[str, str]]:
+    """:func:`adjacent_body_pairs` of a parsed tree and its links with collision geometry."""
     body = {link: link for link in tree.links}
     for j in tree.joints:  # tree order: a parent's body is settled before its children's
         if j.type == "fixed":
@@ -87,10 +100,9 @@ def adjacent_body_pairs(urdf: PathLike) -> List[Tuple[str, str]]:
     return sorted((a, b) for a in solid for b in solid if a < b and frozenset((body[a], body[b])) in joined)
 
 
-def movable_joints(urdf: PathLike) -> List[str]:
-    """The joints of ``urdf`` that move on their own (revolute, continuous, prismatic; not mimic joints),
-    in tree order: the configuration space the matrix samples."""
-    return [j.name for j in read_urdf_tree(urdf).joints if j.active]
+def _movable_joints(tree: UrdfTree) -> List[str]:
+    """:func:`movable_joints` of a parsed tree."""
+    return [j.name for j in tree.joints if j.active]
 
 
 def _link_contacts(checker: Any, q: np.ndarray, contact: float, threads: Optional[int],
@@ -123,7 +135,8 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
     URDF without collision geometry; gfcs.IoError / gfcs.FormatError for one that cannot be read."""
     import gfcs
 
-    joints = movable_joints(urdf)
+    tree, solid = read_urdf_tree(urdf), collision_links(urdf)  # each file read once
+    joints = _movable_joints(tree)
     if not joints:
         raise InvalidValueError(f"{urdf}: no movable joint (revolute, continuous or prismatic) to sample")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
@@ -140,8 +153,8 @@ def collision_matrix(urdf: PathLike, mesh_dir: Optional[PathLike] = None, sample
         robot = gfcs.Robot.from_urdf(str(urdf), mesh_dir=None if mesh_dir is None else str(mesh_dir),
                                      active_joints=joints, srdf=str(bare))
     checker = gfcs.MeshChecker(robot)
-    adjacent_bodies = [tuple(p) for p in adjacent_body_pairs(urdf)]
-    pairs: List[DisabledPair] = [DisabledPair(*sorted(p), "Adjacent") for p in adjacent_pairs(urdf)]
+    adjacent_bodies = _adjacent_body_pairs(tree, solid)
+    pairs: List[DisabledPair] = [DisabledPair(*sorted(p), "Adjacent") for p in _adjacent_pairs(tree, solid)]
     decided = {(p.link1, p.link2) for p in pairs}
     # the core's box of each joint (a continuous joint's is [−2π, 2π]: every angle, twice)
     lower, upper = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
