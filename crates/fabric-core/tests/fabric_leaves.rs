@@ -3,9 +3,10 @@
 //! d²/dt² x(q + t q̇) for static and moving obstacles and for self-collision pairs.
 #![allow(clippy::needless_range_loop)]
 
-use fabric_core::fabric::leaves::{obstacle_leaf, self_collision_leaf};
+use fabric_core::fabric::leaves::{obstacle_leaf, obstacle_value, self_collision_leaf};
+use fabric_core::fabric::root::RootSystem;
 use fabric_core::robot::{KinematicsWorkspace, Robot, TaskPoint};
-use fabric_core::scene::{Obstacle, Scene, Shape};
+use fabric_core::scene::{DistanceSample, Obstacle, Scene, Shape};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -129,6 +130,7 @@ fn obstacle_leaf_matches_finite_differences_static_and_moving() {
         assert_eq!(samples.len(), 1);
         let mut jac = vec![0.0; n];
         let leaf = obstacle_leaf(&tp, r, 0.0, &samples[0], 0.0, true, &mut jac);
+        assert_bare_leaf_changes_no_bit(&tp, r, &samples[0], n);
         let h = 1e-4;
         let (xm, x0, xp) = (x_at(-h, None), x_at(0.0, None), x_at(h, None));
         assert!((leaf.x - x0).abs() < 1e-12);
@@ -234,62 +236,32 @@ fn self_collision_leaf_matches_finite_differences() {
 }
 
 /// `obstacle_leaf` without curvature (the engine's path for a leaf of zero metric) gives the same x, ẋ and
-/// J, J̇q̇ = 0, and the root it builds with m = 0 is the same to the bit as with the full J̇q̇: the root
-/// uses J̇q̇ only multiplied by m.
-#[test]
-fn obstacle_leaf_without_curvature_changes_no_bit_of_a_zero_metric_root() {
-    use fabric_core::fabric::leaves::obstacle_value;
-    use fabric_core::fabric::root::RootSystem;
-    let robot = Robot::panda();
-    let mut ws = KinematicsWorkspace::new(&robot);
-    let mut rng = ChaCha8Rng::seed_from_u64(21);
-    let n = robot.dof();
-    for trial in 0..50 {
-        let (q, qd) = random_state(&robot, &mut rng);
-        let k = rng.gen_range(0..robot.spheres().len());
-        let r = robot.spheres()[k].radius;
-        let c = center(&robot, &mut ws, k, &q);
-        let shape = match trial % 3 {
-            0 => Shape::Sphere { radius: 0.03 },
-            1 => Shape::Cuboid {
-                half_extents: Vector3::new(0.05, 0.02, 0.04),
-            },
-            _ => Shape::Cylinder {
-                half_height: 0.05,
-                radius: 0.02,
-            },
-        };
-        let velocity = Vector3::new(0.1, -0.2, 0.05) * (trial % 2) as f64;
-        let scene = obstacle_near(&c, r, shape, &mut rng, velocity);
-        let tp = sphere_point(&robot, &mut ws, k, &q, &qd);
-        let mut samples = Vec::new();
-        scene.query(&tp.x, f64::INFINITY, &mut samples);
-        let s = samples[0];
-        let (mut jac_full, mut jac_flat) = (vec![0.0; n], vec![0.0; n]);
-        let full = obstacle_leaf(&tp, r, 0.002, &s, 0.01, true, &mut jac_full);
-        let bare = obstacle_leaf(&tp, r, 0.002, &s, 0.01, false, &mut jac_flat);
-        assert_eq!((full.x, full.xd, full.width), (bare.x, bare.xd, bare.width));
-        assert_eq!((full.x, full.xd), obstacle_value(&tp, r, 0.002, &s));
-        assert_eq!(jac_full, jac_flat);
-        assert_eq!(bare.jdot_qdot, 0.0);
-        let (mut a, mut b) = (RootSystem::new(n), RootSystem::new(n));
-        for (root, leaf) in [(&mut a, &full), (&mut b, &bare)] {
-            root.clear();
-            // a zero-metric barrier: ξ = f = 0, only the forcing slope
-            root.add_scalar(
-                &jac_full[..leaf.width],
-                leaf.jdot_qdot,
-                0.0,
-                0.0,
-                0.0,
-                -0.3,
-                0.0,
-            );
-        }
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(a.m.as_slice()), bits(b.m.as_slice()));
-        assert_eq!(bits(a.xi.as_slice()), bits(b.xi.as_slice()));
-        assert_eq!(bits(a.f.as_slice()), bits(b.f.as_slice()));
-        assert_eq!(bits(a.grad.as_slice()), bits(b.grad.as_slice()));
+/// J as with it, J̇q̇ = 0, and the root it builds with m = 0 is the same to the bit as with the full J̇q̇:
+/// the root uses J̇q̇ only multiplied by m.
+fn assert_bare_leaf_changes_no_bit(tp: &TaskPoint, r: f64, sample: &DistanceSample, n: usize) {
+    let (mut jac_full, mut jac_bare) = (vec![0.0; n], vec![0.0; n]);
+    let full = obstacle_leaf(tp, r, 0.002, sample, 0.01, true, &mut jac_full);
+    let bare = obstacle_leaf(tp, r, 0.002, sample, 0.01, false, &mut jac_bare);
+    assert_eq!((full.x, full.xd, full.width), (bare.x, bare.xd, bare.width));
+    assert_eq!((full.x, full.xd), obstacle_value(tp, r, 0.002, sample));
+    assert_eq!(jac_full, jac_bare);
+    assert_eq!(bare.jdot_qdot, 0.0);
+    let (mut a, mut b) = (RootSystem::new(n), RootSystem::new(n));
+    for (root, leaf) in [(&mut a, &full), (&mut b, &bare)] {
+        // a zero-metric barrier: ξ = f = 0, only the forcing slope
+        root.add_scalar(
+            &jac_full[..leaf.width],
+            leaf.jdot_qdot,
+            0.0,
+            0.0,
+            0.0,
+            -0.3,
+            0.0,
+        );
     }
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(a.m.as_slice()), bits(b.m.as_slice()));
+    assert_eq!(bits(a.xi.as_slice()), bits(b.xi.as_slice()));
+    assert_eq!(bits(a.f.as_slice()), bits(b.f.as_slice()));
+    assert_eq!(bits(a.grad.as_slice()), bits(b.grad.as_slice()));
 }
