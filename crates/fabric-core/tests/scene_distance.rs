@@ -107,6 +107,33 @@ fn sphere_is_exact() {
     }
 }
 
+/// A sphere's distance, gradient and Hessian do not depend on its rotation: the same bits with a random
+/// rotation as without; at its centre (no direction) the gradient is the rotated local +z.
+#[test]
+fn sphere_ignores_its_rotation() {
+    let mut r = rng(7);
+    for _ in 0..20 {
+        let rotated = random_pose(&mut r, 1.0);
+        let plain = Isometry3::from_parts(rotated.translation, Default::default());
+        let shape = Shape::Sphere {
+            radius: r.gen_range(0.05..0.5),
+        };
+        for _ in 0..20 {
+            let p = rotated.translation.vector + vec_in(&mut r, -1.0, 1.0);
+            assert_eq!(eval(&shape, &rotated, &p), eval(&shape, &plain, &p));
+        }
+        let centre = eval(&shape, &rotated, &rotated.translation.vector);
+        let axis = rotated
+            .rotation
+            .to_rotation_matrix()
+            .matrix()
+            .column(2)
+            .into_owned();
+        assert_eq!(centre.gradient, axis);
+        assert_eq!(centre.hessian, Matrix3::zeros());
+    }
+}
+
 #[test]
 fn box_matches_brute_force_surface_samples() {
     let mut r = rng(2);
