@@ -48,8 +48,8 @@ pub struct LeafState {
 ///
 /// With `curvature` false, J̇q̇ is not computed and returned as 0: for a leaf whose metric is zero (a
 /// barrier moving away, [`SwitchedEnergy1D`](super::energy::SwitchedEnergy1D)), where the root only
-/// uses it multiplied by that zero metric (M J̇q̇ in ξ̃ and f̃), about 40 % of the obstacle leaves of a
-/// cluttered scene. x and ẋ are [`obstacle_value`]'s.
+/// uses it multiplied by that zero metric (M J̇q̇ in ξ̃ and f̃); in a cluttered scene many leaves are
+/// such. x and ẋ are [`obstacle_value`]'s.
 pub fn obstacle_leaf(
     c: &TaskPoint,
     radius: f64,
