@@ -51,37 +51,42 @@ class Case:
     rewrite: Optional[Callable[[str], str]] = None
 
 
+def with_groups(text: str, groups: str) -> str:
+    """SRDF ``text`` with the ``<group>`` elements ``groups`` added at its end."""
+    return text.replace("</robot>", groups + "</robot>")
+
+
+def arm_groups(left: List[str], right: List[str]) -> str:
+    """MoveIt's two-arm groups ``left_arm``, ``right_arm`` and ``both_arms`` of the given joint names."""
+    def joints(names: List[str]) -> str:
+        return "".join(f'<joint name="{j}"/>' for j in names)
+
+    return (f'<group name="left_arm">{joints(left)}</group><group name="right_arm">{joints(right)}</group>'
+            f'<group name="both_arms">{joints(left)}{joints(right)}</group>')
+
+
 def baxter_srdf(text: str) -> str:
     """The package's Baxter SRDF made MoveIt's: its group names every joint with a ``baxter/`` prefix that the
     URDF's joints lack (MoveIt would find no joint), and it has no arm groups; MoveIt's Baxter configuration
     has ``left_arm``, ``right_arm`` and ``both_arms`` (shoulder s0 to wrist w2)."""
-    def arm(side: str) -> str:
-        return "".join(f'<joint name="{side}_{j}"/>' for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2"))
-
-    groups = (f'<group name="left_arm">{arm("left")}</group><group name="right_arm">{arm("right")}</group>'
-              f'<group name="both_arms">{arm("left")}{arm("right")}</group>')
-    text = text.replace("baxter/", "")
-    return text.replace("</robot>", groups + "</robot>")
+    arm = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
+    return with_groups(text.replace("baxter/", ""),
+                       arm_groups([f"left_{j}" for j in arm], [f"right_{j}" for j in arm]))
 
 
 def tiago_srdf(text: str) -> str:
     """An SRDF for TIAGo (the package has none) with the ``arm_torso`` group of its MoveIt configuration: the
     lift (prismatic) and the seven arm joints."""
     joints = "".join(f'<joint name="{j}"/>' for j in ["torso_lift_joint"] + [f"arm_{i}_joint" for i in range(1, 8)])
-    return text.replace("</robot>", f'<group name="arm_torso">{joints}</group></robot>')
+    return with_groups(text, f'<group name="arm_torso">{joints}</group>')
 
 
 def romeo_srdf(text: str) -> str:
     """The package's MoveIt SRDF of Romeo (Setup Assistant's collision matrix) with arm groups added: its only
     group, ``all``, moves the legs, the head and the hands too; a manipulation configuration has ``left_arm``,
     ``right_arm`` and ``both_arms`` (shoulder pitch to wrist pitch)."""
-    def arm(side: str) -> str:
-        return "".join(f'<joint name="{side}{j}"/>' for j in ("ShoulderPitch", "ShoulderYaw", "ElbowRoll", "ElbowYaw",
-                                                             "WristRoll", "WristYaw", "WristPitch"))
-
-    groups = (f'<group name="left_arm">{arm("L")}</group><group name="right_arm">{arm("R")}</group>'
-              f'<group name="both_arms">{arm("L")}{arm("R")}</group>')
-    return text.replace("</robot>", groups + "</robot>")
+    arm = ("ShoulderPitch", "ShoulderYaw", "ElbowRoll", "ElbowYaw", "WristRoll", "WristYaw", "WristPitch")
+    return with_groups(text, arm_groups([f"L{j}" for j in arm], [f"R{j}" for j in arm]))
 
 
 CASES = (
