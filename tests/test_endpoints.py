@@ -156,6 +156,40 @@ def test_generate_hold_parses_joints_outside_the_group_and_names_bad_items():
     assert gfcs.MeshChecker(moved).held_contacts(np.zeros(1), 0.0)[0][:2] == ("a", "b")
 
 
+def test_generate_holds_joints_at_the_srdfs_named_states_unless_given():
+    """Held joints take the first SRDF group_state naming them (MoveIt's "ready" of a second arm); a --hold
+    value wins, a planned joint is never taken, and states naming no held joint are not reported."""
+    from gfcs.cli import _named_holds
+
+    robot = gfcs.Robot.from_urdf(HELD_ARMS, active_joints=["js"])
+    srdf = ('<robot name="held"><group name="slider"><joint name="js"/></group>'
+            '<group_state name="out" group="slider"><joint name="js" value="0.5"/></group_state>'
+            '<group_state name="ready" group="arms"><joint name="ja" value="0.4"/><joint name="jb" value="-1"/>'
+            '</group_state><group_state name="home" group="arms"><joint name="ja" value="0.1"/></group_state>'
+            '</robot>')
+    assert _named_holds(srdf, robot, {}) == ({"ja": 0.4, "jb": -1.0}, ["arms/ready"])
+    assert _named_holds(srdf, robot, {"ja": 0.2}) == ({"jb": -1.0}, ["arms/ready"])
+    assert _named_holds(None, robot, {}) == ({}, [])
+
+
+def test_generate_uses_a_named_state_that_puts_held_links_in_contact_and_says_so(tmp_path, capsys):
+    """The named state is what `gfcs generate` holds: one that crosses the arms is refused like --hold; the
+    same problem with --hold overriding it is drawn past that check."""
+    from gfcs import cli
+
+    urdf, srdf = tmp_path / "held.urdf", tmp_path / "held.srdf"
+    urdf.write_text(HELD_ARMS)
+    srdf.write_text('<robot name="held"><group name="slider"><joint name="js"/></group>'
+                    '<group_state name="crossed" group="arms"><joint name="ja" value="-0.3"/></group_state></robot>')
+    args = ["generate", "--robot", str(urdf), "--srdf", str(srdf), "--group", "slider", "--out",
+            str(tmp_path / "out"), "--n", "1", "--classes", "box"]
+    assert cli.main(args) == 2
+    err = capsys.readouterr().err
+    assert "named states arms/crossed" in err and "links 'a' and 'b' touch" in err
+    cli.main(args + ["--hold", "ja=0"])
+    assert "touch" not in capsys.readouterr().err
+
+
 def test_generate_refuses_a_hold_that_puts_held_links_in_contact(tmp_path, capsys):
     """`gfcs generate --hold` with the held arm crossing the gap: one refusal naming the links and --hold,
     before any class is drawn (the generator checks the robot's meshes, which the CLI hands it)."""

@@ -809,6 +809,25 @@ def _held_positions(items: Sequence[str], robot: Any) -> Dict[str, float]:
     return held
 
 
+def _named_holds(srdf: Optional[str], robot: Any, given: Dict[str, float]) -> Tuple[Dict[str, float], List[str]]:
+    """Held positions from the SRDF's named states (``<group_state>``, e.g. a second arm's ``ready``): each
+    joint the robot holds, not in ``given`` (``--hold``), takes its value in the first state that names it.
+    Returns ({joint: value}, the states used as "group/name"). MoveIt's dual-arm configurations hold the other
+    arm at such a state, where 0 in every joint can fold it into itself."""
+    if not srdf:
+        return {}, []
+    from gfcs.srdf_groups import read_group_states
+
+    held, used = {}, []
+    for group, name, values in read_group_states(srdf):
+        taken = {j: v for j, v in values.items()
+                 if j in robot.locked_positions and j not in given and j not in held}
+        if taken:
+            held.update(taken)
+            used.append(f"{group}/{name}")
+    return held, used
+
+
 def cmd_generate(args: argparse.Namespace) -> int:
     """`gfcs generate`: write generated problems as MotionBenchMaker files."""
     from gfcs import generators, problems
@@ -816,8 +835,14 @@ def cmd_generate(args: argparse.Namespace) -> int:
     if not getattr(args, "group", None) and getattr(args, "srdf", None) and args.robot not in (None, "mbm"):
         args.group = _first_group_unless_exact(args)
     robot = _robot(args)  # built once: a mesh robot's spheres are fitted here
-    if args.hold:
-        robot = robot.with_locked_positions(_held_positions(args.hold, robot))
+    given = _held_positions(args.hold, robot)
+    named, states = _named_holds(getattr(args, "srdf", None) if args.robot not in (None, "mbm") else None,
+                                 robot, given)
+    if named or given:
+        robot = robot.with_locked_positions({**named, **given})
+    if states:
+        print(f"gfcs: generate: held joints at the SRDF's named states {', '.join(states)} (--hold overrides)",
+              file=sys.stderr)
     group = _planning_group(args, robot)
     checker = _mesh_checker(args, robot)
     if checker is not None:
@@ -887,8 +912,9 @@ def _register_generate(sub: Any) -> None:
                    help="write each goal as the hand TCP's pose (position within 1 mm, orientation within "
                         "0.01 rad; MoveIt position and orientation constraints) instead of joint positions")
     p.add_argument("--hold", nargs="+", metavar="JOINT=VALUE", default=[],
-                   help="hold joints outside the planned group at these positions (rad or m; default 0 clamped into "
-                        "the joint's limits); written into every request's start state")
+                   help="hold joints outside the planned group at these positions (rad or m; default: the first "
+                        "SRDF named state (group_state) naming the joint, else 0 clamped into the joint's limits); "
+                        "written into every request's start state")
     _add_robot_options(p)
     p.set_defaults(func=cmd_generate)
 

@@ -24,6 +24,7 @@ Entries naming links or joints the URDF lacks are skipped with one :class:`gfcs.
 
 from __future__ import annotations
 
+import math
 import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -42,6 +43,7 @@ __all__ = [
     "read_urdf_tree",
     "collision_links",
     "read_srdf_groups",
+    "read_group_states",
     "resolve_group",
     "robot_for_group",
     "ee_links",
@@ -236,6 +238,36 @@ def read_srdf_groups(srdf: PathOrXml) -> Dict[str, SrdfGroup]:
                 members.append((m.tag, m.get("name")))
         groups[name] = SrdfGroup(name=name, members=tuple(members))
     return groups
+
+
+def read_group_states(srdf: PathOrXml) -> List[Tuple[str, str, Dict[str, float]]]:
+    """The ``<group_state>`` elements of an SRDF (path or XML text): (group, state name, {joint: value (rad or
+    m)}) in document order (MoveIt's named states, e.g. a group's ``ready`` or ``home``).
+
+    Raises:
+        gfcs.IoError / gfcs.FormatError: as :func:`read_urdf_tree`; also a state or joint without its name,
+            or a joint value that is not one finite number (the message names the file, state and joint).
+    """
+    root_el, source = read_xml(srdf, "SRDF")
+    states: List[Tuple[str, str, Dict[str, float]]] = []
+    for el in root_el.findall("group_state"):
+        name, group = el.get("name"), el.get("group")
+        if not (name and group):
+            raise FormatError(f"{source}: a <group_state> needs name and group")
+        values: Dict[str, float] = {}
+        for j in el.findall("joint"):
+            joint, text = j.get("name"), j.get("value", "")
+            if not joint:
+                raise FormatError(f"{source}: group_state {name}: a <joint> has no name")
+            try:
+                values[joint] = float(text)
+            except ValueError:
+                values[joint] = math.nan
+            if not math.isfinite(values[joint]):
+                raise FormatError(f"{source}: group_state {name}: joint {joint}: value {text!r} is not one "
+                                  "finite number (multi-variable joints are not supported)")
+        states.append((group, name, values))
+    return states
 
 
 def _chain_joints(tree: UrdfTree, base: str, tip: str) -> List[UrdfJoint]:
