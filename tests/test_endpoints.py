@@ -130,6 +130,8 @@ def test_adjacent_links_the_srdf_leaves_enabled_are_checked_at_the_endpoints():
     enabled = gfcs.MeshChecker(gfcs.Robot.from_urdf(ELBOW, srdf='<robot name="elbow"/>'))
     (a, b, depth), = enabled.adjacent_contacts(folded, 0.0)
     assert (a, b) == ("base", "arm") and depth <= 0.0
+    (a, b, flat), = enabled.adjacent_contacts(folded, 0.0, depth=False)  # the verdict without the depth
+    assert (a, b) == ("base", "arm") and depth <= flat <= 0.0
     assert enabled.adjacent_contacts(np.zeros(1), 0.0) == []  # stretched out: 1 cm apart
     assert enabled.self_contacts(folded, 1.0) == []  # the pair the planner checks: none
     problem = gfcs.problems.Problem(name="elbow/1", robot=enabled.robot, scene=gfcs.Scene(), q0=folded,

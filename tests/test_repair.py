@@ -138,6 +138,10 @@ def _per_part_agrees(checker, scene, qs):
     np.testing.assert_array_equal(pairs.min(axis=1), checker.self_clearance(qs))
     np.testing.assert_array_equal(checker.shape_clearances(scene, qs[0]), shapes[0])
     assert len(checker.self_pair_links) == checker.num_self_pairs
+    # depth=False (contact verdicts): the same distances apart; in contact ≤ 0 and no deeper than the depth
+    flat = checker.pair_clearances(qs, depth=False)
+    np.testing.assert_array_equal(flat[pairs > 0], pairs[pairs > 0])
+    assert np.all((flat[pairs <= 0] <= 0) & (flat[pairs <= 0] >= pairs[pairs <= 0]))
     for cutoff in (0.005, 0.05):
         near_shapes = checker.shape_clearances(scene, qs, cutoff=cutoff)
         near_pairs = checker.pair_clearances(qs, cutoff=cutoff)

@@ -109,7 +109,9 @@ def _link_contacts(checker: Any, q: np.ndarray, contact: float, threads: Optiona
                    adjacent_bodies: Sequence[Tuple[str, str]]) -> Dict[Tuple[str, str], np.ndarray]:
     """Link pair (sorted names) -> (T,) bool: its shapes come within ``contact`` m at each configuration of
     q (T, dof); the checker's self pairs (batched) and ``adjacent_bodies`` (one configuration at a time)."""
-    d = np.atleast_2d(checker.pair_clearances(q, threads=threads, cutoff=contact))
+    # verdicts only: two meshes in contact read 0, without parry's penetration depth (which costs most of
+    # the matrix's time on links that overlap at their joint)
+    d = np.atleast_2d(checker.pair_clearances(q, threads=threads, cutoff=contact, depth=False))
     out: Dict[Tuple[str, str], np.ndarray] = {}
     for k, (a, b) in enumerate(checker.self_pair_links):
         key = (a, b) if a <= b else (b, a)
@@ -119,7 +121,7 @@ def _link_contacts(checker: Any, q: np.ndarray, contact: float, threads: Optiona
         for key in adjacent_bodies:
             out.setdefault(key, np.zeros(len(q), dtype=bool))
         for t, row in enumerate(q):
-            for a, b, _ in checker.adjacent_contacts(row, within=contact):
+            for a, b, _ in checker.adjacent_contacts(row, within=contact, depth=False):
                 key = (a, b) if a <= b else (b, a)
                 if key in out:
                     out[key][t] = True

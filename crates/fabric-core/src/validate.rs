@@ -666,16 +666,17 @@ impl MeshChecker {
     }
 
     /// Distance of each self-collision pair ([`MeshChecker::self_pairs`]) at q into `out` (P,), exact up to
-    /// `max` (m) and +∞ beyond (pairs whose box gap or hull distance exceeds it are not measured); a pair
-    /// in contact reads parry's (negative) penetration depth.
+    /// `max` (m) and +∞ beyond (pairs whose box gap or hull distance exceeds it are not measured); two
+    /// meshes in contact read parry's (negative) penetration depth with `depth`, 0 without (a contact
+    /// verdict needs no depth, and the depth of two overlapping meshes costs far more than the contact).
     fn pair_distances_within(
         &self,
         q: &[f64],
-        max: f64,
+        (max, depth): (f64, bool),
         ws: &mut MeshWorkspace,
         out: &mut [f64],
     ) -> Result<()> {
-        self.distances_of_pairs_within(&self.self_pairs, q, max, ws, out)
+        self.distances_of_pairs_within(&self.self_pairs, q, (max, depth), ws, out)
     }
 
     /// [`MeshChecker::pair_distances_within`] for the shape pairs `pairs`.
@@ -683,7 +684,7 @@ impl MeshChecker {
         &self,
         pairs: &[(usize, usize)],
         q: &[f64],
-        max: f64,
+        (max, depth): (f64, bool),
         ws: &mut MeshWorkspace,
         out: &mut [f64],
     ) -> Result<()> {
@@ -701,7 +702,7 @@ impl MeshChecker {
                     continue;
                 }
             }
-            let d = self.pair_exact((i, j), &ws.poses, &mut ws.stack, (max, true))?;
+            let d = self.pair_exact((i, j), &ws.poses, &mut ws.stack, (max, depth))?;
             if d <= max {
                 out[k] = d;
             }
@@ -754,8 +755,9 @@ impl MeshChecker {
     }
 
     /// The distance of every self-collision pair ([`MeshChecker::self_pairs`]) at every state of `qs`:
-    /// T × P row-major (m), exact below min(`cutoff`, max distance), +∞ beyond, negative penetration
-    /// depths in contact; the minimum of a row is [`MeshChecker::self_clearance`] (where below the cutoff).
+    /// T × P row-major (m), exact below min(`cutoff`, max distance), +∞ beyond; in contact, negative
+    /// penetration depths with `depth`, and 0 for two meshes without (contact verdicts, e.g. a collision
+    /// matrix); the minimum of a row is [`MeshChecker::self_clearance`] (where below the cutoff).
     ///
     /// Errors: as [`MeshChecker::trajectory_self_clearance`].
     pub fn trajectory_pair_clearances(
@@ -763,10 +765,11 @@ impl MeshChecker {
         qs: &[f64],
         threads: Option<usize>,
         cutoff: f64,
+        depth: bool,
     ) -> Result<Vec<f64>> {
         let max = self.max_distance.min(cutoff);
         self.per_state_rows(qs, threads, self.self_pairs.len(), |ws, q, out| {
-            self.pair_distances_within(q, max, ws, out)
+            self.pair_distances_within(q, (max, depth), ws, out)
         })
     }
 
@@ -937,14 +940,19 @@ impl MeshChecker {
     }
 
     /// The self-collision shape pairs ([`MeshChecker::self_pairs`]) nearer than `within` (m, ≥ 0) at q
-    /// (dof,): (shape i, shape j, distance m), nearest first; a pair in contact has distance ≤ 0 (parry's
-    /// penetration depth where the shapes overlap). For reports that name the links in contact, e.g. a
-    /// start state MoveIt would refuse.
+    /// (dof,): (shape i, shape j, distance m), nearest first; a pair in contact has distance ≤ 0 (with
+    /// `depth`, parry's penetration depth where the shapes overlap; without, 0 for two meshes). For reports
+    /// that name the links in contact, e.g. a start state MoveIt would refuse.
     ///
     /// Errors: `Shape`, `NonFinite` (q), `Value` for a negative or non-finite `within`, or when parry
     /// cannot measure a pair.
-    pub fn self_contacts(&self, q: &[f64], within: f64) -> Result<Vec<(usize, usize, f64)>> {
-        self.contacts_among(&self.self_pairs, q, within)
+    pub fn self_contacts(
+        &self,
+        q: &[f64],
+        within: f64,
+        depth: bool,
+    ) -> Result<Vec<(usize, usize, f64)>> {
+        self.contacts_among(&self.self_pairs, q, (within, depth))
     }
 
     /// The shape pairs that locked joints hold still relative to each other (links on one rigid body of
@@ -953,8 +961,13 @@ impl MeshChecker {
     /// a pair in contact puts every state of every motion in collision, as MoveIt checks it.
     ///
     /// Errors: as [`MeshChecker::self_contacts`].
-    pub fn held_contacts(&self, q: &[f64], within: f64) -> Result<Vec<(usize, usize, f64)>> {
-        self.contacts_among(&self.held_pairs, q, within)
+    pub fn held_contacts(
+        &self,
+        q: &[f64],
+        within: f64,
+        depth: bool,
+    ) -> Result<Vec<(usize, usize, f64)>> {
+        self.contacts_among(&self.held_pairs, q, (within, depth))
     }
 
     /// The shape pairs on adjacent rigid bodies (one movable joint between them) that a loaded SRDF leaves
@@ -962,8 +975,13 @@ impl MeshChecker {
     /// [`MeshChecker::self_contacts`]: the planner does not measure them, MoveIt does.
     ///
     /// Errors: as [`MeshChecker::self_contacts`].
-    pub fn adjacent_contacts(&self, q: &[f64], within: f64) -> Result<Vec<(usize, usize, f64)>> {
-        self.contacts_among(&self.adjacent_pairs, q, within)
+    pub fn adjacent_contacts(
+        &self,
+        q: &[f64],
+        within: f64,
+        depth: bool,
+    ) -> Result<Vec<(usize, usize, f64)>> {
+        self.contacts_among(&self.adjacent_pairs, q, (within, depth))
     }
 
     /// The pairs of `pairs` nearer than `within` at q, nearest first.
@@ -971,7 +989,7 @@ impl MeshChecker {
         &self,
         pairs: &[(usize, usize)],
         q: &[f64],
-        within: f64,
+        (within, depth): (f64, bool),
     ) -> Result<Vec<(usize, usize, f64)>> {
         if !(within.is_finite() && within >= 0.0) {
             return Err(FabricError::Value {
@@ -980,7 +998,13 @@ impl MeshChecker {
             });
         }
         let mut distances = vec![f64::INFINITY; pairs.len()];
-        self.distances_of_pairs_within(pairs, q, within, &mut self.workspace(), &mut distances)?;
+        self.distances_of_pairs_within(
+            pairs,
+            q,
+            (within, depth),
+            &mut self.workspace(),
+            &mut distances,
+        )?;
         let mut out: Vec<(usize, usize, f64)> = pairs
             .iter()
             .zip(distances)

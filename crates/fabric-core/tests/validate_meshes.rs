@@ -502,9 +502,20 @@ fn self_clearance_closed_form() {
     let along = checker.trajectory_self_clearance(&qs, Some(2)).unwrap();
     // the one pair's row is the self-clearance, penetration depths included
     let pairs = checker
-        .trajectory_pair_clearances(&qs, Some(2), f64::INFINITY)
+        .trajectory_pair_clearances(&qs, Some(2), f64::INFINITY, true)
         .unwrap();
     assert_eq!(pairs, along);
+    // without depths: the same distances apart, and contact (≤ 0, not deeper than the depth) where they touch
+    let flat = checker
+        .trajectory_pair_clearances(&qs, Some(2), f64::INFINITY, false)
+        .unwrap();
+    for (f, d) in flat.iter().zip(&along) {
+        if *d > 0.0 {
+            assert_eq!(f, d);
+        } else {
+            assert!(*f <= 0.0 && f >= d, "{f} vs depth {d}");
+        }
+    }
     for (k, d) in along.iter().enumerate() {
         assert_eq!(*d, checker.self_clearance(&qs[2 * k..2 * k + 2]).unwrap());
     }
@@ -514,7 +525,7 @@ fn self_clearance_closed_form() {
         let t2 = -3.1 + 6.2 * k as f64 / 32.0;
         let d = checker.self_clearance(&[0.0, t2]).unwrap();
         for within in [0.0, 0.05, 0.2] {
-            let contacts = checker.self_contacts(&[0.0, t2], within).unwrap();
+            let contacts = checker.self_contacts(&[0.0, t2], within, true).unwrap();
             if d <= within {
                 assert_eq!(contacts.len(), 1, "θ2={t2}, within {within}");
                 let (i, j, got) = contacts[0];
@@ -529,7 +540,10 @@ fn self_clearance_closed_form() {
         }
     }
     for bad in [-0.001, f64::NAN, f64::INFINITY] {
-        assert!(checker.self_contacts(&[0.0, 0.0], bad).is_err(), "{bad}");
+        assert!(
+            checker.self_contacts(&[0.0, 0.0], bad, true).is_err(),
+            "{bad}"
+        );
     }
 }
 
@@ -586,13 +600,13 @@ fn held_contacts_are_the_locked_links_that_touch_whatever_the_motion() {
         1,
         "a and b only: c is disabled against both"
     );
-    assert!(apart.held_contacts(&[0.0], 0.0).unwrap().is_empty());
-    let near = apart.held_contacts(&[0.7], 0.2).unwrap();
+    assert!(apart.held_contacts(&[0.0], 0.0, true).unwrap().is_empty());
+    let near = apart.held_contacts(&[0.7], 0.2, true).unwrap();
     assert_eq!(near.len(), 1);
     assert!((near[0].2 - 0.1).abs() < TOL, "{near:?}");
     // MoveIt checks adjacent links the SRDF leaves enabled: `c` overlaps `a`, whatever the slider does
     let adjacent = MeshChecker::new(&held_arms(0.0, 0.0, None)).unwrap();
-    let c = adjacent.held_contacts(&[0.3], 0.0).unwrap();
+    let c = adjacent.held_contacts(&[0.3], 0.0, true).unwrap();
     let names = adjacent.robot().link_names();
     let pair = |k: usize| {
         let (i, j, _) = c[k];
@@ -606,7 +620,7 @@ fn held_contacts_are_the_locked_links_that_touch_whatever_the_motion() {
     // a turned towards b by 0.3 rad: its cube crosses the gap (the slider changes nothing)
     let touching = MeshChecker::new(&held_arms(-0.3, 0.0, Some(srdf_c))).unwrap();
     for s in [-1.0, 0.0, 1.0] {
-        let c = touching.held_contacts(&[s], 0.0).unwrap();
+        let c = touching.held_contacts(&[s], 0.0, true).unwrap();
         assert_eq!(c.len(), 1, "at s = {s}");
         assert!(c[0].2 <= 0.0);
         let names = touching.robot().link_names();
@@ -624,7 +638,10 @@ fn held_contacts_are_the_locked_links_that_touch_whatever_the_motion() {
       <disable_collisions link1="a" link2="c" reason="Adjacent"/>
       <disable_collisions link1="b" link2="c" reason="Never"/></robot>"#;
     let disabled = MeshChecker::new(&held_arms(-0.3, 0.0, Some(srdf))).unwrap();
-    assert!(disabled.held_contacts(&[0.0], 0.0).unwrap().is_empty());
+    assert!(disabled
+        .held_contacts(&[0.0], 0.0, true)
+        .unwrap()
+        .is_empty());
     // the two locked arms are one rigid body with the base: the fabric and the trajectory checks never
     // see the pair, so the endpoints' check is the only one that can
     let robot = held_arms(-0.3, 0.0, None);

@@ -112,12 +112,12 @@ impl PyMeshChecker {
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
-        within: f64,
+        (within, depth): (f64, bool),
         contacts: ContactQuery,
     ) -> PyResult<Vec<(String, String, f64)>> {
         let checker = &self.inner;
         let q = convert::vector(q, "q", checker.robot().dof())?;
-        let found = guarded(py, || contacts(checker, &q, within))?;
+        let found = guarded(py, || contacts(checker, &q, within, depth))?;
         Ok(found
             .into_iter()
             .map(|(i, j, d)| {
@@ -130,7 +130,8 @@ impl PyMeshChecker {
 
 /// A contact query of the checker (`MeshChecker::self_contacts`, `held_contacts`, `adjacent_contacts`):
 /// (shape i, shape j, m).
-type ContactQuery = fn(&MeshChecker, &[f64], f64) -> fabric_core::Result<Vec<(usize, usize, f64)>>;
+type ContactQuery =
+    fn(&MeshChecker, &[f64], f64, bool) -> fabric_core::Result<Vec<(usize, usize, f64)>>;
 
 #[pymethods]
 impl PyMeshChecker {
@@ -259,20 +260,22 @@ impl PyMeshChecker {
     }
 
     /// Distance (m) of each checked self-collision shape pair (`self_pair_links` order): (P,) for q
-    /// (dof,), (T, P) for q (T, dof); exact below `cutoff`, `inf` beyond, negative penetration depth in
-    /// contact; the minimum over the pairs is `self_clearance`. Parallel, GIL released.
-    #[pyo3(signature = (q, threads=None, cutoff=None))]
+    /// (dof,), (T, P) for q (T, dof); exact below `cutoff`, `inf` beyond; in contact, the negative
+    /// penetration depth, or with `depth=False` 0 for two meshes (a contact verdict without the costly
+    /// depth); the minimum over the pairs is `self_clearance`. Parallel, GIL released.
+    #[pyo3(signature = (q, threads=None, cutoff=None, depth=true))]
     fn pair_clearances<'py>(
         &self,
         py: Python<'py>,
         q: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
         cutoff: Option<f64>,
+        depth: bool,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let a = self.query(q, threads, cutoff)?;
         let checker = &self.inner;
         let values = detached(py, || {
-            checker.trajectory_pair_clearances(&a.qs, a.threads, a.cutoff)
+            checker.trajectory_pair_clearances(&a.qs, a.threads, a.cutoff, depth)
         })?;
         rows_output(py, values, a.batch, checker.self_pairs().len())
     }
@@ -288,15 +291,17 @@ impl PyMeshChecker {
     }
 
     /// The checked self-collision shape pairs nearer than `within` m (≥ 0) at q (dof,): a list of
-    /// (link a, link b, distance m), nearest first; ≤ 0 in contact (negative: penetration depth).
-    #[pyo3(signature = (q, within=0.0))]
+    /// (link a, link b, distance m), nearest first; ≤ 0 in contact (negative: penetration depth; with
+    /// `depth=False`, 0 for two meshes in contact, without the costly depth).
+    #[pyo3(signature = (q, within=0.0, depth=true))]
     fn self_contacts(
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
         within: f64,
+        depth: bool,
     ) -> PyResult<Vec<(String, String, f64)>> {
-        self.named_contacts(py, q, within, MeshChecker::self_contacts)
+        self.named_contacts(py, q, (within, depth), MeshChecker::self_contacts)
     }
 
     /// The link pairs that joints outside the robot's active joints (locked at their held values) hold
@@ -304,28 +309,30 @@ impl PyMeshChecker {
     /// distance m), nearest first, as `self_contacts`. These pairs are on one rigid body of this robot, so
     /// the fabric and the trajectory checks never measure them; MoveIt checks them like any other, and a
     /// pair in contact puts every state of every motion in collision.
-    #[pyo3(signature = (q, within=0.0))]
+    #[pyo3(signature = (q, within=0.0, depth=true))]
     fn held_contacts(
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
         within: f64,
+        depth: bool,
     ) -> PyResult<Vec<(String, String, f64)>> {
-        self.named_contacts(py, q, within, MeshChecker::held_contacts)
+        self.named_contacts(py, q, (within, depth), MeshChecker::held_contacts)
     }
 
     /// The link pairs on adjacent rigid bodies (one movable joint between them) that the robot's SRDF
     /// leaves enabled, nearer than `within` m (≥ 0) at q (dof,): a list of (link a, link b, distance m),
     /// nearest first, as `self_contacts`. The planner never measures adjacent links; MoveIt checks every
     /// pair its SRDF leaves enabled (MoveIt Setup Assistant disables adjacent ones). Empty without an SRDF.
-    #[pyo3(signature = (q, within=0.0))]
+    #[pyo3(signature = (q, within=0.0, depth=true))]
     fn adjacent_contacts(
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
         within: f64,
+        depth: bool,
     ) -> PyResult<Vec<(String, String, f64)>> {
-        self.named_contacts(py, q, within, MeshChecker::adjacent_contacts)
+        self.named_contacts(py, q, (within, depth), MeshChecker::adjacent_contacts)
     }
 
     /// min over the states of q (T, dof) (or one state (dof,)) of `clearance`, m: the same value as
