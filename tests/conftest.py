@@ -49,6 +49,13 @@ def require_shared(*parts: str) -> Path:
     return path
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _private_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Tests write gfcs's disk cache (:mod:`gfcs.cache`) into a temporary directory of their own, never the
+    user's, unless GFCS_CACHE_DIR is set."""
+    os.environ.setdefault("GFCS_CACHE_DIR", str(tmp_path_factory.mktemp("gfcs_cache")))
+
+
 @pytest.fixture(scope="session")
 def shared_dir() -> Path:
     """The shared data directory (skip/fail rule of :func:`require_shared`)."""

@@ -336,14 +336,16 @@ def _robot(args: argparse.Namespace) -> Any:
 
         started = time.perf_counter()
         left_out: List[Tuple[str, str]] = []
-        fitted = with_fitted_spheres(robot, left_out=left_out)
+        cached: List[str] = []
+        fitted = with_fitted_spheres(robot, left_out=left_out, cached=cached)
+        how = f"read from the cache {cached[0]} in" if cached else "in"
         pairs = f"; {len(left_out)} link pair(s) whose spheres always overlap are not self-checked " \
                 f"({', '.join('/'.join(p) for p in left_out[:3])}{', ...' if len(left_out) > 3 else ''})" \
             if left_out else ""
         print(f"gfcs: {args.robot} has no collision spheres on {len(bare)} link(s) with collision geometry; the "
               f"fabric uses {len(fitted.sphere_radii) - len(robot.sphere_radii)} spheres fitted to their "
-              f"geometry in {time.perf_counter() - started:.1f} s{pairs} (gfcs.sphere_fit; --spheres FILE for "
-              "your own, tools/fit_spheres.py fits tighter ones)", file=sys.stderr)
+              f"geometry {how} {time.perf_counter() - started:.1f} s{pairs} (gfcs.sphere_fit; --spheres FILE for your own, "
+              "tools/fit_spheres.py fits tighter ones; GFCS_CACHE_DIR=off refits)", file=sys.stderr)
         robot = fitted
     return with_gap_spheres(robot)  # MotionBenchMaker's panda_spherized.urdf gets --robot mbm's spheres
 

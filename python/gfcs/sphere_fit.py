@@ -150,21 +150,48 @@ def fit_link_spheres(points: Any, max_per_link: int = 8, margin: float = 0.001, 
 
 
 def fitted_spheres(robot: Any, links: Optional[Sequence[str]] = None, max_per_link: int = 8,
-                   margin: float = 0.001) -> List[Tuple[str, List[float], float]]:
+                   margin: float = 0.001, cached: Optional[List[str]] = None) -> List[Tuple[str, List[float], float]]:
     """Spheres fitted to the collision geometry of ``robot``'s ``links`` (default: every link with geometry),
     as ``Robot.with_spheres`` takes them: (link, centre in the link frame [m], radius [m]), link by link in
-    ``robot.link_names`` order. Links whose meshes are missing get none."""
+    ``robot.link_names`` order. Links whose meshes are missing get none.
+
+    The result is kept in the disk cache (:mod:`gfcs.cache`) under the digest of the collision elements, the
+    bytes of their mesh files, ``links``, the parameters and the source of this module and
+    :mod:`gfcs.coverage`: a robot is fitted once per machine. ``cached``, when given, receives the path of
+    the cache entry the result was read from."""
+    from gfcs import cache as _cache
     from gfcs.coverage import _key, _link_points
 
-    points: Dict[str, np.ndarray] = _link_points(tuple(_key(e) for e in robot.collision_geometry()))
+    geometry = tuple(_key(e) for e in robot.collision_geometry())
     wanted = None if links is None else set(links)
+    key = _fit_key(geometry, wanted, int(max_per_link), float(margin))
+    hit = _cache.load("spheres", key)
+    if isinstance(hit, list):
+        if cached is not None:
+            cached.append(str(_cache.directory() / "spheres" / f"{key}.json"))
+        return [(str(link), [float(x) for x in c], float(r)) for link, c, r in hit]
+    points: Dict[str, np.ndarray] = _link_points(geometry)
     out: List[Tuple[str, List[float], float]] = []
     for link in robot.link_names:
         if link not in points or (wanted is not None and link not in wanted):
             continue
         for c, r in fit_link_spheres(points[link], max_per_link, margin):
             out.append((str(link), [float(x) for x in c], math.ceil(r * 1e6) / 1e6))
+    _cache.store("spheres", key, out)
     return out
+
+
+def _fit_key(geometry: Tuple[Tuple[Any, ...], ...], wanted: Optional[set], max_per_link: int,
+             margin: float) -> str:
+    """The cache key of a fit (:func:`fitted_spheres`): what the spheres depend on, mesh bytes and code
+    included."""
+    from gfcs import cache as _cache
+    from gfcs import coverage
+
+    meshes = sorted({path for _, _, path, _, _, _ in geometry if path})
+    return _cache.digest("fitted_spheres", geometry, None if wanted is None else sorted(wanted), max_per_link,
+                         margin, FIT_POINTS, [(m, _cache.file_digest(m)) for m in meshes],
+                         _cache.file_digest(__file__), _cache.file_digest(coverage.__file__))
 
 
 def always_touching(robot: Any, links: Sequence[str], samples: int = 256, share: float = 0.95,
@@ -194,19 +221,20 @@ def always_touching(robot: Any, links: Sequence[str], samples: int = 256, share:
 
 
 def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001,
-                        left_out: Optional[List[Tuple[str, str]]] = None) -> Any:
+                        left_out: Optional[List[Tuple[str, str]]] = None, cached: Optional[List[str]] = None) -> Any:
     """``robot`` with spheres fitted (:func:`fitted_spheres`) on each link whose collision geometry carries
     no collision sphere (:func:`gfcs.problems.links_without_spheres`), its own spheres kept, and the link
     pairs whose fitted spheres always overlap (:func:`always_touching`) left out of its self-collision
     checks, as MoveIt Setup Assistant leaves them out of an SRDF; ``robot`` itself when every link with
     geometry has spheres. The SRDF's disabled pairs still apply to the new spheres. ``left_out``, when
-    given, receives the (link, link) pairs left out."""
+    given, receives the (link, link) pairs left out; ``cached`` the cache entry the spheres were read from, when
+    they were (:func:`fitted_spheres`)."""
     from gfcs.problems import _robot_spheres, links_without_spheres
 
     bare = links_without_spheres(robot)
     if not bare:
         return robot
-    fitted = robot.with_spheres(_robot_spheres(robot) + fitted_spheres(robot, bare, max_per_link, margin))
+    fitted = robot.with_spheres(_robot_spheres(robot) + fitted_spheres(robot, bare, max_per_link, margin, cached))
     touching = always_touching(fitted, bare)
     if left_out is not None:
         left_out.extend(touching)
