@@ -204,20 +204,26 @@ def always_touching(robot: Any, links: Sequence[str], samples: int = 256, share:
     pairs = np.asarray(robot.self_collision_pairs, dtype=np.int64).reshape(-1, 2)
     if pairs.shape[0] == 0:
         return []
-    names = np.asarray(robot.sphere_links)
-    fitted = set(links)
+    # each sphere pair as its link pair (indices into the sorted link names: lo < hi), those touching a
+    # fitted link only
+    names, link = np.unique(np.asarray(robot.sphere_links, dtype=str), return_inverse=True)
+    lo, hi = np.minimum(link[pairs[:, 0]], link[pairs[:, 1]]), np.maximum(link[pairs[:, 0]], link[pairs[:, 1]])
+    fitted = np.isin(names, list(links))
+    keep = np.flatnonzero(fitted[lo] | fitted[hi])
+    if keep.size == 0:
+        return []
     rng = np.random.default_rng(seed)
     q = rng.uniform(np.asarray(robot.lower), np.asarray(robot.upper), (int(samples), int(robot.dof)))
     centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(q.shape[0], -1, 3)
     radii = np.asarray(robot.sphere_radii, dtype=np.float64)
-    gap = (np.linalg.norm(centres[:, pairs[:, 0]] - centres[:, pairs[:, 1]], axis=2)
-           - radii[pairs[:, 0]] - radii[pairs[:, 1]])  # (samples, pairs)
-    touching: Dict[Tuple[str, str], np.ndarray] = {}
-    for k, (a, b) in enumerate(pairs):
-        key = tuple(sorted((str(names[a]), str(names[b]))))
-        if fitted.intersection(key):
-            touching[key] = touching.get(key, np.zeros(q.shape[0], dtype=bool)) | (gap[:, k] < 0)
-    return sorted(key for key, hit in touching.items() if hit.mean() >= share)
+    a, b = pairs[keep, 0], pairs[keep, 1]
+    hit = np.linalg.norm(centres[:, a] - centres[:, b], axis=2) - radii[a] - radii[b] < 0  # (samples, kept)
+    # a link pair touches in a sample when any of its sphere pairs does
+    code = lo[keep] * len(names) + hi[keep]
+    order = np.argsort(code, kind="stable")
+    groups, starts = np.unique(code[order], return_index=True)
+    touching = np.logical_or.reduceat(hit[:, order], starts, axis=1).mean(axis=0) >= share
+    return [(str(names[g // len(names)]), str(names[g % len(names)])) for g in groups[touching]]
 
 
 def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001,
