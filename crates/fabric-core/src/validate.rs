@@ -411,45 +411,63 @@ impl MeshChecker {
                     .to_string(),
             });
         }
-        // (file, scale bits) -> (mesh, hull): elements sharing both share the shapes.
+        // (file, scale bits) -> (mesh, hull, tree): elements sharing both share the shapes. The distinct
+        // meshes load in parallel (each independent of the others); the error reported is the first missing
+        // file in element order, else the first mesh that fails to load.
         type Loaded = (SharedShape, Option<SharedShape>, Option<Arc<MeshTree>>);
-        let mut cache: HashMap<(PathBuf, [u64; 3]), Loaded> = HashMap::new();
+        type MeshKey = (PathBuf, [u64; 3]);
+        let mut wanted: Vec<(MeshKey, &Vector3<f64>, String)> = Vec::new();
+        for g in geometry {
+            if let GeometryKind::Mesh {
+                path,
+                scale,
+                exists,
+            } = &g.kind
+            {
+                let link_name = robot
+                    .link_names()
+                    .get(g.link)
+                    .cloned()
+                    .unwrap_or_else(|| format!("#{}", g.link));
+                if !exists {
+                    return Err(mesh_error(
+                        &path.display().to_string(),
+                        &link_name,
+                        "file not found (mesh paths resolve against the robot's mesh_dir)",
+                    ));
+                }
+                let key = (
+                    path.clone(),
+                    [scale.x.to_bits(), scale.y.to_bits(), scale.z.to_bits()],
+                );
+                if !wanted.iter().any(|(k, _, _)| *k == key) {
+                    wanted.push((key, scale, link_name));
+                }
+            }
+        }
+        let loads: Vec<Result<Loaded>> = wanted
+            .par_iter()
+            .map(|((path, _), scale, link_name)| {
+                let mesh = load_scaled_mesh(path, scale, link_name)?;
+                let hull = mesh_hull(&mesh);
+                let tree = MeshTree::new(&mesh).map(Arc::new);
+                Ok((SharedShape::new(mesh), hull, tree))
+            })
+            .collect();
+        let mut cache: HashMap<MeshKey, Loaded> = HashMap::with_capacity(wanted.len());
+        for ((key, _, _), loaded) in wanted.into_iter().zip(loads) {
+            cache.insert(key, loaded?);
+        }
         let mut shapes = Vec::with_capacity(geometry.len());
         for g in geometry {
-            let link_name = robot
-                .link_names()
-                .get(g.link)
-                .cloned()
-                .unwrap_or_else(|| format!("#{}", g.link));
             let mut origin = g.origin;
             let (shape, hull, tree, label) = match &g.kind {
-                GeometryKind::Mesh {
-                    path,
-                    scale,
-                    exists,
-                } => {
-                    if !exists {
-                        return Err(mesh_error(
-                            &path.display().to_string(),
-                            &link_name,
-                            "file not found (mesh paths resolve against the robot's mesh_dir)",
-                        ));
-                    }
+                GeometryKind::Mesh { path, scale, .. } => {
                     let key = (
                         path.clone(),
                         [scale.x.to_bits(), scale.y.to_bits(), scale.z.to_bits()],
                     );
-                    let (shape, hull, tree) = match cache.get(&key) {
-                        Some(loaded) => loaded.clone(),
-                        None => {
-                            let mesh = load_scaled_mesh(path, scale, &link_name)?;
-                            let hull = mesh_hull(&mesh);
-                            let tree = MeshTree::new(&mesh).map(Arc::new);
-                            let loaded = (SharedShape::new(mesh), hull, tree);
-                            cache.insert(key, loaded.clone());
-                            loaded
-                        }
-                    };
+                    let (shape, hull, tree) = cache[&key].clone();
                     (shape, hull, tree, format!("mesh {}", path.display()))
                 }
                 GeometryKind::Box { size } => (box_shape(size), None, None, "box".to_string()),
