@@ -81,6 +81,16 @@ def tiago_srdf(text: str) -> str:
     return with_groups(text, f'<group name="arm_torso">{joints}</group>')
 
 
+def tiago_pro_srdf(text: str) -> str:
+    """An SRDF for TIAGo Pro (the package has none) with groups of its MoveIt configuration's kind: each arm,
+    both arms, and both arms with the lift (prismatic, 0.035 m/s)."""
+    def arm(side: str) -> List[str]:
+        return [f"arm_{side}_{i}_joint" for i in range(1, 8)]
+
+    return with_groups(text, arm_groups(arm("left"), arm("right")) +
+                       '<group name="both_arms_torso"><joint name="torso_lift_joint"/><group name="both_arms"/></group>')
+
+
 def romeo_srdf(text: str) -> str:
     """The package's MoveIt SRDF of Romeo (Setup Assistant's collision matrix) with arm groups added: its only
     group, ``all``, moves the legs, the head and the hands too; a manipulation configuration has ``left_arm``,
@@ -109,6 +119,8 @@ CASES = (
          "left_wrist", flags=("--group", "both_arms"), rewrite=baxter_srdf),
     Case("TIAGo, lift and arm (8; head and hand held)", "tiago_description/robots/tiago.urdf", "", "arm_tool_link",
          matrix=True, flags=("--group", "arm_torso"), rewrite=tiago_srdf),
+    Case("TIAGo Pro, both arms and lift (15; head and grippers held)", "tiago_pro_description/robots/tiago_pro.urdf",
+         "", "arm_left_tool_link", matrix=True, flags=("--group", "both_arms_torso"), rewrite=tiago_pro_srdf),
     Case("Romeo, left arm (7; legs, head and hands held)", "romeo_description/urdf/romeo.urdf",
          "romeo_description/srdf/romeo_moveit.srdf", "l_wrist", flags=("--group", "left_arm"), rewrite=romeo_srdf),
     Case("Romeo, both arms (14)", "romeo_description/urdf/romeo.urdf", "romeo_description/srdf/romeo_moveit.srdf",
@@ -206,9 +218,10 @@ def fragment(rows: List[Dict[str, object]], n: int) -> str:
         "The UR3's SRDF has no group: its requests plan the robot's joints. The legged robots' arm groups hold "
         "the legs at 0. The Baxter's SRDF prefixes its joints with `baxter/`, which its URDF does not, and has "
         "no arm group: it is used with the prefix removed and MoveIt's `both_arms` group added. Romeo's MoveIt SRDF "
-        "has only a whole-body group: its arm groups are added, the rest held at 0. The SO-100 and TIAGo have no "
-        "SRDF: `gfcs collision-matrix` writes one (MoveIt Setup Assistant's matrix, 10,000 samples), TIAGo's with "
-        "the `arm_torso` group of its MoveIt configuration; the SO-100's requests plan all six joints.".format(n=n),
+        "has only a whole-body group: its arm groups are added, the rest held at 0. The SO-100, TIAGo and TIAGo Pro "
+        "have no SRDF: `gfcs collision-matrix` writes one (MoveIt Setup Assistant's matrix, 10,000 samples), "
+        "TIAGo's with the `arm_torso` group of its MoveIt configuration, TIAGo Pro's with a group of both arms and "
+        "the lift (`both_arms_torso`, 15 joints); the SO-100's requests plan all six joints.".format(n=n),
         "",
         "| robot (joints) | problems (classes) | solved | claims valid | median whole solve (s) "
         "| max speed/limit | min mesh clearance (mm) |",

@@ -249,3 +249,28 @@ def test_unseen_robots_adds_romeos_arm_groups():
     assert groups["left_arm"][0] == "LShoulderPitch" and groups["right_arm"][-1] == "RWristPitch"
     assert len(groups["left_arm"]) == 7 and groups["both_arms"] == groups["left_arm"] + groups["right_arm"]
     assert groups["all"] == ["waist"]
+
+
+def test_unseen_robots_tiago_pro_groups_resolve_to_both_arms_and_the_lift():
+    """The TIAGo Pro SRDF's both_arms_torso group, resolved as MoveIt does (subgroups), is the lift then the
+    fourteen arm joints, on a stand-in URDF with the TIAGo Pro's joint names."""
+    unseen = load_script("benches/unseen_robots.py")
+    from gfcs.srdf_groups import resolve_group
+
+    def chain(side):
+        parent, out = "torso", ""
+        for i in range(1, 8):
+            out += (f'<link name="{side}{i}"/><joint name="arm_{side}_{i}_joint" type="revolute"><parent '
+                    f'link="{parent}"/><child link="{side}{i}"/><axis xyz="0 0 1"/>'
+                    '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint>')
+            parent = f"{side}{i}"
+        return out
+
+    urdf = ('<robot name="tiago_pro"><link name="base"/><link name="torso"/><joint name="torso_lift_joint" '
+            'type="prismatic"><parent link="base"/><child link="torso"/><axis xyz="0 0 1"/>'
+            f'<limit lower="0" upper="0.35" velocity="0.035" effort="1"/></joint>{chain("left")}{chain("right")}'
+            '</robot>')
+    srdf = unseen.tiago_pro_srdf('<robot name="tiago_pro"></robot>')
+    joints = list(resolve_group(urdf, srdf, "both_arms_torso").joints)
+    assert joints[0] == "torso_lift_joint" and len(joints) == 15
+    assert set(joints[1:]) == {f"arm_{s}_{i}_joint" for s in ("left", "right") for i in range(1, 8)}
