@@ -242,31 +242,38 @@ def read_srdf_groups(srdf: PathOrXml) -> Dict[str, SrdfGroup]:
 
 def read_group_states(srdf: PathOrXml) -> List[Tuple[str, str, Dict[str, float]]]:
     """The ``<group_state>`` elements of an SRDF (path or XML text): (group, state name, {joint: value (rad or
-    m)}) in document order (MoveIt's named states, e.g. a group's ``ready`` or ``home``).
+    m)}) in document order (MoveIt's named states, e.g. a group's ``ready`` or ``home``). A state without a
+    name or a group, or with a joint value that is not one finite number, is skipped, as MoveIt skips it, with
+    one :class:`gfcs.GfcsWarning` naming the file and the states (SRDFs written for other tools have states
+    without a group).
 
     Raises:
-        gfcs.IoError / gfcs.FormatError: as :func:`read_urdf_tree`; also a state or joint without its name,
-            or a joint value that is not one finite number (the message names the file, state and joint).
+        gfcs.IoError / gfcs.FormatError: as :func:`read_urdf_tree`.
     """
     root_el, source = read_xml(srdf, "SRDF")
     states: List[Tuple[str, str, Dict[str, float]]] = []
+    skipped: List[str] = []
     for el in root_el.findall("group_state"):
         name, group = el.get("name"), el.get("group")
-        if not (name and group):
-            raise FormatError(f"{source}: a <group_state> needs name and group")
         values: Dict[str, float] = {}
+        why = None if name and group else "needs name and group"
         for j in el.findall("joint"):
             joint, text = j.get("name"), j.get("value", "")
-            if not joint:
-                raise FormatError(f"{source}: group_state {name}: a <joint> has no name")
             try:
-                values[joint] = float(text)
+                value = float(text)
             except ValueError:
-                values[joint] = math.nan
-            if not math.isfinite(values[joint]):
-                raise FormatError(f"{source}: group_state {name}: joint {joint}: value {text!r} is not one "
-                                  "finite number (multi-variable joints are not supported)")
-        states.append((group, name, values))
+                value = math.nan
+            if not joint or not math.isfinite(value):
+                why = why or f"joint {joint or '(no name)'}: value {text!r} is not one finite number"
+            else:
+                values[joint] = value
+        if why is None:
+            states.append((str(group), str(name), values))
+        else:
+            skipped.append(f"{name or '(no name)'} ({why})")
+    if skipped:
+        warnings.warn(f"SRDF {source}: {len(skipped)} group_state(s) skipped: {'; '.join(skipped)}", GfcsWarning,
+                      stacklevel=2)
     return states
 
 
