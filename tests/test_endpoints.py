@@ -188,6 +188,9 @@ def test_generate_uses_a_named_state_that_puts_held_links_in_contact_and_says_so
     assert cli.main(args) == 2
     err = capsys.readouterr().err
     assert "named states arms/crossed" in err and "links 'a' and 'b' touch" in err
+    # gfcs solve's built-in problem holds them alike
+    assert cli.main(["solve", "--robot", str(urdf), "--srdf", str(srdf), "--group", "slider"]) == 2
+    assert "named states arms/crossed" in capsys.readouterr().err
     cli.main(args + ["--hold", "ja=0"])
     assert "touch" not in capsys.readouterr().err
 

@@ -400,8 +400,10 @@ def _with_mesh_checker(args: argparse.Namespace, suite: List[Any]) -> List[Any]:
     checker = _mesh_checker(args, suite[0].robot) if suite else None
     if checker is None:
         return suite
-    return [dataclasses.replace(p, mesh_checker=problems.held_as_requested(checker, p.meta.get("start_state", {})))
-            for p in suite]
+    # the checker holds what the problem's robot holds (a generated problem's named states or --hold values),
+    # and what the request's start state says
+    return [dataclasses.replace(p, mesh_checker=problems.held_as_requested(
+        checker, {**p.robot.locked_positions, **p.meta.get("start_state", {})})) for p in suite]
 
 
 def _mesh_checker(args: argparse.Namespace, robot: Any) -> Any:
@@ -592,7 +594,8 @@ def _solve_problem(args: argparse.Namespace) -> Any:
             raise InvalidValueError("--scene and --request go together")
         suite = [problems.load_mbm(args.scene, args.request, robot=robot)]
     else:
-        suite = generators.generate(args.problem_class, 1, seed=args.problem_seed, robot=robot)[:1]
+        suite = generators.generate(args.problem_class, 1, seed=args.problem_seed,
+                                    robot=_held_at_named_states(args, robot))[:1]
     return _with_mesh_checker(args, suite)[0]
 
 
@@ -700,7 +703,9 @@ def bench_suite(args: argparse.Namespace, left_out: Optional[List[Tuple[str, str
     build the same suite from a :class:`gfcs.bench.Suite` of it."""
     from gfcs.bench import load_problems
 
-    return _with_mesh_checker(args, load_problems(args, _robot(args), left_out))
+    robot = _robot(args)
+    return _with_mesh_checker(args, load_problems(args, robot if args.problems else _held_at_named_states(args, robot),
+                                                  left_out))
 
 
 def _planner_times(args: argparse.Namespace) -> List[float]:
@@ -830,6 +835,19 @@ def _named_holds(srdf: Optional[str], robot: Any, given: Dict[str, float]) -> Tu
     return held, used
 
 
+def _held_at_named_states(args: argparse.Namespace, robot: Any, given: Optional[Dict[str, float]] = None) -> Any:
+    """``robot`` holding its joints outside the group at the SRDF's named states (:func:`_named_holds`) and at
+    ``given`` (``--hold``) for a generated problem (a request's start state sets them otherwise); stderr names
+    the states used."""
+    given = given or {}
+    srdf = getattr(args, "srdf", None) if args.robot not in (None, "mbm") else None
+    named, states = _named_holds(srdf, robot, given)
+    if states:
+        print(f"gfcs: held joints at the SRDF's named states {', '.join(states)} (--hold in gfcs generate overrides)",
+              file=sys.stderr)
+    return robot.with_locked_positions({**named, **given}) if named or given else robot
+
+
 def cmd_generate(args: argparse.Namespace) -> int:
     """`gfcs generate`: write generated problems as MotionBenchMaker files."""
     from gfcs import generators, problems
@@ -837,14 +855,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     if not getattr(args, "group", None) and getattr(args, "srdf", None) and args.robot not in (None, "mbm"):
         args.group = _first_group_unless_exact(args)
     robot = _robot(args)  # built once: a mesh robot's spheres are fitted here
-    given = _held_positions(args.hold, robot)
-    named, states = _named_holds(getattr(args, "srdf", None) if args.robot not in (None, "mbm") else None,
-                                 robot, given)
-    if named or given:
-        robot = robot.with_locked_positions({**named, **given})
-    if states:
-        print(f"gfcs: generate: held joints at the SRDF's named states {', '.join(states)} (--hold overrides)",
-              file=sys.stderr)
+    robot = _held_at_named_states(args, robot, _held_positions(args.hold, robot))
     group = _planning_group(args, robot)
     checker = _mesh_checker(args, robot)
     if checker is not None:
