@@ -344,8 +344,8 @@ def _robot(args: argparse.Namespace) -> Any:
             if left_out else ""
         print(f"gfcs: {args.robot} has no collision spheres on {len(bare)} link(s) with collision geometry; the "
               f"fabric uses {len(fitted.sphere_radii) - len(robot.sphere_radii)} spheres fitted to their "
-              f"geometry {how} {time.perf_counter() - started:.1f} s{pairs} (gfcs.sphere_fit; --spheres FILE for your own, "
-              "tools/fit_spheres.py fits tighter ones; GFCS_CACHE_DIR=off refits)", file=sys.stderr)
+              f"geometry {how} {time.perf_counter() - started:.1f} s{pairs} (gfcs.sphere_fit; --spheres FILE for "
+              "your own, tools/fit_spheres.py fits tighter ones; GFCS_CACHE_DIR=off refits)", file=sys.stderr)
         robot = fitted
     return with_gap_spheres(robot)  # MotionBenchMaker's panda_spherized.urdf gets --robot mbm's spheres
 
