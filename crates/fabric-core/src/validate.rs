@@ -433,7 +433,8 @@ impl MeshChecker {
                     return Err(mesh_error(
                         &path.display().to_string(),
                         &link_name,
-                        "file not found (mesh paths resolve against the robot's mesh_dir)",
+                        "file not found (mesh paths resolve against the robot's mesh_dir; a package:// path also in the \
+                         folder of the package.xml naming its package, below mesh_dir or ROS_PACKAGE_PATH)",
                     ));
                 }
                 let key = (
