@@ -103,4 +103,3 @@ def test_the_cli_says_the_spheres_came_from_the_cache(tmp_path, cache_dir, capsy
     assert f"read from the cache {cache_dir}" in err and "GFCS_CACHE_DIR=off" in err
     np.testing.assert_array_equal(again.sphere_radii, first.sphere_radii)
     np.testing.assert_array_equal(again.sphere_centers_local, first.sphere_centers_local)
-
