@@ -463,3 +463,19 @@ def test_joints_the_trajectory_does_not_move_stay_at_the_request_start(slider, t
         verdicts[y] = json.loads(checked.read_text().splitlines()[0])
     assert verdicts[0.5]["valid"] and verdicts[0.5]["self_clearance"] == pytest.approx(0.3, abs=1e-6)
     assert not verdicts[0.0]["valid"] and verdicts[0.0]["self_clearance"] <= 0.0
+
+
+def test_ros_package_finds_a_package_by_its_package_xml_name(tmp_path, monkeypatch):
+    """The validator finds package://pkg/... as ROS does (independently of the core's resolution): the folder of
+    the package.xml naming pkg below the mesh directory or a ROS_PACKAGE_PATH root, hidden folders skipped."""
+    pkg = tmp_path / "ws" / "src" / "arm"
+    pkg.mkdir(parents=True)
+    (pkg / "package.xml").write_text("<package><name> moveit_resources_arm </name></package>")
+    hidden = tmp_path / "ws" / ".git" / "other"
+    hidden.mkdir(parents=True)
+    (hidden / "package.xml").write_text("<package><name>other</name></package>")
+    assert ct.ros_package("moveit_resources_arm", tmp_path / "ws") == pkg
+    assert ct.ros_package("other", tmp_path / "ws") is None
+    assert ct.ros_package("moveit_resources_arm", tmp_path / "nowhere") is None
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ws"))
+    assert ct.ros_package("moveit_resources_arm", tmp_path / "nowhere") == pkg

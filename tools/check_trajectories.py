@@ -62,6 +62,7 @@ import itertools
 import json
 import math
 import multiprocessing
+import os
 import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -352,6 +353,22 @@ def rigid_link_pairs(joints: Iterable[Any]) -> set:
     return {frozenset(pair) for links in bodies.values() for pair in itertools.combinations(sorted(links), 2)}
 
 
+def ros_package(name: str, root: Path, depth: int = 4) -> Optional[Path]:
+    """The folder of the package.xml whose <name> is ``name``, below ``root`` or a ROS_PACKAGE_PATH root (at most
+    ``depth`` folders down, hidden ones skipped), as ROS finds a package whatever its folder is called."""
+    roots = [root] + [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+    for top in roots:
+        for here, dirs, files in os.walk(top, followlinks=True):
+            dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+            if "package.xml" in files:
+                found = ET.parse(os.path.join(here, "package.xml")).getroot().findtext("name")
+                if found is not None and found.strip() == name:
+                    return Path(here)
+            if len(Path(here).relative_to(top).parts) >= depth:
+                dirs[:] = []
+    return None
+
+
 class RobotModel:
     """The URDF read by yourdfpy: joint chain, limits and collision geometry as FCL objects per link."""
 
@@ -393,6 +410,10 @@ class RobotModel:
             path = Path(name) if Path(name).is_absolute() else root / name
             if not path.exists():  # package://<package>/meshes/...: drop the package name
                 path = root / Path(name).relative_to(Path(name).parts[0])
+            if not path.exists() and g.mesh.filename.startswith("package://"):  # the package by its package.xml
+                package = ros_package(Path(name).parts[0], root)
+                if package is not None:
+                    path = package / Path(name).relative_to(Path(name).parts[0])
             mesh = trimesh.load(str(path), force="mesh")
             if g.mesh.scale is not None:
                 mesh.apply_scale(np.broadcast_to(np.asarray(g.mesh.scale, dtype=np.float64), (3,)))
