@@ -26,7 +26,7 @@ pub use sweep::{MotionBounds, Sweep};
 use std::collections::HashMap;
 use std::fmt;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
@@ -411,13 +411,15 @@ impl MeshChecker {
                     .to_string(),
             });
         }
-        // (file, scale bits) -> (mesh, hull, tree): elements sharing both share the shapes. The distinct
-        // meshes load in parallel (each independent of the others); the error reported is the first missing
-        // file in element order, else the first mesh that fails to load.
+        // The distinct meshes by (file, scale bits): elements sharing both share the shapes (mesh, hull,
+        // tree), `mesh_of` holds each element's index into them. They load in parallel (each independent of
+        // the others); the error reported is the first missing file in element order, else the first mesh
+        // that fails to load.
         type Loaded = (SharedShape, Option<SharedShape>, Option<Arc<MeshTree>>);
-        type MeshKey = (PathBuf, [u64; 3]);
-        let mut wanted: Vec<(MeshKey, &Vector3<f64>, String)> = Vec::new();
-        for g in geometry {
+        let mut wanted: Vec<(&Path, &Vector3<f64>, String)> = Vec::new();
+        let mut index: HashMap<(&Path, [u64; 3]), usize> = HashMap::new();
+        let mut mesh_of = vec![usize::MAX; geometry.len()];
+        for (e, g) in geometry.iter().enumerate() {
             if let GeometryKind::Mesh {
                 path,
                 scale,
@@ -438,37 +440,31 @@ impl MeshChecker {
                     ));
                 }
                 let key = (
-                    path.clone(),
+                    path.as_path(),
                     [scale.x.to_bits(), scale.y.to_bits(), scale.z.to_bits()],
                 );
-                if !wanted.iter().any(|(k, _, _)| *k == key) {
-                    wanted.push((key, scale, link_name));
-                }
+                mesh_of[e] = *index.entry(key).or_insert_with(|| {
+                    wanted.push((path.as_path(), scale, link_name));
+                    wanted.len() - 1
+                });
             }
         }
         let loads: Vec<Result<Loaded>> = wanted
             .par_iter()
-            .map(|((path, _), scale, link_name)| {
+            .map(|(path, scale, link_name)| {
                 let mesh = load_scaled_mesh(path, scale, link_name)?;
                 let hull = mesh_hull(&mesh);
                 let tree = MeshTree::new(&mesh).map(Arc::new);
                 Ok((SharedShape::new(mesh), hull, tree))
             })
             .collect();
-        let mut cache: HashMap<MeshKey, Loaded> = HashMap::with_capacity(wanted.len());
-        for ((key, _, _), loaded) in wanted.into_iter().zip(loads) {
-            cache.insert(key, loaded?);
-        }
+        let loaded = loads.into_iter().collect::<Result<Vec<Loaded>>>()?;
         let mut shapes = Vec::with_capacity(geometry.len());
-        for g in geometry {
+        for (e, g) in geometry.iter().enumerate() {
             let mut origin = g.origin;
             let (shape, hull, tree, label) = match &g.kind {
-                GeometryKind::Mesh { path, scale, .. } => {
-                    let key = (
-                        path.clone(),
-                        [scale.x.to_bits(), scale.y.to_bits(), scale.z.to_bits()],
-                    );
-                    let (shape, hull, tree) = cache[&key].clone();
+                GeometryKind::Mesh { path, .. } => {
+                    let (shape, hull, tree) = loaded[mesh_of[e]].clone();
                     (shape, hull, tree, format!("mesh {}", path.display()))
                 }
                 GeometryKind::Box { size } => (box_shape(size), None, None, "box".to_string()),
