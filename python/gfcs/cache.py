@@ -19,7 +19,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Optional
 
-__all__ = ["directory", "digest", "file_digest", "load", "store", "OFF"]
+__all__ = ["directory", "digest", "file_digest", "entry", "load", "store", "OFF"]
 
 #: The value of ``GFCS_CACHE_DIR`` that turns the cache off.
 OFF = "off"
@@ -51,7 +51,8 @@ def digest(*parts: Any) -> str:
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 
 
-def _entry(kind: str, key: str) -> Optional[Path]:
+def entry(kind: str, key: str) -> Optional[Path]:
+    """The file of the entry ``kind``/``key`` (it may not exist), or None when the cache is off."""
     root = directory()
     return None if root is None else root / kind / f"{key}.json"
 
@@ -59,7 +60,7 @@ def _entry(kind: str, key: str) -> Optional[Path]:
 def load(kind: str, key: str) -> Optional[Any]:
     """The value stored under ``kind``/``key`` (:func:`store`), or None when there is none (or the cache is off,
     or the entry cannot be read as JSON)."""
-    path = _entry(kind, key)
+    path = entry(kind, key)
     if path is None:
         return None
     try:
@@ -71,7 +72,7 @@ def load(kind: str, key: str) -> Optional[Any]:
 def store(kind: str, key: str, value: Any) -> Optional[Path]:
     """Write ``value`` (JSON-serialisable) under ``kind``/``key`` atomically (a reader never sees half an
     entry); the entry's path, or None when the cache is off or cannot be written."""
-    path = _entry(kind, key)
+    path = entry(kind, key)
     if path is None:
         return None
     try:

@@ -168,7 +168,7 @@ def fitted_spheres(robot: Any, links: Optional[Sequence[str]] = None, max_per_li
     hit = _cache.load("spheres", key)
     if isinstance(hit, list):
         if cached is not None:
-            cached.append(str(_cache.directory() / "spheres" / f"{key}.json"))
+            cached.append(str(_cache.entry("spheres", key)))
         return [(str(link), [float(x) for x in c], float(r)) for link, c, r in hit]
     points: Dict[str, np.ndarray] = _link_points(geometry)
     out: List[Tuple[str, List[float], float]] = []
