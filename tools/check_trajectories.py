@@ -58,6 +58,7 @@ Example (every result of a benchmark run)::
 from __future__ import annotations
 
 import argparse
+import functools
 import itertools
 import json
 import math
@@ -358,15 +359,26 @@ def ros_package(name: str, root: Path, depth: int = 4) -> Optional[Path]:
     ``depth`` folders down, hidden ones skipped), as ROS finds a package whatever its folder is called."""
     roots = [root] + [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
     for top in roots:
-        for here, dirs, files in os.walk(top, followlinks=True):
-            dirs[:] = sorted(d for d in dirs if not d.startswith("."))
-            if "package.xml" in files:
-                found = ET.parse(os.path.join(here, "package.xml")).getroot().findtext("name")
-                if found is not None and found.strip() == name:
-                    return Path(here)
-            if len(Path(here).relative_to(top).parts) >= depth:
-                dirs[:] = []
+        found = _ros_packages(top, depth).get(name)
+        if found is not None:
+            return found
     return None
+
+
+@functools.lru_cache(maxsize=None)
+def _ros_packages(top: Path, depth: int) -> Dict[str, Path]:
+    """{package name: folder} of the package.xml files below ``top`` (walked once per root: every mesh of a
+    robot asks)."""
+    found: Dict[str, Path] = {}
+    for here, dirs, files in os.walk(top, followlinks=True):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        if "package.xml" in files:
+            name = ET.parse(os.path.join(here, "package.xml")).getroot().findtext("name")
+            if name is not None:
+                found.setdefault(name.strip(), Path(here))
+        if len(Path(here).relative_to(top).parts) >= depth:
+            dirs[:] = []
+    return found
 
 
 class RobotModel:
