@@ -102,13 +102,17 @@ def test_group_states_in_document_order_and_malformed_ones_skipped_with_one_warn
     srdf = ('<robot name="r"><group_state name="ready" group="arm"><joint name="j1" value="0.5"/>'
             '<joint name="j2" value="-1e-1"/></group_state><group_state name="home" group="arm"/></robot>')
     assert read_group_states(srdf) == [("arm", "ready", {"j1": 0.5, "j2": -0.1}), ("arm", "home", {})]
+    # a multi-DOF (virtual floating) joint's pose is no URDF joint: left out, the state kept (TALOS' half_sitting)
+    floating = ('<robot name="r"><group_state name="half_sitting" group="all"><joint name="root_joint" '
+                'value="0. 0. 1.02 0. 0. 0. 1."/><joint name="j" value="0.25"/></group_state></robot>')
+    assert read_group_states(floating) == [("all", "half_sitting", {"j": 0.25})]
     path = tmp_path / "bad.srdf"
     path.write_text('<robot name="r"><group_state name="standing"><joint name="j" value="1"/></group_state>'
-                    '<group_state name="s" group="arm"><joint name="j" value="0 1"/></group_state>'
+                    '<group_state name="s" group="arm"><joint name="j" value="0 x"/></group_state>'
                     '<group_state name="t" group="arm"><joint value="1"/></group_state>'
                     '<group_state name="ok" group="arm"><joint name="j" value="1"/></group_state></robot>')
     with pytest.warns(gfcs.GfcsWarning, match=r"bad.srdf: 3 group_state\(s\) skipped: standing \(needs name and "
-                      r"group\); s \(joint j: value '0 1' is not one finite number\); t \(joint \(no name\)"):
+                      r"group\); s \(joint j: value '0 x' is not finite numbers\); t \(joint \(no name\)"):
         assert read_group_states(path) == [("arm", "ok", {"j": 1.0})]
 
 

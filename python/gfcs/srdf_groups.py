@@ -260,13 +260,13 @@ def read_group_states(srdf: PathOrXml) -> List[Tuple[str, str, Dict[str, float]]
         for j in el.findall("joint"):
             joint, text = j.get("name"), j.get("value", "")
             try:
-                value = float(text)
+                numbers = [float(v) for v in text.split()]
             except ValueError:
-                value = math.nan
-            if not joint or not math.isfinite(value):
-                why = why or f"joint {joint or '(no name)'}: value {text!r} is not one finite number"
-            else:
-                values[joint] = value
+                numbers = []
+            if not joint or not numbers or not all(math.isfinite(v) for v in numbers):
+                why = why or f"joint {joint or '(no name)'}: value {text!r} is not finite numbers"
+            elif len(numbers) == 1:
+                values[joint] = numbers[0]
         if why is None:
             states.append((str(group), str(name), values))
         else:
