@@ -62,6 +62,20 @@ def test_urdf_tree_in_file_order_depth_first():
     assert tree.ancestors("a_tool") == ["a2l", "a1l", "base", "world"]
 
 
+def test_joint_of_zero_range_is_not_planned_by_a_group_nor_sampled_by_the_collision_matrix():
+    # a wheel written as a revolute joint whose <limit> has no lower/upper (both 0): MoveIt moves it nowhere
+    wheel = URDF.replace('<limit lower="-1" upper="1" velocity="1" effort="1"/>', '<limit velocity="1" effort="1"/>')
+    tree = srdf_groups.read_urdf_tree(wheel)
+    assert tree.joint("b2").zero_range and not tree.joint("b2").active
+    assert not tree.joint("b1").zero_range  # continuous: unbounded
+    from gfcs.collision_matrix import movable_joints
+    assert movable_joints(wheel) == ["a1", "a2", "b1"]
+    with pytest.warns(GfcsWarning):  # arm_b also names a ghost joint and link
+        assert srdf_groups.resolve_group(wheel, SRDF, "arm_b").joints == ("b1",)
+    robot = gfcs.Robot.from_urdf(wheel, ee_link="b2l")
+    assert robot.joint_names == ["b1"] and robot.locked_positions["b2"] == 0.0
+
+
 def test_chain_group_active_joints_and_tip():
     g = resolve("arm_a")
     assert g.joints == ("a1", "a2")  # the fixed a_tip is on the chain but does not move

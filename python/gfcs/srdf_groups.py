@@ -63,18 +63,21 @@ PathOrXml = Union[str, Path]
 
 @dataclass(frozen=True)
 class UrdfJoint:
-    """One URDF ``<joint>``: its name, type, parent and child link names, and the joint it mimics (or None)."""
+    """One URDF ``<joint>``: its name, type, parent and child link names, the joint it mimics (or None), and
+    whether its ``<limit>`` is one position (revolute or prismatic with lower == upper, both 0 when absent)."""
 
     name: str
     type: str
     parent: str
     child: str
     mimic: Optional[str] = None
+    zero_range: bool = False
 
     @property
     def active(self) -> bool:
-        """True for a joint a planner moves: movable type and not a mimic joint."""
-        return self.type in MOVABLE_TYPES and self.mimic is None
+        """True for a joint a planner moves: movable type, not a mimic joint, and a range wider than one
+        position (MoveIt moves no joint of zero range; the core holds it at its one position)."""
+        return self.type in MOVABLE_TYPES and self.mimic is None and not self.zero_range
 
 
 @dataclass(frozen=True)
@@ -166,6 +169,17 @@ def read_xml(source: PathOrXml, what: str) -> Tuple[ET.Element, str]:
         raise FormatError(f"{name}: malformed {what} XML: {e}") from e
 
 
+def _zero_range(kind: Optional[str], limit: Optional[ET.Element]) -> bool:
+    """A revolute or prismatic joint whose ``<limit>`` lower and upper (0 when absent) are one finite number."""
+    if kind not in ("revolute", "prismatic"):
+        return False
+    try:
+        lower, upper = (float(limit.get(k, 0)) if limit is not None else 0.0 for k in ("lower", "upper"))
+    except ValueError:
+        return False  # the core names the malformed limit
+    return math.isfinite(lower) and lower == upper
+
+
 def read_urdf_tree(urdf: PathOrXml) -> UrdfTree:
     """The joint tree of a URDF (path or XML text).
 
@@ -181,7 +195,8 @@ def read_urdf_tree(urdf: PathOrXml) -> UrdfTree:
                   None if parent is None else parent.get("link"), None if child is None else child.get("link"))
         if not all(fields):
             raise FormatError(f"{source}: joint {fields[0] or '(unnamed)'} lacks a name, type, parent or child link")
-        joints.append(UrdfJoint(*fields, mimic=None if mimic is None else mimic.get("joint")))  # type: ignore[arg-type]
+        joints.append(UrdfJoint(*fields, mimic=None if mimic is None else mimic.get("joint"),  # type: ignore[arg-type]
+                                zero_range=_zero_range(fields[1], el.find("limit"))))
     links = [el.get("name") for el in root_el.findall("link")]
     children = {j.child for j in joints}
     roots = [link for link in links if link not in children]

@@ -23,6 +23,15 @@ pub(super) fn is_movable(kind: &JointType) -> bool {
     )
 }
 
+/// A revolute or prismatic joint whose limits are one position (`lower == upper`, e.g. both absent, so 0):
+/// MoveIt gives it a zero-width range, so no planner moves it. It is held at that position like any
+/// locked joint.
+pub(super) fn has_zero_range(joint: &urdf_rs::Joint) -> bool {
+    matches!(joint.joint_type, JointType::Revolute | JointType::Prismatic)
+        && joint.limit.lower.is_finite()
+        && joint.limit.lower == joint.limit.upper
+}
+
 /// The validated URDF graph: name lookups, parent joint of each link, child joints of each link.
 pub(super) struct Graph<'a> {
     pub(super) urdf: &'a urdf_rs::Robot,

@@ -12,7 +12,7 @@ use urdf_rs::{Geometry, JointType, Pose};
 use super::geometry::{resolve_mesh_path, GeometryKind, LinkGeometry};
 use super::model::{Motion, Robot, RobotOptions, TreeJoint, UrdfOrigin};
 use super::spheres::CollisionSphere;
-use super::tree::{default_ee, is_movable, reroot, urdf_err, Graph, Rooted};
+use super::tree::{default_ee, has_zero_range, is_movable, reroot, urdf_err, Graph, Rooted};
 use crate::error::{FabricError, Result};
 
 impl Robot {
@@ -75,7 +75,10 @@ fn choose_active(
         let mut chain = Vec::new();
         let mut i = ee;
         while let Some((j, p, _)) = t.edge[i] {
-            if is_movable(&joints[j].joint_type) && joints[j].mimic.is_none() {
+            if is_movable(&joints[j].joint_type)
+                && joints[j].mimic.is_none()
+                && !has_zero_range(&joints[j])
+            {
                 chain.push(j);
             }
             i = p;
@@ -110,6 +113,13 @@ fn choose_active(
         }
         if let Some(m) = &joints[j].mimic {
             return Err(bad(&format!("is a mimic of '{}' and follows it", m.joint)));
+        }
+        if has_zero_range(&joints[j]) {
+            return Err(bad(&format!(
+                "has the position limits [{0}, {0}], a zero range no planner moves (MoveIt's too): leave it \
+                 out of the active joints and it is held at {0}",
+                joints[j].limit.lower
+            )));
         }
         if out.contains(&j) {
             return Err(bad("is listed twice"));
@@ -616,6 +626,24 @@ mod tests {
         let (s, c) = 0.4_f64.sin_cos();
         assert!((tp.x - Vector3::new(0.2 * c, 0.2 * s, 0.1)).norm() < 1e-15);
         assert!((tp.jac.column(0) - Vector3::new(-0.2 * s, 0.2 * c, 0.0)).norm() < 1e-15);
+    }
+
+    #[test]
+    fn a_joint_of_zero_range_is_held_at_its_one_position() {
+        // j2: limits 0.3 and 0.3 (a wheel written as a revolute joint without lower/upper reads [0, 0])
+        let xml = CHAIN.replace(r#"lower="0.3" upper="1""#, r#"lower="0.3" upper="0.3""#);
+        let robot = Robot::from_urdf_str(&xml, "chain", &RobotOptions::default()).unwrap();
+        assert_eq!(robot.joint_names(), ["j1"]);
+        assert_eq!(robot.locked_positions(), [("j2".to_string(), 0.3)]);
+        let opts = RobotOptions {
+            active_joints: Some(vec!["j1".into(), "j2".into()]),
+            ..Default::default()
+        };
+        let err = Robot::from_urdf_str(&xml, "chain", &opts).unwrap_err().to_string();
+        assert!(
+            err.contains("active joint 'j2'") && err.contains("[0.3, 0.3], a zero range"),
+            "{err}"
+        );
     }
 
     #[test]
