@@ -91,6 +91,21 @@ def tiago_pro_srdf(text: str) -> str:
                        '<group name="both_arms_torso"><joint name="torso_lift_joint"/><group name="both_arms"/></group>')
 
 
+def centauro_srdf(text: str) -> str:
+    """The package's Centauro SRDF (chain groups, no collision matrix) with a ``both_arms`` group of its two arm
+    chains."""
+    return with_groups(text, '<group name="both_arms"><group name="left_arm"/><group name="right_arm"/></group>')
+
+
+def g1_srdf(text: str) -> str:
+    """An SRDF for the Unitree G1 (the package has none): each arm as a chain from the torso to its hand, the
+    waist's three joints, and ``arms_waist``, both arms with the waist (17 joints)."""
+    return with_groups(text, '<group name="left_arm"><chain base_link="torso_link" tip_link="left_rubber_hand"/>'
+                       '</group><group name="right_arm"><chain base_link="torso_link" tip_link="right_rubber_hand"/>'
+                       '</group><group name="arms_waist"><joint name="waist_yaw_joint"/><joint name="waist_roll_joint"/>'
+                       '<joint name="waist_pitch_joint"/><group name="left_arm"/><group name="right_arm"/></group>')
+
+
 def romeo_srdf(text: str) -> str:
     """The package's MoveIt SRDF of Romeo (Setup Assistant's collision matrix) with arm groups added: its only
     group, ``all``, moves the legs, the head and the hands too; a manipulation configuration has ``left_arm``,
@@ -125,6 +140,14 @@ CASES = (
          "romeo_description/srdf/romeo_moveit.srdf", "l_wrist", flags=("--group", "left_arm"), rewrite=romeo_srdf),
     Case("Romeo, both arms (14)", "romeo_description/urdf/romeo.urdf", "romeo_description/srdf/romeo_moveit.srdf",
          "l_wrist", flags=("--group", "both_arms"), rewrite=romeo_srdf),
+    Case("TALOS, both arms and torso (16; legs, head and grippers at half_sitting)",
+         "talos_data/robots/talos_full_v2.urdf", "talos_data/srdf/talos.srdf", "wrist_left_ft_tool_link",
+         flags=("--group", "all_arms_torso")),
+    Case("Centauro, both arms (14; legs, wheels and torso held)", "centauro_description/urdf/centauro.urdf",
+         "centauro_description/srdf/centauro.srdf", "arm1_8", matrix=True, flags=("--group", "both_arms"),
+         rewrite=centauro_srdf),
+    Case("Unitree G1, both arms and waist (17; legs held)", "g1_description/urdf/g1_29dof_rev_1_0.urdf", "",
+         "left_rubber_hand", matrix=True, flags=("--group", "arms_waist"), rewrite=g1_srdf),
 )
 
 
@@ -221,7 +244,12 @@ def fragment(rows: List[Dict[str, object]], n: int) -> str:
         "has only a whole-body group: its arm groups are added, the rest held at 0. The SO-100, TIAGo and TIAGo Pro "
         "have no SRDF: `gfcs collision-matrix` writes one (MoveIt Setup Assistant's matrix, 10,000 samples), "
         "TIAGo's with the `arm_torso` group of its MoveIt configuration, TIAGo Pro's with a group of both arms and "
-        "the lift (`both_arms_torso`, 15 joints); the SO-100's requests plan all six joints.".format(n=n),
+        "the lift (`both_arms_torso`, 15 joints); the SO-100's requests plan all six joints. TALOS plans its SRDF's "
+        "`all_arms_torso` group, the other joints held at its SRDF state `half_sitting` (whose floating base pose is "
+        "no URDF joint). Centauro's SRDF has chain groups and no collision matrix: `gfcs collision-matrix` writes "
+        "it, with a `both_arms` group of its two arm chains added; its wheels are revolute joints without limits "
+        "(a zero range, held at 0). The G1 has no SRDF: one with its arms as chains from the torso and the "
+        "waist's three joints (`arms_waist`, 17 joints), matrix by `gfcs collision-matrix`.".format(n=n),
         "",
         "| robot (joints) | problems (classes) | solved | claims valid | median whole solve (s) "
         "| max speed/limit | min mesh clearance (mm) |",

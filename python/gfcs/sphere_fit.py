@@ -92,8 +92,13 @@ def _kmeans(points: np.ndarray, k: int, iterations: int = 20) -> np.ndarray:
     centres = points[order[((np.arange(k) + 0.5) * points.shape[0] / k).astype(int)]]
     label = np.zeros(points.shape[0], dtype=int)
     for _ in range(iterations):
-        label = np.argmin(((points[:, None, :] - centres[None]) ** 2).sum(axis=2), axis=1)
-        moved = np.array([points[label == j].mean(axis=0) if np.any(label == j) else centres[j] for j in range(k)])
+        diff = points[:, None, :] - centres[None]
+        label = np.argmin(np.einsum("ijk,ijk->ij", diff, diff), axis=1)
+        # cluster means by counting sums (one pass over the points, not one boolean mask per cluster); an
+        # empty cluster keeps its centre
+        counts = np.bincount(label, minlength=k)
+        sums = np.stack([np.bincount(label, weights=points[:, a], minlength=k) for a in range(3)], axis=1)
+        moved = np.where(counts[:, None] > 0, sums / np.maximum(counts, 1)[:, None], centres)
         if np.allclose(moved, centres, atol=1e-9):
             break
         centres = moved
