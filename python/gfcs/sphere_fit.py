@@ -92,8 +92,8 @@ def _kmeans(points: np.ndarray, k: int, iterations: int = 20) -> np.ndarray:
     centres = points[order[((np.arange(k) + 0.5) * points.shape[0] / k).astype(int)]]
     label = np.zeros(points.shape[0], dtype=int)
     for _ in range(iterations):
-        diff = points[:, None, :] - centres[None]
-        label = np.argmin(np.einsum("ijk,ijk->ij", diff, diff), axis=1)
+        # nearest centre: argmin over j of ‖c_j‖² − 2 p·c_j (‖p − c_j‖² less the row constant ‖p‖²)
+        label = np.argmin(np.einsum("ij,ij->i", centres, centres)[None] - 2.0 * (points @ centres.T), axis=1)
         # cluster means by counting sums (one pass over the points, not one boolean mask per cluster); an
         # empty cluster keeps its centre
         counts = np.bincount(label, minlength=k)
