@@ -99,7 +99,7 @@ def _kmeans(points: np.ndarray, k: int, iterations: int = 20) -> np.ndarray:
         counts = np.bincount(label, minlength=k)
         sums = np.stack([np.bincount(label, weights=points[:, a], minlength=k) for a in range(3)], axis=1)
         moved = np.where(counts[:, None] > 0, sums / np.maximum(counts, 1)[:, None], centres)
-        if np.allclose(moved, centres, atol=1e-9):
+        if np.all(np.abs(moved - centres) <= 1e-9 + 1e-5 * np.abs(centres)):  # np.allclose(atol=1e-9), inlined
             break
         centres = moved
     return label
