@@ -26,7 +26,6 @@ HIERARCHY = {
 
 VARIANTS = {
     "Urdf": ("UrdfError", "robot.urdf"),
-    "UnsupportedJoint": ("UrdfError", "j0"),
     "MissingLink": ("LinkError", "nolink"),
     "MissingJoint": ("LinkError", "nojoint"),
     "Mesh": ("MeshError", "a.stl"),

@@ -41,7 +41,7 @@ class GfcsError(Exception):
     """Base class of every gfcs error; a Rust panic surfaces as ``GfcsError("internal error: ...")``."""
 
 class UrdfError(GfcsError):
-    """Malformed or inconsistent URDF, unsupported joint type."""
+    """Malformed or inconsistent URDF."""
 
 class LinkError(GfcsError, KeyError):
     """Unknown link or joint name (or link index out of range)."""

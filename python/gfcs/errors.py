@@ -9,7 +9,7 @@ class                       bases                                  raised for
 ``GfcsError``               ``Exception``                          base class; also internal errors (a Rust
                                                                    panic surfaces as ``GfcsError("internal
                                                                    error: ...")``)
-``UrdfError``               ``GfcsError``                          malformed URDF, unsupported joint type
+``UrdfError``               ``GfcsError``                          malformed or inconsistent URDF
 ``LinkError``               ``GfcsError``, ``KeyError``            unknown link or joint name
 ``MeshError``               ``GfcsError``, ``OSError``             missing or unreadable mesh file
 ``ShapeError``              ``GfcsError``, ``ValueError``          array of the wrong shape

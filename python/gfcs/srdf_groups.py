@@ -170,14 +170,15 @@ def read_xml(source: PathOrXml, what: str) -> Tuple[ET.Element, str]:
 
 
 def _zero_range(kind: Optional[str], limit: Optional[ET.Element]) -> bool:
-    """A revolute or prismatic joint whose ``<limit>`` lower and upper (0 when absent) are one finite number."""
-    if kind not in ("revolute", "prismatic"):
+    """A revolute or prismatic joint whose ``<limit>`` (with a velocity > 0, as the core requires) gives
+    lower and upper (0 when absent) as one finite number."""
+    if kind not in ("revolute", "prismatic") or limit is None:
         return False
     try:
-        lower, upper = (float(limit.get(k, 0)) if limit is not None else 0.0 for k in ("lower", "upper"))
+        lower, upper, velocity = (float(limit.get(k, 0)) for k in ("lower", "upper", "velocity"))
     except ValueError:
         return False  # the core names the malformed limit
-    return math.isfinite(lower) and lower == upper
+    return velocity > 0 and math.isfinite(lower) and lower == upper
 
 
 def read_urdf_tree(urdf: PathOrXml) -> UrdfTree:

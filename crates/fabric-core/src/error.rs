@@ -9,13 +9,6 @@ pub enum FabricError {
     /// A URDF could not be parsed or is inconsistent (`file` is the file name or `"<string>"`).
     #[error("URDF {file}: {message}")]
     Urdf { file: String, message: String },
-    /// A joint type the model does not support (planar, floating).
-    #[error("URDF {file}: joint '{joint}' has unsupported type '{kind}' (supported: revolute, continuous, prismatic, fixed, mimic)")]
-    UnsupportedJoint {
-        file: String,
-        joint: String,
-        kind: String,
-    },
     /// A link name that is not in the robot.
     #[error("no link named '{link}' in robot '{robot}'")]
     MissingLink { robot: String, link: String },

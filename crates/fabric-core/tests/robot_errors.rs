@@ -106,21 +106,40 @@ fn malformed_and_inconsistent_urdf() {
 }
 
 #[test]
-fn unsupported_joints_are_named() {
-    for kind in ["planar", "floating"] {
+fn multi_dof_joints_are_held_at_their_identity_pose() {
+    // j2 as a floating, planar or spherical joint: the same model as the fixed joint at its origin
+    let fixed = two();
+    let mut ws = fabric_core::robot::KinematicsWorkspace::new(&fixed);
+    fixed.update_positions(&[0.3], &mut ws).unwrap();
+    let b = fixed.link_pose(&ws, 2);
+    for kind in ["planar", "floating", "spherical"] {
         let xml = TWO_LINK.replace("type=\"fixed\"", &format!("type=\"{kind}\""));
-        match load(&xml) {
-            Err(FabricError::UnsupportedJoint {
-                file,
-                joint,
-                kind: k,
-            }) => {
-                assert_eq!(
-                    (file.as_str(), joint.as_str(), k.as_str()),
-                    ("test.urdf", "j2", kind)
-                );
-            }
-            other => panic!("{kind}: {other:?}"),
+        let robot = load(&xml).unwrap_or_else(|e| panic!("{kind}: {e}"));
+        assert_eq!(robot.joint_names(), ["j1"], "{kind}");
+        assert!(robot.locked_positions().is_empty(), "{kind}");
+        let mut ws = fabric_core::robot::KinematicsWorkspace::new(&robot);
+        robot.update_positions(&[0.3], &mut ws).unwrap();
+        assert_eq!(robot.link_pose(&ws, 2), b, "{kind}");
+        // it can be neither planned nor locked, and the message says why
+        for opts in [
+            RobotOptions {
+                active_joints: Some(vec!["j1".into(), "j2".into()]),
+                ..Default::default()
+            },
+            RobotOptions {
+                locked_positions: vec![("j2".into(), 0.0)],
+                ..Default::default()
+            },
+        ] {
+            let err = Robot::from_urdf_str(&xml, "test.urdf", &opts)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.contains(&format!(
+                    "is a {kind} joint (several degrees of freedom), held at its identity pose"
+                )),
+                "{kind}: {err}"
+            );
         }
     }
 }

@@ -6,7 +6,7 @@
 //!
 //! | FabricError variant            | Python exception                          |
 //! |--------------------------------|-------------------------------------------|
-//! | `Urdf`, `UnsupportedJoint`     | `UrdfError(GfcsError)`                    |
+//! | `Urdf`                         | `UrdfError(GfcsError)`                    |
 //! | `MissingLink`, `MissingJoint`  | `LinkError(GfcsError, KeyError)`          |
 //! | `Mesh`                         | `MeshError(GfcsError, OSError)`           |
 //! | `Shape`                        | `ShapeError(GfcsError, ValueError)`       |
@@ -33,7 +33,7 @@ class GfcsError(Exception):
     '''Base class of every error raised by gfcs.'''
 
 class UrdfError(GfcsError):
-    '''A URDF that cannot be parsed, is inconsistent, or uses an unsupported joint type.'''
+    '''A URDF that cannot be parsed or is inconsistent.'''
 
 class LinkError(GfcsError, KeyError):
     '''A link or joint name that is not in the robot.'''
@@ -121,7 +121,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// The class name for one core error variant (see the table in the module documentation).
 fn class_name(err: &FabricError) -> &'static str {
     match err {
-        FabricError::Urdf { .. } | FabricError::UnsupportedJoint { .. } => "UrdfError",
+        FabricError::Urdf { .. } => "UrdfError",
         FabricError::MissingLink { .. } | FabricError::MissingJoint { .. } => "LinkError",
         FabricError::Mesh { .. } => "MeshError",
         FabricError::Shape { .. } => "ShapeError",
@@ -212,7 +212,7 @@ pub fn _raise_internal_panic(py: Python<'_>) -> PyResult<()> {
 }
 
 /// Raise the exception that the core error variant `variant` maps to, with its message; for tests of the
-/// mapping of every variant. `variant` is one of Urdf, UnsupportedJoint, MissingLink, MissingJoint, Mesh,
+/// mapping of every variant. `variant` is one of Urdf, MissingLink, MissingJoint, Mesh,
 /// Shape, NonFinite, Format, Value, Io.
 #[pyfunction]
 pub fn _raise_core_error(variant: &str) -> PyResult<()> {
@@ -221,11 +221,6 @@ pub fn _raise_core_error(variant: &str) -> PyResult<()> {
         "Urdf" => FabricError::Urdf {
             file: s("robot.urdf"),
             message: s("bad xml"),
-        },
-        "UnsupportedJoint" => FabricError::UnsupportedJoint {
-            file: s("robot.urdf"),
-            joint: s("j0"),
-            kind: s("planar"),
         },
         "MissingLink" => FabricError::MissingLink {
             robot: s("r"),

@@ -23,11 +23,26 @@ pub(super) fn is_movable(kind: &JointType) -> bool {
     )
 }
 
-/// A revolute or prismatic joint whose limits are one position (`lower == upper`, e.g. both absent, so 0):
-/// MoveIt gives it a zero-width range, so no planner moves it. It is held at that position like any
+/// The URDF type name of a joint of several degrees of freedom (floating, planar, spherical), `None` for
+/// the others. MoveIt's default value of such a joint is the identity pose, and no gfcs planning group moves
+/// it: the model holds it there, a fixed joint at its `<origin>` (a request whose start state moves it is
+/// reported by `scene::MotionPlanRequest::ignored`).
+pub(super) fn multi_dof_kind(kind: &JointType) -> Option<&'static str> {
+    match kind {
+        JointType::Floating => Some("floating"),
+        JointType::Planar => Some("planar"),
+        JointType::Spherical => Some("spherical"),
+        _ => None,
+    }
+}
+
+/// A revolute or prismatic joint whose `<limit>` (with a velocity > 0: a joint without `<limit>`, which
+/// MoveIt's URDF parser refuses, is an error) gives one position (`lower == upper`, e.g. both absent, so
+/// 0): MoveIt gives it a zero-width range, so no planner moves it. It is held at that position like any
 /// locked joint.
 pub(super) fn has_zero_range(joint: &urdf_rs::Joint) -> bool {
     matches!(joint.joint_type, JointType::Revolute | JointType::Prismatic)
+        && joint.limit.velocity > 0.0
         && joint.limit.lower.is_finite()
         && joint.limit.lower == joint.limit.upper
 }
@@ -68,19 +83,6 @@ impl<'a> Graph<'a> {
                     source,
                     format!("duplicate joint name '{}'", joint.name),
                 ));
-            }
-            let kind = match joint.joint_type {
-                JointType::Floating => Some("floating"),
-                JointType::Planar => Some("planar"),
-                JointType::Spherical => Some("spherical"),
-                _ => None,
-            };
-            if let Some(kind) = kind {
-                return Err(FabricError::UnsupportedJoint {
-                    file: source.to_string(),
-                    joint: joint.name.clone(),
-                    kind: kind.to_string(),
-                });
             }
             let find = |name: &str| {
                 link_index.get(name).copied().ok_or_else(|| {

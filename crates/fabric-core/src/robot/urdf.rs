@@ -12,16 +12,19 @@ use urdf_rs::{Geometry, JointType, Pose};
 use super::geometry::{resolve_mesh_path, GeometryKind, LinkGeometry};
 use super::model::{Motion, Robot, RobotOptions, TreeJoint, UrdfOrigin};
 use super::spheres::CollisionSphere;
-use super::tree::{default_ee, has_zero_range, is_movable, reroot, urdf_err, Graph, Rooted};
+use super::tree::{
+    default_ee, has_zero_range, is_movable, multi_dof_kind, reroot, urdf_err, Graph, Rooted,
+};
 use crate::error::{FabricError, Result};
 
 impl Robot {
     /// Build a robot from URDF text. `source` names the text in errors (a file name or `"<string>"`).
     /// Mesh paths resolve against `opts.mesh_dir` (or the current directory).
     ///
-    /// Errors: `Urdf` (malformed XML, inconsistent tree, bad limits), `UnsupportedJoint` (planar,
-    /// floating, spherical), `MissingLink` (base or end-effector), `MissingJoint` (active or locked
-    /// joint), `Value` / `NonFinite` (bad options).
+    /// Floating, planar and spherical joints are held at their identity pose ([`multi_dof_kind`]).
+    ///
+    /// Errors: `Urdf` (malformed XML, inconsistent tree, bad limits), `MissingLink` (base or
+    /// end-effector), `MissingJoint` (active or locked joint), `Value` / `NonFinite` (bad options).
     pub fn from_urdf_str(xml: &str, source: &str, opts: &RobotOptions) -> Result<Robot> {
         build(xml, source, opts, opts.mesh_dir.as_deref())
     }
@@ -109,7 +112,7 @@ fn choose_active(
             message: m.into(),
         };
         if !is_movable(&joints[j].joint_type) {
-            return Err(bad("is a fixed joint"));
+            return Err(bad(&not_movable(&joints[j].joint_type)));
         }
         if let Some(m) = &joints[j].mimic {
             return Err(bad(&format!("is a mimic of '{}' and follows it", m.joint)));
@@ -127,6 +130,16 @@ fn choose_active(
         out.push(j);
     }
     Ok(out)
+}
+
+/// Why a joint that is not revolute, continuous or prismatic can be neither active nor locked.
+fn not_movable(kind: &JointType) -> String {
+    match multi_dof_kind(kind) {
+        Some(k) => {
+            format!("is a {k} joint (several degrees of freedom), held at its identity pose")
+        }
+        None => "is a fixed joint".to_string(),
+    }
 }
 
 /// How far (rad or m) a locked joint may be held outside its URDF limits: MoveIt's default
@@ -152,7 +165,7 @@ fn drives(
             message: m.into(),
         };
         if !is_movable(&joints[j].joint_type) {
-            return Err(bad("is a fixed joint"));
+            return Err(bad(&not_movable(&joints[j].joint_type)));
         }
         if joints[j].mimic.is_some() {
             return Err(bad("is a mimic joint (lock its source joint)"));
@@ -639,7 +652,9 @@ mod tests {
             active_joints: Some(vec!["j1".into(), "j2".into()]),
             ..Default::default()
         };
-        let err = Robot::from_urdf_str(&xml, "chain", &opts).unwrap_err().to_string();
+        let err = Robot::from_urdf_str(&xml, "chain", &opts)
+            .unwrap_err()
+            .to_string();
         assert!(
             err.contains("active joint 'j2'") && err.contains("[0.3, 0.3], a zero range"),
             "{err}"
