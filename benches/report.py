@@ -43,7 +43,7 @@ CLASSES = {"bookshelf_small": "single shelf", "bookshelf_tall": "tall shelf", "b
 COLUMNS: Tuple[Tuple[str, str], ...] = (("ee_length", "EE len (m)"), ("cspace_length", "C-space len (rad)"),
                                         ("time", "Time (s)"), ("ee_ldj", "EE-LDJ"), ("cspace_ldj", "C-space-LDJ"))
 #: fragments after Table I, in order: file stem under benches/results.
-FRAGMENTS = ("unseen_robots", "gf_causes", "ldj", "learning", "speed", "mesh_checks", "scaling", "particles", "experiments", "reactivity",
+FRAGMENTS = ("unseen_robots", "sphere_fit", "gf_causes", "ldj", "learning", "speed", "mesh_checks", "scaling", "particles", "experiments", "reactivity",
              "scaleout", "reliability")
 
 

@@ -274,3 +274,36 @@ def test_unseen_robots_tiago_pro_groups_resolve_to_both_arms_and_the_lift():
     joints = list(resolve_group(urdf, srdf, "both_arms_torso").joints)
     assert joints[0] == "torso_lift_joint" and len(joints) == 15
     assert set(joints[1:]) == {f"arm_{s}_{i}_joint" for s in ("left", "right") for i in range(1, 8)}
+
+
+def test_unseen_robots_two_arm_groups_of_centauro_and_the_g1():
+    unseen = load_script("benches/unseen_robots.py")
+    import xml.etree.ElementTree as ET
+
+    def groups(text):
+        return {g.get("name"): ([j.get("name") for j in g.findall("joint")],
+                                [s.get("name") for s in g.findall("group")],
+                                [(c.get("base_link"), c.get("tip_link")) for c in g.findall("chain")])
+                for g in ET.fromstring(text).findall("group")}  # top-level groups, not subgroup references
+
+    centauro = groups(unseen.centauro_srdf('<robot name="centauro"><group name="left_arm"><chain base_link="torso_2"'
+                                           ' tip_link="arm1_8"/></group></robot>'))
+    assert centauro["both_arms"] == ([], ["left_arm", "right_arm"], [])
+    g1 = groups(unseen.g1_srdf('<robot name="g1"></robot>'))
+    assert g1["left_arm"][2] == [("torso_link", "left_rubber_hand")]
+    assert g1["right_arm"][2] == [("torso_link", "right_rubber_hand")]
+    assert g1["arms_waist"][:2] == (["waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint"],
+                                    ["left_arm", "right_arm"])
+
+
+def test_sphere_fit_times_a_fresh_fit_and_writes_its_fragment(tmp_path):
+    bench = load_script("benches/sphere_fit.py")
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text('<robot name="r"><link name="base"><collision><geometry><box size="0.2 0.1 0.1"/></geometry>'
+                    '</collision></link><link name="a"><collision><geometry><cylinder radius="0.05" length="0.3"/>'
+                    '</geometry></collision></link><joint name="j" type="revolute"><parent link="base"/>'
+                    '<child link="a"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1"/></joint></robot>')
+    fit = bench.fit_once(urdf, tmp_path)
+    assert fit["links"] == 2 and fit["spheres"] >= 2 and fit["seconds"] > 0
+    text = bench.fragment([{"robot": "r", "links": 2, "spheres": fit["spheres"], "seconds": [0.5, 0.25, 1.0]}], 3)
+    assert "--repeat 3" in text and "| r | 2 |" in text and "| 0.50 | 0.25-1.00 |" in text

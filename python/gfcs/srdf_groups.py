@@ -64,7 +64,7 @@ PathOrXml = Union[str, Path]
 @dataclass(frozen=True)
 class UrdfJoint:
     """One URDF ``<joint>``: its name, type, parent and child link names, the joint it mimics (or None), and
-    whether its ``<limit>`` is one position (revolute or prismatic with lower == upper, both 0 when absent)."""
+    whether its ``<limit>`` is one position (:func:`_zero_range`)."""
 
     name: str
     type: str
