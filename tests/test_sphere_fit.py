@@ -148,3 +148,49 @@ def test_link_pairs_whose_fitted_spheres_always_overlap_are_left_out_as_moveit_s
     assert ("base", "top") not in pairs
     with pytest.raises(gfcs.LinkError):
         fitted.with_disabled_pairs([("base", "nowhere")])
+
+
+#: base; a link ``b`` on a joint 0.3 m out along x, turning about z, its sphere 0.15 m out on it; between
+#: them a lift of 1 mm (links one joint apart are not self pairs)
+SWING = """<robot name="swing"><link name="base"/><link name="lift"/><link name="b"/>
+  <joint name="up" type="prismatic"><parent link="base"/><child link="lift"/><axis xyz="0 0 1"/>
+    <limit lower="0" upper="0.001" velocity="1"/></joint>
+  <joint name="j" type="revolute"><parent link="lift"/><child link="b"/><origin xyz="0.3 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-3.14159" upper="3.14159" velocity="1"/></joint></robot>"""
+
+
+class _SwingMeshes:
+    """A mesh checker stand-in for :data:`SWING`: the pair (base, b) is apart by |c_b| − 0.18 m, c_b the
+    centre of b's sphere (in contact within ~15 % of the turn, near θ = π)."""
+
+    self_pair_links = [("base", "b")]
+
+    def __init__(self):
+        self.calls = 0
+
+    def pair_clearances(self, q, cutoff=None, depth=True):
+        self.calls += 1
+        theta = np.atleast_2d(q)[:, 1]
+        return (np.sqrt(0.1125 + 0.09 * np.cos(theta)) - 0.18)[:, None]
+
+
+def test_pairs_whose_spheres_overlap_where_the_meshes_are_apart_are_left_out(tmp_path, monkeypatch):
+    """Spheres of 0.25 and 0.15 m overlap over ~68 % of b's turn, the meshes touch over ~15 %: the spheres
+    forbid most of what the meshes allow (a forearm's spheres round a torso's), which always_touching's 95 %
+    does not catch; a smaller sphere on b (overlap ~31 %) keeps the pair checked."""
+    from gfcs.sphere_fit import always_touching, sphere_artefacts
+
+    monkeypatch.setenv("GFCS_CACHE_DIR", str(tmp_path))
+    for radius, artefact in ((0.15, True), (0.05, False)):
+        robot = gfcs.Robot.from_urdf(SWING, ee_link="b").with_spheres([("base", [0, 0, 0], 0.25),
+                                                                       ("b", [0.15, 0, 0], radius)])
+        assert always_touching(robot, ["base", "b"]) == []
+        meshes = _SwingMeshes()
+        assert sphere_artefacts(robot, ["base", "b"], meshes) == ([("b", "base")] if artefact else [])
+        # the cache answers the second call; a factory is called only on a miss
+        assert sphere_artefacts(robot, ["base", "b"], lambda: pytest.fail("built on a hit")) == (
+            [("b", "base")] if artefact else [])
+        assert sphere_artefacts(robot, ["base", "b"], meshes, cache=False) == ([("b", "base")] if artefact else [])
+        assert meshes.calls == 2
+    # no meshes found by the factory: nothing is judged
+    assert sphere_artefacts(robot, ["base", "b"], lambda: None, cache=False) == []

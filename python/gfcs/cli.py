@@ -337,9 +337,12 @@ def _robot(args: argparse.Namespace) -> Any:
         started = time.perf_counter()
         left_out: List[Tuple[str, str]] = []
         cached: List[str] = []
-        fitted = with_fitted_spheres(robot, left_out=left_out, cached=cached)
+        # the meshes tell which overlapping spheres are the model's, not the robot's (sphere_fit.sphere_artefacts)
+        fitted = with_fitted_spheres(robot, left_out=left_out, cached=cached,
+                                     mesh_checker=lambda: _mesh_checker(args, robot))
         how = f"read from the cache {cached[0]} in" if cached else "in"
-        pairs = f"; {len(left_out)} link pair(s) whose spheres always overlap are not self-checked " \
+        pairs = f"; {len(left_out)} link pair(s) whose spheres always overlap, or overlap where the meshes are " \
+                f"apart, are not self-checked " \
                 f"({', '.join('/'.join(p) for p in left_out[:3])}{', ...' if len(left_out) > 3 else ''})" \
             if left_out else ""
         print(f"gfcs: {args.robot} has no collision spheres on {len(bare)} link(s) with collision geometry; the "

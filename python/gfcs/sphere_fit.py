@@ -20,7 +20,10 @@ surfaces, :mod:`gfcs.coverage`, in the link frame):
 
 Every point of the geometry lies inside a sphere of its link (tested on generated boxes and cylinders). Link
 pairs whose fitted spheres overlap in almost every configuration are left out of the self-collision checks
-(:func:`always_touching`), as MoveIt Setup Assistant leaves "always in collision" pairs out of an SRDF. The
+(:func:`always_touching`), as MoveIt Setup Assistant leaves "always in collision" pairs out of an SRDF, and so,
+when the meshes are at hand, are pairs whose spheres overlap in most of the configurations in which their
+meshes are apart (:func:`sphere_artefacts`: a forearm's spheres round a torso's, where the sphere model forbids
+most of what the meshes allow; the meshes still judge the pair). The
 spheres are conservative, not tight: ``tools/fit_spheres.py`` fits tighter covers (volume-optimal, minutes per
 robot) when the planner should come closer to obstacles.
 """
@@ -34,10 +37,15 @@ import numpy as np
 
 from gfcs.errors import InvalidValueError
 
-__all__ = ["fit_link_spheres", "fitted_spheres", "always_touching", "with_fitted_spheres"]
+__all__ = ["fit_link_spheres", "fitted_spheres", "always_touching", "sphere_artefacts", "with_fitted_spheres",
+           "ARTEFACT_SHARE"]
 
 #: Largest number of points a link's fit iterates over (a seeded subsample; every point is covered at the end).
 FIT_POINTS = 3000
+
+#: :func:`sphere_artefacts`: the share of the configurations with a link pair's meshes apart in which its
+#: spheres may overlap; beyond it the sphere model contradicts the meshes on most of the pair's free space.
+ARTEFACT_SHARE = 0.5
 
 
 def _hull(points: np.ndarray) -> np.ndarray:
@@ -199,26 +207,20 @@ def _fit_key(geometry: Tuple[Tuple[Any, ...], ...], wanted: Optional[set], max_p
                          _cache.file_digest(__file__), _cache.file_digest(coverage.__file__))
 
 
-def always_touching(robot: Any, links: Sequence[str], samples: int = 256, share: float = 0.95,
-                    seed: int = 0) -> List[Tuple[str, str]]:
-    """The self-collision link pairs of ``robot`` with a link in ``links`` whose spheres overlap in at least
-    ``share`` of ``samples`` seeded configurations uniform in the joint limits: MoveIt Setup Assistant's
-    "always in collision" pairs, which it disables, found on the spheres. Spheres fitted around two
-    links that meet at a joint two links apart can overlap in every configuration; a fabric pushing them
-    apart would fight the robot's own shape."""
+def _sphere_contacts(robot: Any, links: Sequence[str], samples: int,
+                     seed: int) -> Tuple[np.ndarray, List[Tuple[str, str]], np.ndarray]:
+    """(q (samples, dof) seeded uniform in the joint limits, the self-collision link pairs of ``robot`` with a
+    link in ``links`` (sorted names), (samples, pairs) bool: some sphere pair of the link pair overlaps)."""
+    dof = int(robot.dof)
+    q = np.random.default_rng(seed).uniform(np.asarray(robot.lower), np.asarray(robot.upper), (int(samples), dof))
     pairs = np.asarray(robot.self_collision_pairs, dtype=np.int64).reshape(-1, 2)
-    if pairs.shape[0] == 0:
-        return []
     # each sphere pair as its link pair (indices into the sorted link names: lo < hi), those touching a
     # fitted link only
     names, link = np.unique(np.asarray(robot.sphere_links, dtype=str), return_inverse=True)
     lo, hi = np.minimum(link[pairs[:, 0]], link[pairs[:, 1]]), np.maximum(link[pairs[:, 0]], link[pairs[:, 1]])
-    fitted = np.isin(names, list(links))
-    keep = np.flatnonzero(fitted[lo] | fitted[hi])
+    keep = np.flatnonzero(np.isin(names, list(links))[lo] | np.isin(names, list(links))[hi])
     if keep.size == 0:
-        return []
-    rng = np.random.default_rng(seed)
-    q = rng.uniform(np.asarray(robot.lower), np.asarray(robot.upper), (int(samples), int(robot.dof)))
+        return q, [], np.zeros((q.shape[0], 0), dtype=bool)
     centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(q.shape[0], -1, 3)
     radii = np.asarray(robot.sphere_radii, dtype=np.float64)
     a, b = pairs[keep, 0], pairs[keep, 1]
@@ -227,17 +229,78 @@ def always_touching(robot: Any, links: Sequence[str], samples: int = 256, share:
     code = lo[keep] * len(names) + hi[keep]
     order = np.argsort(code, kind="stable")
     groups, starts = np.unique(code[order], return_index=True)
-    touching = np.logical_or.reduceat(hit[:, order], starts, axis=1).mean(axis=0) >= share
-    return [(str(names[g // len(names)]), str(names[g % len(names)])) for g in groups[touching]]
+    touching = np.logical_or.reduceat(hit[:, order], starts, axis=1)
+    return q, [(str(names[g // len(names)]), str(names[g % len(names)])) for g in groups], touching
+
+
+def always_touching(robot: Any, links: Sequence[str], samples: int = 256, share: float = 0.95,
+                    seed: int = 0) -> List[Tuple[str, str]]:
+    """The self-collision link pairs of ``robot`` with a link in ``links`` whose spheres overlap in at least
+    ``share`` of ``samples`` seeded configurations uniform in the joint limits: MoveIt Setup Assistant's
+    "always in collision" pairs, which it disables, found on the spheres. Spheres fitted around two
+    links that meet at a joint two links apart can overlap in every configuration; a fabric pushing them
+    apart would fight the robot's own shape."""
+    _, names, touching = _sphere_contacts(robot, links, samples, seed)
+    return [pair for pair, t in zip(names, touching.mean(axis=0)) if t >= share]
+
+
+def sphere_artefacts(robot: Any, links: Sequence[str], mesh_checker: Any, samples: int = 256,
+                     share: float = ARTEFACT_SHARE, seed: int = 0, cache: bool = True) -> List[Tuple[str, str]]:
+    """The self-collision link pairs of ``robot`` with a link in ``links`` whose spheres overlap in at least
+    ``share`` of the seeded configurations (``samples``, uniform in the joint limits) in which the pair's
+    collision meshes (``mesh_checker``'s: a :class:`gfcs.MeshChecker` of ``robot``, or a function that builds
+    one, called only when the cache misses; None from it: no pair) are apart: the sphere model
+    forbids most of what the meshes allow (spheres round a torso and round an upper arm beside it). Pairs whose
+    meshes the checker does not check, or that are apart in fewer than a tenth of the samples, are not judged
+    here (:func:`always_touching` judges those). The mesh distances take a fraction of a second on a two-arm
+    robot, so the result is kept in the disk cache (:mod:`gfcs.cache`; ``cache=False`` recomputes) under the
+    digest of everything it depends on."""
+    from gfcs import cache as _cache
+    from gfcs.coverage import _key
+
+    q, names, touching = _sphere_contacts(robot, links, samples, seed)
+    if not names:
+        return []
+    geometry = tuple(_key(e) for e in robot.collision_geometry())
+    key = _cache.digest(
+        "sphere_artefacts", names, touching.tobytes().hex(), share, tuple(robot.joint_names),
+        np.asarray(robot.lower).tolist(), np.asarray(robot.upper).tolist(), sorted(robot.locked_positions.items()),
+        np.asarray(robot.link_poses(q[:4])).round(12).tolist(), geometry,
+        sorted({(path, _cache.file_digest(path)) for _, _, path, _, _, _ in geometry if path}),
+        np.asarray(robot.self_collision_pairs).tolist(), _cache.file_digest(__file__))
+    hit = _cache.load("sphere_artefacts", key) if cache else None
+    if isinstance(hit, list):
+        return [(str(a), str(b)) for a, b in hit]
+    if callable(mesh_checker) and not hasattr(mesh_checker, "pair_clearances"):
+        mesh_checker = mesh_checker()
+    if mesh_checker is None:  # the factory found no meshes: nothing to judge by
+        return []
+    wanted = {pair: k for k, pair in enumerate(names)}
+    d = np.atleast_2d(mesh_checker.pair_clearances(q, cutoff=0.0, depth=False))
+    contact = np.zeros((q.shape[0], len(names)), dtype=bool)
+    checked = np.zeros(len(names), dtype=bool)
+    for j, (a, b) in enumerate(mesh_checker.self_pair_links):
+        k = wanted.get((a, b) if a <= b else (b, a))
+        if k is not None:
+            contact[:, k] |= d[:, j] <= 0.0
+            checked[k] = True
+    apart = ~contact
+    count = apart.sum(axis=0)
+    overlap = (touching & apart).sum(axis=0) / np.maximum(count, 1)
+    out = [pair for pair, c, n, o in zip(names, checked, count, overlap) if c and n >= 0.1 * q.shape[0] and o >= share]
+    _cache.store("sphere_artefacts", key, [list(p) for p in out])
+    return out
 
 
 def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001,
-                        left_out: Optional[List[Tuple[str, str]]] = None, cached: Optional[List[str]] = None) -> Any:
+                        left_out: Optional[List[Tuple[str, str]]] = None, cached: Optional[List[str]] = None,
+                        mesh_checker: Any = None) -> Any:
     """``robot`` with spheres fitted (:func:`fitted_spheres`) on each link whose collision geometry carries
     no collision sphere (:func:`gfcs.problems.links_without_spheres`), its own spheres kept, and the link
     pairs whose fitted spheres always overlap (:func:`always_touching`) left out of its self-collision
-    checks, as MoveIt Setup Assistant leaves them out of an SRDF; ``robot`` itself when every link with
-    geometry has spheres. The SRDF's disabled pairs still apply to the new spheres. ``left_out``, when
+    checks, as MoveIt Setup Assistant leaves them out of an SRDF, and with a ``mesh_checker`` (a
+    :class:`gfcs.MeshChecker` of ``robot`` or a function that builds one) the pairs whose spheres overlap where their meshes are apart
+    (:func:`sphere_artefacts`); ``robot`` itself when every link with geometry has spheres. The SRDF's disabled pairs still apply to the new spheres. ``left_out``, when
     given, receives the (link, link) pairs left out; ``cached`` the cache entry the spheres were read from, when
     they were (:func:`fitted_spheres`)."""
     from gfcs.problems import _robot_spheres, links_without_spheres
@@ -247,6 +310,8 @@ def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001
         return robot
     fitted = robot.with_spheres(_robot_spheres(robot) + fitted_spheres(robot, bare, max_per_link, margin, cached))
     touching = always_touching(fitted, bare)
+    if mesh_checker is not None:
+        touching += [p for p in sphere_artefacts(fitted, bare, mesh_checker) if p not in touching]
     if left_out is not None:
         left_out.extend(touching)
     return fitted.with_disabled_pairs(touching) if touching else fitted
