@@ -194,3 +194,24 @@ def test_pairs_whose_spheres_overlap_where_the_meshes_are_apart_are_left_out(tmp
         assert meshes.calls == 2
     # no meshes found by the factory: nothing is judged
     assert sphere_artefacts(robot, ["base", "b"], lambda: None, cache=False) == []
+
+
+def test_the_cli_judges_fitted_sphere_pairs_by_the_robots_own_meshes(tmp_path, monkeypatch):
+    """`gfcs solve/bench/generate --robot X.urdf` (cli._robot) hands sphere_artefacts a factory of the robot's
+    mesh checker, built from the same URDF."""
+    from gfcs import cli, sphere_fit
+
+    monkeypatch.setenv("GFCS_CACHE_DIR", str(tmp_path / "cache"))
+    urdf = tmp_path / "stack.urdf"
+    urdf.write_text(STACK)
+    seen = []
+
+    def recording(robot, links, mesh_checker, **kwargs):
+        checker = mesh_checker()
+        seen.append((sorted(links), type(checker).__name__, sorted(map(tuple, checker.self_pair_links))))
+        return []
+
+    monkeypatch.setattr(sphere_fit, "sphere_artefacts", recording)
+    args = cli.build_parser().parse_args(["solve", "--robot", str(urdf), "--ee-link", "top"])
+    cli._robot(args)
+    assert seen == [(["base", "middle", "top"], "MeshChecker", [("base", "top")])]
