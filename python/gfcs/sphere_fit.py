@@ -38,10 +38,16 @@ import numpy as np
 from gfcs.errors import InvalidValueError
 
 __all__ = ["fit_link_spheres", "fitted_spheres", "always_touching", "sphere_artefacts", "with_fitted_spheres",
-           "ARTEFACT_SHARE"]
+           "ALWAYS_SHARE", "ARTEFACT_SHARE", "CONTACT_SAMPLES"]
 
 #: Largest number of points a link's fit iterates over (a seeded subsample; every point is covered at the end).
 FIT_POINTS = 3000
+
+#: Seeded configurations, uniform in the joint limits, on which :func:`always_touching` and
+#: :func:`sphere_artefacts` judge the link pairs.
+CONTACT_SAMPLES = 256
+#: :func:`always_touching`: MoveIt Setup Assistant's share of samples in collision for "always in collision".
+ALWAYS_SHARE = 0.95
 
 #: :func:`sphere_artefacts`: the share of the configurations with a link pair's meshes apart in which its
 #: spheres may overlap; beyond it the sphere model contradicts the meshes on most of the pair's free space.
@@ -211,14 +217,15 @@ def _sphere_contacts(robot: Any, links: Sequence[str], samples: int,
                      seed: int) -> Tuple[np.ndarray, List[Tuple[str, str]], np.ndarray]:
     """(q (samples, dof) seeded uniform in the joint limits, the self-collision link pairs of ``robot`` with a
     link in ``links`` (sorted names), (samples, pairs) bool: some sphere pair of the link pair overlaps)."""
-    dof = int(robot.dof)
-    q = np.random.default_rng(seed).uniform(np.asarray(robot.lower), np.asarray(robot.upper), (int(samples), dof))
+    q = np.random.default_rng(seed).uniform(np.asarray(robot.lower), np.asarray(robot.upper),
+                                            (int(samples), int(robot.dof)))
     pairs = np.asarray(robot.self_collision_pairs, dtype=np.int64).reshape(-1, 2)
     # each sphere pair as its link pair (indices into the sorted link names: lo < hi), those touching a
     # fitted link only
     names, link = np.unique(np.asarray(robot.sphere_links, dtype=str), return_inverse=True)
     lo, hi = np.minimum(link[pairs[:, 0]], link[pairs[:, 1]]), np.maximum(link[pairs[:, 0]], link[pairs[:, 1]])
-    keep = np.flatnonzero(np.isin(names, list(links))[lo] | np.isin(names, list(links))[hi])
+    fitted = np.isin(names, list(links))
+    keep = np.flatnonzero(fitted[lo] | fitted[hi])
     if keep.size == 0:
         return q, [], np.zeros((q.shape[0], 0), dtype=bool)
     centres = np.asarray(robot.sphere_centers(q), dtype=np.float64).reshape(q.shape[0], -1, 3)
@@ -233,19 +240,26 @@ def _sphere_contacts(robot: Any, links: Sequence[str], samples: int,
     return q, [(str(names[g // len(names)]), str(names[g % len(names)])) for g in groups], touching
 
 
-def always_touching(robot: Any, links: Sequence[str], samples: int = 256, share: float = 0.95,
+def always_touching(robot: Any, links: Sequence[str], samples: int = CONTACT_SAMPLES, share: float = ALWAYS_SHARE,
                     seed: int = 0) -> List[Tuple[str, str]]:
     """The self-collision link pairs of ``robot`` with a link in ``links`` whose spheres overlap in at least
     ``share`` of ``samples`` seeded configurations uniform in the joint limits: MoveIt Setup Assistant's
     "always in collision" pairs, which it disables, found on the spheres. Spheres fitted around two
     links that meet at a joint two links apart can overlap in every configuration; a fabric pushing them
     apart would fight the robot's own shape."""
-    _, names, touching = _sphere_contacts(robot, links, samples, seed)
+    return _always(_sphere_contacts(robot, links, samples, seed), share)
+
+
+def _always(contacts: Tuple[np.ndarray, List[Tuple[str, str]], np.ndarray], share: float) -> List[Tuple[str, str]]:
+    """:func:`always_touching` of the samples ``contacts`` (:func:`_sphere_contacts`)."""
+    _, names, touching = contacts
     return [pair for pair, t in zip(names, touching.mean(axis=0)) if t >= share]
 
 
-def sphere_artefacts(robot: Any, links: Sequence[str], mesh_checker: Any, samples: int = 256,
-                     share: float = ARTEFACT_SHARE, seed: int = 0, cache: bool = True) -> List[Tuple[str, str]]:
+def sphere_artefacts(robot: Any, links: Sequence[str], mesh_checker: Any, samples: int = CONTACT_SAMPLES,
+                     share: float = ARTEFACT_SHARE, seed: int = 0, cache: bool = True,
+                     contacts: Optional[Tuple[np.ndarray, List[Tuple[str, str]], np.ndarray]] = None
+                     ) -> List[Tuple[str, str]]:
     """The self-collision link pairs of ``robot`` with a link in ``links`` whose spheres overlap in at least
     ``share`` of the seeded configurations (``samples``, uniform in the joint limits) in which the pair's
     collision meshes (``mesh_checker``'s: a :class:`gfcs.MeshChecker` of ``robot``, or a function that builds
@@ -254,11 +268,12 @@ def sphere_artefacts(robot: Any, links: Sequence[str], mesh_checker: Any, sample
     meshes the checker does not check, or that are apart in fewer than a tenth of the samples, are not judged
     here (:func:`always_touching` judges those). The mesh distances take a fraction of a second on a two-arm
     robot, so the result is kept in the disk cache (:mod:`gfcs.cache`; ``cache=False`` recomputes) under the
-    digest of everything it depends on."""
+    digest of everything it depends on. ``contacts``: the sphere overlaps of these samples when the caller
+    has them already (:func:`with_fitted_spheres`, from the samples :func:`always_touching` judged)."""
     from gfcs import cache as _cache
     from gfcs.coverage import _key
 
-    q, names, touching = _sphere_contacts(robot, links, samples, seed)
+    q, names, touching = _sphere_contacts(robot, links, samples, seed) if contacts is None else contacts
     if not names:
         return []
     geometry = tuple(_key(e) for e in robot.collision_geometry())
@@ -299,9 +314,10 @@ def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001
     no collision sphere (:func:`gfcs.problems.links_without_spheres`), its own spheres kept, and the link
     pairs whose fitted spheres always overlap (:func:`always_touching`) left out of its self-collision
     checks, as MoveIt Setup Assistant leaves them out of an SRDF, and with a ``mesh_checker`` (a
-    :class:`gfcs.MeshChecker` of ``robot`` or a function that builds one) the pairs whose spheres overlap where their meshes are apart
-    (:func:`sphere_artefacts`); ``robot`` itself when every link with geometry has spheres. The SRDF's disabled pairs still apply to the new spheres. ``left_out``, when
-    given, receives the (link, link) pairs left out; ``cached`` the cache entry the spheres were read from, when
+    :class:`gfcs.MeshChecker` of ``robot`` or a function that builds one) the pairs whose spheres overlap
+    where their meshes are apart (:func:`sphere_artefacts`); ``robot`` itself when every link with geometry
+    has spheres. The SRDF's disabled pairs still apply to the new spheres. ``left_out``, when given,
+    receives the (link, link) pairs left out; ``cached`` the cache entry the spheres were read from, when
     they were (:func:`fitted_spheres`)."""
     from gfcs.problems import _robot_spheres, links_without_spheres
 
@@ -309,9 +325,10 @@ def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001
     if not bare:
         return robot
     fitted = robot.with_spheres(_robot_spheres(robot) + fitted_spheres(robot, bare, max_per_link, margin, cached))
-    touching = always_touching(fitted, bare)
+    contacts = _sphere_contacts(fitted, bare, CONTACT_SAMPLES, 0)  # one set of samples judges both ways
+    touching = _always(contacts, ALWAYS_SHARE)
     if mesh_checker is not None:
-        touching += [p for p in sphere_artefacts(fitted, bare, mesh_checker) if p not in touching]
+        touching += [p for p in sphere_artefacts(fitted, bare, mesh_checker, contacts=contacts) if p not in touching]
     if left_out is not None:
         left_out.extend(touching)
     return fitted.with_disabled_pairs(touching) if touching else fitted
