@@ -47,6 +47,17 @@ pub(super) fn has_zero_range(joint: &urdf_rs::Joint) -> bool {
         && joint.limit.lower == joint.limit.upper
 }
 
+/// A joint that moves: movable type and a range wider than one position ([`has_zero_range`]); mimic
+/// joints included (they move with their source).
+pub(super) fn moves(joint: &urdf_rs::Joint) -> bool {
+    is_movable(&joint.joint_type) && !has_zero_range(joint)
+}
+
+/// A joint that moves on its own ([`moves`], not a mimic joint): what a planner can drive.
+pub(super) fn moves_on_its_own(joint: &urdf_rs::Joint) -> bool {
+    moves(joint) && joint.mimic.is_none()
+}
+
 /// The validated URDF graph: name lookups, parent joint of each link, child joints of each link.
 pub(super) struct Graph<'a> {
     pub(super) urdf: &'a urdf_rs::Robot,
@@ -221,15 +232,15 @@ const ARM_JOINTS: usize = 3;
 /// arm however many joints they have.
 const ARM_LENGTH: f64 = 0.25;
 
-/// Default end-effector: follow the only child, or the only child subtree holding a movable joint, or,
-/// where several do, the longest arm among them (at least [`ARM_JOINTS`] joints that move on their own,
-/// at least [`ARM_LENGTH`] times as long as the path to the branching link: a mobile manipulator's arm
-/// beside its wheels and head; the first of two equal arms); with explicit active joints, start below the
-/// deepest one and follow single fixed children only.
+/// Default end-effector: follow the only child, or the only child subtree holding a joint that moves
+/// ([`moves`]: not one of zero range), or, where several do, the longest arm among them (at least
+/// [`ARM_JOINTS`] joints that move on their own, at least [`ARM_LENGTH`] times as long as the path to the
+/// branching link: a mobile manipulator's arm beside its wheels and head; the first of two equal arms);
+/// with explicit active joints, start below the deepest one and follow single children on joints that do
+/// not move only.
 pub(super) fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usize {
     let n = t.order.len();
-    let movable_edge =
-        |i: usize| t.edge[i].is_some_and(|(j, _, _)| is_movable(&g.urdf.joints[j].joint_type));
+    let movable_edge = |i: usize| t.edge[i].is_some_and(|(j, _, _)| moves(&g.urdf.joints[j]));
     let mut current = 0;
     if let Some(active) = active {
         let depth = |mut i: usize| {
@@ -270,10 +281,8 @@ pub(super) fn default_ee(g: &Graph, t: &Rooted, active: Option<&[usize]>) -> usi
     }
     for i in (0..n).rev() {
         has_movable[i] |= movable_edge(i);
-        free[i] += usize::from(t.edge[i].is_some_and(|(j, _, _)| {
-            let joint = &g.urdf.joints[j];
-            is_movable(&joint.joint_type) && joint.mimic.is_none()
-        }));
+        free[i] +=
+            usize::from(t.edge[i].is_some_and(|(j, _, _)| moves_on_its_own(&g.urdf.joints[j])));
         if let Some((_, p, _)) = t.edge[i] {
             has_movable[p] |= has_movable[i];
             free[p] += free[i];

@@ -13,7 +13,8 @@ use super::geometry::{resolve_mesh_path, GeometryKind, LinkGeometry};
 use super::model::{Motion, Robot, RobotOptions, TreeJoint, UrdfOrigin};
 use super::spheres::CollisionSphere;
 use super::tree::{
-    default_ee, has_zero_range, is_movable, multi_dof_kind, reroot, urdf_err, Graph, Rooted,
+    default_ee, has_zero_range, is_movable, moves_on_its_own, multi_dof_kind, reroot, urdf_err,
+    Graph, Rooted,
 };
 use crate::error::{FabricError, Result};
 
@@ -78,10 +79,7 @@ fn choose_active(
         let mut chain = Vec::new();
         let mut i = ee;
         while let Some((j, p, _)) = t.edge[i] {
-            if is_movable(&joints[j].joint_type)
-                && joints[j].mimic.is_none()
-                && !has_zero_range(&joints[j])
-            {
+            if moves_on_its_own(&joints[j]) {
                 chain.push(j);
             }
             i = p;
