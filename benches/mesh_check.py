@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Cost of the exact mesh checks on a robot with detailed meshes (``gfcs.MeshChecker``).
 
-For random configurations within the joint limits (seeded) of a MotionBenchMaker robot, times:
+For random configurations within the joint limits (seeded) of a MotionBenchMaker robot (or of the shipped
+Panda with its convex collision polytopes, ``--robot shipped``), times:
 
 * ``self_clearance`` per state (exact self-distance, unbounded: penetration depths included), apart for the
   states whose links are clear and those in contact;
@@ -27,16 +28,20 @@ from typing import Dict, List
 
 import numpy as np
 
+import gfcs
 from gfcs import problems, srdf_groups
 from scaling import best_of  # benches/ is the script's folder
 
 GROUPS = {"ur5": "manipulator", "fetch": "arm_with_torso", "panda": "panda_arm"}
+#: The shipped Panda with its convex collision polytopes (``gfcs.problems.shipped_panda_checker``), in the
+#: MotionBenchMaker Panda's scene.
+SHIPPED = "shipped"
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shared", default=None, help="shared data folder (default: GFCS_SHARED or ../shared)")
-    ap.add_argument("--robot", choices=sorted(GROUPS), default="ur5")
+    ap.add_argument("--robot", choices=sorted(GROUPS) + [SHIPPED], default="ur5")
     ap.add_argument("--states", type=int, default=60)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-sweep", action="store_true", help="leave out the sweep (e.g. to time a build before it)")
@@ -45,11 +50,14 @@ def main() -> None:
     shared = Path(args.shared) if args.shared else problems.shared_dir()
     if shared is None:
         raise SystemExit("shared data folder not found: pass --shared or set GFCS_SHARED")
-    folder = shared / "robots" / f"mbm_{args.robot}"
-    urdf, srdf = folder / f"{args.robot}_spherized.urdf", folder / f"{args.robot}.srdf"
-    robot, _ = srdf_groups.robot_for_group(str(urdf), str(srdf), GROUPS[args.robot], mesh_dir=str(folder))
-    checker = problems.urdf_mesh_checker(folder / f"{args.robot}.urdf", robot, mesh_dir=folder, srdf=srdf)
-    mbm = shared / ("mbm" if args.robot == "panda" else f"mbm_{args.robot}") / "table_pick"
+    if args.robot == SHIPPED:
+        robot, checker = gfcs.Robot.panda(), problems.shipped_panda_checker()
+    else:
+        folder = shared / "robots" / f"mbm_{args.robot}"
+        urdf, srdf = folder / f"{args.robot}_spherized.urdf", folder / f"{args.robot}.srdf"
+        robot, _ = srdf_groups.robot_for_group(str(urdf), str(srdf), GROUPS[args.robot], mesh_dir=str(folder))
+        checker = problems.urdf_mesh_checker(folder / f"{args.robot}.urdf", robot, mesh_dir=folder, srdf=srdf)
+    mbm = shared / ("mbm" if args.robot in ("panda", SHIPPED) else f"mbm_{args.robot}") / "table_pick"
     scene = problems.load_mbm(mbm / "scene0001.yaml", mbm / "request0001.yaml", robot=robot).scene
     rng = np.random.default_rng(args.seed)
     lo, hi = np.asarray(robot.lower), np.asarray(robot.upper)
@@ -71,7 +79,7 @@ def main() -> None:
     print("| query | calls | median (s) | largest (s) |\n|---|---|---|---|")
     for name, ts in times.items():
         if ts:
-            print(f"| {name} | {len(ts)} | {statistics.median(ts):.4f} | {max(ts):.4f} |")
+            print(f"| {name} | {len(ts)} | {statistics.median(ts):.3g} | {max(ts):.3g} |")
     if args.json:
         Path(args.json).write_text(json.dumps(times))
 

@@ -619,16 +619,16 @@ class MeshChecker:
         self, q: ArrayLike, threads: Optional[int] = None, cutoff: Optional[float] = None, depth: bool = True
     ) -> FloatArray:
         """q (dof,) -> (P,), q (T, dof) -> (T, P): distance of each checked self-collision shape pair
-        (``self_pair_links`` order), m; negative penetration depth in contact (``depth=False``: 0 for two meshes
-        in contact, a verdict without the costly depth), inf beyond ``cutoff``; the row minimum is
-        :meth:`self_clearance`."""
+        (``self_pair_links`` order), m; negative penetration depth in contact (``depth=False``: 0 for two
+        meshes in contact that are not both convex, a verdict without the costly depth), inf beyond ``cutoff``;
+        the row minimum is :meth:`self_clearance`."""
     @property
     def self_pair_links(self) -> List[Tuple[str, str]]:
         """(link a, link b) of each checked self-collision shape pair, in :meth:`pair_clearances` order."""
     def self_contacts(self, q: ArrayLike, within: float = 0.0, depth: bool = True) -> List[Tuple[str, str, float]]:
         """The checked self-collision shape pairs nearer than ``within`` m (≥ 0) at q (dof,): (link a, link b,
         distance m), nearest first; ≤ 0 in contact (negative: penetration depth; ``depth=False``: 0 for two
-        meshes in contact, a verdict without the costly depth)."""
+        meshes in contact that are not both convex, a verdict without the costly depth)."""
     def held_contacts(self, q: ArrayLike, within: float = 0.0, depth: bool = True) -> List[Tuple[str, str, float]]:
         """The link pairs that joints outside the active joints (locked at their held values) hold still
         relative to each other, nearer than ``within`` m (≥ 0) at q (dof,): (link a, link b, distance m), nearest

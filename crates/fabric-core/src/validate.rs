@@ -64,13 +64,14 @@ pub struct CollisionShape {
     /// What the element is, for messages: `"mesh <path>"`, `"box"`, `"cylinder"`, `"capsule"`,
     /// `"sphere"`.
     pub label: String,
-    /// Convex hull of a mesh's vertices (same frame as `shape`), `None` for primitives and flat meshes.
-    /// The hull contains the mesh, so its distance to anything is a lower bound of the mesh's: queries
-    /// measure hulls first and the exact mesh only where the bound can still change the minimum
-    /// (branch and bound; the result is the exact mesh distance).
+    /// Convex hull of a mesh's vertices (same frame as `shape`), `None` for primitives, flat meshes and
+    /// convex meshes (a closed mesh that bounds the same solid as its hull is measured as that hull:
+    /// `shape` is then the hull itself, [`convex_solid`]). The hull contains the mesh, so its distance to
+    /// anything is a lower bound of the mesh's: queries measure hulls first and the exact mesh only where
+    /// the bound can still change the minimum (branch and bound; the result is the exact mesh distance).
     pub hull: Option<SharedShape>,
-    /// Box tree of a mesh's triangles, for mesh-mesh distances ([`MeshTree::distance`]); `None` for
-    /// primitives.
+    /// Box tree of a mesh's triangles, for mesh-mesh distances ([`MeshTree::distance`]) unless both meshes
+    /// are convex; `None` for primitives.
     pub tree: Option<Arc<MeshTree>>,
 }
 
@@ -394,6 +395,44 @@ fn mesh_hull(mesh: &TriMesh) -> Option<SharedShape> {
         .flatten()
 }
 
+/// How far (m) a hull vertex may lie in front of a mesh triangle's plane for that triangle to count as
+/// lying on the hull's boundary ([`convex_solid`]): mesh files store coordinates in single precision
+/// (~10⁻⁸ m on a link of 0.1 m), far below this, and the distances of the mesh and of its hull differ by
+/// at most this much.
+const CONVEX_TOL: f64 = 1e-6;
+
+/// Triangles × hull vertices beyond which [`convex_solid`] does not test a mesh (it then counts as not
+/// convex, and is measured exactly as a mesh): the test costs one dot product per pair.
+const CONVEX_TEST_LIMIT: usize = 20_000_000;
+
+/// Whether the closed, outward-oriented (solid) `mesh` bounds the same solid as its convex `hull`: every
+/// triangle lies in a supporting plane of the hull (no hull vertex more than [`CONVEX_TOL`] in front of
+/// it). The solid is then the intersection of those half-spaces, which contains the hull and is
+/// contained in it (its vertices are the mesh's), so measuring the hull is measuring the mesh: one convex
+/// query instead of the triangles of the mesh behind its hull bound (convex collision meshes, such as
+/// the shipped Panda's polytopes, are common). Open or inward meshes, and meshes above
+/// [`CONVEX_TEST_LIMIT`], are not.
+fn convex_solid(mesh: &TriMesh, hull: &SharedShape) -> bool {
+    let Some(poly) = hull.as_convex_polyhedron() else {
+        return false;
+    };
+    let corners = poly.points();
+    let (vertices, triangles) = (mesh.vertices(), mesh.indices());
+    if mesh.pseudo_normals_if_oriented().is_none()
+        || triangles.len().saturating_mul(corners.len()) > CONVEX_TEST_LIMIT
+    {
+        return false;
+    }
+    triangles.iter().all(|t| {
+        let a = vertices[t[0] as usize];
+        let n = (vertices[t[1] as usize] - a).cross(&(vertices[t[2] as usize] - a));
+        let norm = n.norm();
+        // a sliver without a plane of its own lies on the planes of its neighbours
+        norm <= f64::EPSILON * (vertices[t[1] as usize] - a).norm_squared()
+            || corners.iter().all(|c| n.dot(&(c - a)) <= CONVEX_TOL * norm)
+    })
+}
+
 impl MeshChecker {
     /// Build a checker from the `<collision>` elements of `robot` ([`Robot::collision_geometry`]); the
     /// checker keeps a clone of the robot. Every mesh file is read once (elements sharing a file and a
@@ -455,6 +494,11 @@ impl MeshChecker {
                 let mesh = load_scaled_mesh(path, scale, link_name)?;
                 let hull = mesh_hull(&mesh);
                 let tree = MeshTree::new(&mesh).map(Arc::new);
+                if let Some(hull) = hull.as_ref().filter(|h| convex_solid(&mesh, h)) {
+                    // a convex solid is its hull: measured exactly by it, with no lower bound to refine;
+                    // the triangle tree stays for distances to non-convex meshes
+                    return Ok((hull.clone(), None, tree));
+                }
                 Ok((SharedShape::new(mesh), hull, tree))
             })
             .collect();
@@ -771,8 +815,8 @@ impl MeshChecker {
 
     /// The distance of every self-collision pair ([`MeshChecker::self_pairs`]) at every state of `qs`:
     /// T × P row-major (m), exact below min(`cutoff`, max distance), +∞ beyond; in contact, negative
-    /// penetration depths with `depth`, and 0 for two meshes without (contact verdicts, e.g. a collision
-    /// matrix); the minimum of a row is [`MeshChecker::self_clearance`] (where below the cutoff).
+    /// penetration depths with `depth`, and without, 0 for two meshes that are not both convex (contact verdicts,
+    /// e.g. a collision matrix; convex shapes read their depth, which costs little); the minimum of a row is [`MeshChecker::self_clearance`] (where below the cutoff).
     ///
     /// Errors: as [`MeshChecker::trajectory_self_clearance`].
     pub fn trajectory_pair_clearances(
@@ -884,7 +928,12 @@ impl MeshChecker {
         (cutoff, depth): (f64, bool),
     ) -> Result<f64> {
         let (a, b) = (&self.shapes[i], &self.shapes[j]);
-        if let (Some(ta), Some(tb)) = (&a.tree, &b.tree) {
+        // two meshes by their triangle trees, unless both are convex (one GJK query measures those)
+        let trees = match (&a.tree, &b.tree) {
+            (Some(ta), Some(tb)) if !(a.shape.is_convex() && b.shape.is_convex()) => Some((ta, tb)),
+            _ => None,
+        };
+        if let Some((ta, tb)) = trees {
             let d = ta.distance(&poses[i], tb, &poses[j], cutoff, stack);
             if d > 0.0 || !depth {
                 return Ok(d);
@@ -956,7 +1005,8 @@ impl MeshChecker {
 
     /// The self-collision shape pairs ([`MeshChecker::self_pairs`]) nearer than `within` (m, ≥ 0) at q
     /// (dof,): (shape i, shape j, distance m), nearest first; a pair in contact has distance ≤ 0 (with
-    /// `depth`, parry's penetration depth where the shapes overlap; without, 0 for two meshes). For reports
+    /// `depth`, parry's penetration depth where the shapes overlap; without, 0 for two meshes that are not
+    /// both convex). For reports
     /// that name the links in contact, e.g. a start state MoveIt would refuse.
     ///
     /// Errors: `Shape`, `NonFinite` (q), `Value` for a negative or non-finite `within`, or when parry

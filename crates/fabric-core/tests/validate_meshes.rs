@@ -195,17 +195,75 @@ fn cube_mesh_link_against_sphere_closed_form() {
             sdf - r
         );
     }
-    // A ball wholly inside the solid cube (touching no triangle) is a contact: -(depth of its centre).
+    // The cube is convex: measured as its hull, a convex polyhedron (its triangle tree stays, for
+    // distances to non-convex meshes).
+    let shape = &checker.shapes()[0];
+    assert!(shape.hull.is_none() && shape.tree.is_some());
+    assert!(shape.shape.as_convex_polyhedron().is_some());
+    // A ball wholly inside the solid cube is a contact of two solids: -(penetration depth), the depth of
+    // its centre plus its radius.
     let inside = scene_with(vec![(Shape::Sphere { radius: r }, at(0.05, 0.3, 0.1))]);
     let d = checker.clearance(&inside, &[0.0]).unwrap();
     assert!(
-        (d - box_sdf(&Vector3::new(0.05, 0.3, 0.1), &h)).abs() < 1e-9,
+        (d - (box_sdf(&Vector3::new(0.05, 0.3, 0.1), &h) - r)).abs() < 1e-9,
         "enclosed: {d}"
     );
-    assert!(d < 0.0);
     // A ball whose centre is inside and which crosses a face: contact (≤ 0).
     let crossing = scene_with(vec![(Shape::Sphere { radius: r }, at(0.2, 0.0, 0.0))]);
     assert!(checker.clearance(&crossing, &[0.0]).unwrap() <= 0.0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A temporary folder holding `dented.obj`: the unit cube of [`cube_obj_dir`] with its top face (z = 0.5)
+/// replaced by four triangles meeting at (0, 0, `apex`) inside: a closed, outward, non-convex mesh.
+fn dented_obj_dir(tag: &str, apex: f64) -> PathBuf {
+    let dir = cube_obj_dir(tag);
+    let cube = std::fs::read_to_string(dir.join("cube.obj")).unwrap();
+    let mut obj: String = cube
+        .lines()
+        .filter(|l| *l != "f 2 6 8 4")
+        .map(|l| format!("{l}\n"))
+        .collect();
+    obj += &format!("v 0 0 {apex}\nf 2 6 9\nf 6 8 9\nf 8 4 9\nf 4 2 9\n");
+    std::fs::write(dir.join("dented.obj"), obj).unwrap();
+    dir
+}
+
+#[test]
+fn convex_meshes_alone_are_measured_as_their_hulls() {
+    let element = r#"<geometry><mesh filename="package://pkg/dented.obj"/></geometry>"#;
+    // A dent 0.2 deep: not convex. The mesh stays a mesh behind its hull bound, an enclosed ball reads
+    // -(depth of its centre), and a ball in the dent, inside the hull, is clear of the mesh.
+    let dir = dented_obj_dir("dent", 0.3);
+    let robot = one_joint_robot("prismatic", element, Some(&dir));
+    let checker = MeshChecker::new(&robot).unwrap();
+    let shape = &checker.shapes()[0];
+    assert!(shape.hull.is_some() && shape.tree.is_some());
+    let enclosed = scene_with(vec![(Shape::Sphere { radius: 0.1 }, at(0.0, 0.0, -0.3))]);
+    let d = checker.clearance(&enclosed, &[0.0]).unwrap();
+    assert!((d + 0.2).abs() < 1e-9, "enclosed: {d}");
+    let in_dent = scene_with(vec![(Shape::Sphere { radius: 0.02 }, at(0.0, 0.0, 0.45))]);
+    let d = checker.clearance(&in_dent, &[0.0]).unwrap();
+    assert!(d > 0.02, "a ball in the dent touches only the hull: {d}");
+    std::fs::remove_dir_all(&dir).unwrap();
+    // A dent of 10⁻⁹ m (within the convexity tolerance): convex, measured as its hull.
+    let dir = dented_obj_dir("flat_dent", 0.5 - 1e-9);
+    let robot = one_joint_robot("prismatic", element, Some(&dir));
+    let checker = MeshChecker::new(&robot).unwrap();
+    assert!(checker.shapes()[0].hull.is_none());
+    std::fs::remove_dir_all(&dir).unwrap();
+    // An open mesh (the cube without its top face) is a surface, not a solid: never its hull.
+    let dir = cube_obj_dir("open");
+    let cube = std::fs::read_to_string(dir.join("cube.obj")).unwrap();
+    let open: String = cube
+        .lines()
+        .filter(|l| *l != "f 2 6 8 4")
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(dir.join("dented.obj"), open).unwrap();
+    let robot = one_joint_robot("prismatic", element, Some(&dir));
+    let checker = MeshChecker::new(&robot).unwrap();
+    assert!(checker.shapes()[0].hull.is_some());
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

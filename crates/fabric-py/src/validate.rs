@@ -261,8 +261,8 @@ impl PyMeshChecker {
 
     /// Distance (m) of each checked self-collision shape pair (`self_pair_links` order): (P,) for q
     /// (dof,), (T, P) for q (T, dof); exact below `cutoff`, `inf` beyond; in contact, the negative
-    /// penetration depth, or with `depth=False` 0 for two meshes (a contact verdict without the costly
-    /// depth); the minimum over the pairs is `self_clearance`. Parallel, GIL released.
+    /// penetration depth, or with `depth=False` 0 for two meshes not both convex (a contact verdict without the
+    /// costly depth); the minimum over the pairs is `self_clearance`. Parallel, GIL released.
     #[pyo3(signature = (q, threads=None, cutoff=None, depth=true))]
     fn pair_clearances<'py>(
         &self,
@@ -292,7 +292,7 @@ impl PyMeshChecker {
 
     /// The checked self-collision shape pairs nearer than `within` m (≥ 0) at q (dof,): a list of
     /// (link a, link b, distance m), nearest first; ≤ 0 in contact (negative: penetration depth; with
-    /// `depth=False`, 0 for two meshes in contact, without the costly depth).
+    /// `depth=False`, 0 for two meshes in contact that are not both convex, without the costly depth).
     #[pyo3(signature = (q, within=0.0, depth=true))]
     fn self_contacts(
         &self,
