@@ -2,7 +2,8 @@
 """Cost of the exact mesh checks on a robot with detailed meshes (``gfcs.MeshChecker``).
 
 For random configurations within the joint limits (seeded) of a MotionBenchMaker robot (or of the shipped
-Panda with its convex collision polytopes, ``--robot shipped``), times:
+Panda with its convex collision polytopes, ``--robot shipped``; or of any robot, ``--urdf``, without obstacles),
+times:
 
 * ``self_clearance`` per state (exact self-distance, unbounded: penetration depths included), apart for the
   states whose links are clear and those in contact;
@@ -24,7 +25,7 @@ import argparse
 import json
 import statistics
 from pathlib import Path
-from typing import Dict, List
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -38,6 +39,23 @@ GROUPS = {"ur5": "manipulator", "fetch": "arm_with_torso", "panda": "panda_arm"}
 SHIPPED = "shipped"
 
 
+def mbm_robot(name: str, shared_arg: Optional[str]) -> Tuple[Any, Any, Any]:
+    """(robot, mesh checker, table_pick/0001's scene) of a MotionBenchMaker robot of the shared data folder, or
+    of the shipped Panda in the MotionBenchMaker Panda's scene."""
+    shared = Path(shared_arg) if shared_arg else problems.shared_dir()
+    if shared is None:
+        raise SystemExit("shared data folder not found: pass --shared or set GFCS_SHARED")
+    if name == SHIPPED:
+        robot, checker = gfcs.Robot.panda(), problems.shipped_panda_checker()
+    else:
+        folder = shared / "robots" / f"mbm_{name}"
+        urdf, srdf = folder / f"{name}_spherized.urdf", folder / f"{name}.srdf"
+        robot, _ = srdf_groups.robot_for_group(str(urdf), str(srdf), GROUPS[name], mesh_dir=str(folder))
+        checker = problems.urdf_mesh_checker(folder / f"{name}.urdf", robot, mesh_dir=folder, srdf=srdf)
+    mbm = shared / ("mbm" if name in ("panda", SHIPPED) else f"mbm_{name}") / "table_pick"
+    return robot, checker, problems.load_mbm(mbm / "scene0001.yaml", mbm / "request0001.yaml", robot=robot).scene
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shared", default=None, help="shared data folder (default: GFCS_SHARED or ../shared)")
@@ -46,19 +64,19 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-sweep", action="store_true", help="leave out the sweep (e.g. to time a build before it)")
     ap.add_argument("--json", help="write the raw times here")
+    ap.add_argument("--urdf", help="any robot instead: its URDF (with collision meshes), checked without obstacles")
+    ap.add_argument("--srdf", help="with --urdf: its SRDF")
+    ap.add_argument("--group", help="with --urdf: the SRDF group whose joints are sampled")
+    ap.add_argument("--mesh-dir", help="with --urdf: the folder that resolves its package:// paths")
     args = ap.parse_args()
-    shared = Path(args.shared) if args.shared else problems.shared_dir()
-    if shared is None:
-        raise SystemExit("shared data folder not found: pass --shared or set GFCS_SHARED")
-    if args.robot == SHIPPED:
-        robot, checker = gfcs.Robot.panda(), problems.shipped_panda_checker()
+    if args.urdf:
+        if not (args.srdf and args.group):
+            raise SystemExit("--urdf needs --srdf and --group")
+        robot, _ = srdf_groups.robot_for_group(args.urdf, args.srdf, args.group, mesh_dir=args.mesh_dir)
+        checker, scene, name = gfcs.MeshChecker(robot), gfcs.Scene(), f"{Path(args.urdf).name} ({args.group})"
     else:
-        folder = shared / "robots" / f"mbm_{args.robot}"
-        urdf, srdf = folder / f"{args.robot}_spherized.urdf", folder / f"{args.robot}.srdf"
-        robot, _ = srdf_groups.robot_for_group(str(urdf), str(srdf), GROUPS[args.robot], mesh_dir=str(folder))
-        checker = problems.urdf_mesh_checker(folder / f"{args.robot}.urdf", robot, mesh_dir=folder, srdf=srdf)
-    mbm = shared / ("mbm" if args.robot in ("panda", SHIPPED) else f"mbm_{args.robot}") / "table_pick"
-    scene = problems.load_mbm(mbm / "scene0001.yaml", mbm / "request0001.yaml", robot=robot).scene
+        robot, checker, scene = mbm_robot(args.robot, args.shared)
+        name = args.robot
     rng = np.random.default_rng(args.seed)
     lo, hi = np.asarray(robot.lower), np.asarray(robot.upper)
     qs = rng.uniform(lo, hi, size=(args.states, robot.dof))
@@ -68,13 +86,14 @@ def main() -> None:
         t = best_of(lambda: checker.self_clearance(q), 1)
         clear = float(checker.self_clearance(q)) > 0
         times["self_clearance, clear states" if clear else "self_clearance, states in contact"].append(t)
-        times["clearance"].append(best_of(lambda: checker.clearance(scene, q), 1))
+        if len(scene):
+            times["clearance"].append(best_of(lambda: checker.clearance(scene, q), 1))
     times["min_self_clearance (3 mm cutoff)"] = [best_of(lambda: checker.min_self_clearance(qs, cutoff=0.003), 1)]
     for a, b in zip(qs[:-1], [] if args.no_sweep else qs[1:]):
         rows = max(2, int(np.ceil(np.max(np.abs(b - a)) / 0.01)) + 1)
         path = np.linspace(a, b, rows)
         times.setdefault("sweep", []).append(best_of(lambda: checker.sweep(scene, path), 1))
-    print(f"{args.robot}: {checker.num_shapes} collision shapes, {checker.num_self_pairs} self pairs, "
+    print(f"{name}: {checker.num_shapes} collision shapes, {checker.num_self_pairs} self pairs, "
           f"{args.states} random states (seed {args.seed})\n")
     print("| query | calls | median (s) | largest (s) |\n|---|---|---|---|")
     for name, ts in times.items():

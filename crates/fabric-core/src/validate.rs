@@ -73,6 +73,9 @@ pub struct CollisionShape {
     /// Box tree of a mesh's triangles, for mesh-mesh distances ([`MeshTree::distance`]) unless both meshes
     /// are convex; `None` for primitives.
     pub tree: Option<Arc<MeshTree>>,
+    /// Box of `shape` in its own frame, computed once: a placed shape's box is this box transformed (as
+    /// parry boxes a mesh; a convex polyhedron would visit every vertex at every pose).
+    pub local_aabb: Aabb,
 }
 
 impl CollisionShape {
@@ -540,6 +543,7 @@ impl MeshChecker {
             shapes.push(CollisionShape {
                 link: g.link,
                 origin,
+                local_aabb: shape.compute_local_aabb(),
                 shape,
                 label,
                 hull,
@@ -627,7 +631,7 @@ impl MeshChecker {
         self.robot.update_positions(q, &mut ws.kinematics)?;
         for ((s, pose), aabb) in self.shapes.iter().zip(&mut ws.poses).zip(&mut ws.boxes) {
             *pose = self.robot.link_pose(&ws.kinematics, s.link) * s.origin;
-            *aabb = s.shape.compute_aabb(pose);
+            *aabb = s.local_aabb.transform_by(pose);
         }
         Ok(())
     }
@@ -660,7 +664,9 @@ impl MeshChecker {
         ws.order.clear();
         for (i, (s, pose)) in self.shapes.iter().zip(&ws.poses).enumerate() {
             let slack = if s.hull.is_some() { BOUND_SLACK } else { 0.0 };
-            let Some(d) = scene.shape_distance(s.bound(), pose, best.min(max) + slack) else {
+            let Some(d) =
+                scene.boxed_shape_distance(s.bound(), pose, &ws.boxes[i], best.min(max) + slack)
+            else {
                 continue;
             };
             if s.hull.is_some() {
@@ -675,7 +681,9 @@ impl MeshChecker {
                 break;
             }
             let (s, pose) = (&self.shapes[i], &ws.poses[i]);
-            if let Some(d) = scene.shape_distance(&*s.shape, pose, best.min(max)) {
+            if let Some(d) =
+                scene.boxed_shape_distance(&*s.shape, pose, &ws.boxes[i], best.min(max))
+            {
                 best = best.min(d);
             }
             // An obstacle enclosed by the mesh is inside its hull too: the bound is then <= 0.
@@ -705,14 +713,16 @@ impl MeshChecker {
         for (i, (s, pose)) in self.shapes.iter().zip(&ws.poses).enumerate() {
             out[i] = f64::INFINITY;
             let slack = if s.hull.is_some() { BOUND_SLACK } else { 0.0 };
-            let Some(bound) = scene.shape_distance(s.bound(), pose, max + slack) else {
+            let Some(bound) =
+                scene.boxed_shape_distance(s.bound(), pose, &ws.boxes[i], max + slack)
+            else {
                 continue;
             };
             if s.hull.is_none() {
                 out[i] = bound;
                 continue;
             }
-            if let Some(d) = scene.shape_distance(&*s.shape, pose, max) {
+            if let Some(d) = scene.boxed_shape_distance(&*s.shape, pose, &ws.boxes[i], max) {
                 out[i] = d;
             }
             if bound <= 0.0 {

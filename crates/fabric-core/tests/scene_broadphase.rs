@@ -12,7 +12,8 @@ use fabric_core::scene::{
 };
 use fabric_core::FabricError;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use parry3d_f64::shape::{Ball, Cuboid};
+use parry3d_f64::bounding_volume::BoundingVolume;
+use parry3d_f64::shape::{Ball, Cuboid, Shape as _};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use scene_support::{random_pose, rng, vec_in, UNIT_CUBE_OBJ};
@@ -415,6 +416,76 @@ fn advance_moves_obstacles_by_their_velocity() {
     // Backwards in time returns to the start.
     scene.advance(-0.5);
     assert!(scene.get(a).unwrap().pose.translation.vector.norm() < 1e-15);
+}
+
+/// `boxed_shape_distance` with any box containing the placed shape (here the exact box, loosened by 0-0.3 m)
+/// gives `shape_distance`'s value: the box only selects and bounds the obstacles.
+#[test]
+fn boxed_shape_distance_is_shape_distance() {
+    let mut scene = Scene::new();
+    let ball = Ball::new(0.1);
+    let pose = Isometry3::translation(0.3, 0.0, 0.0);
+    let exact = ball.compute_aabb(&pose);
+    assert!(
+        scene
+            .boxed_shape_distance(&ball, &pose, &exact, 10.0)
+            .is_none(),
+        "empty scene"
+    );
+    let (v, t) = parse_obj(UNIT_CUBE_OBJ, "cube.obj").unwrap();
+    let mesh = Arc::new(build_mesh(v, t, "cube.obj").unwrap());
+    let cloud = PointCloud::new(vec![Vector3::zeros(), Vector3::new(0.0, 0.0, 0.1)], 0.01).unwrap();
+    for (name, shape, at) in [
+        (
+            "s",
+            Shape::Sphere { radius: 0.2 },
+            Vector3::new(1.0, 0.0, 0.0),
+        ),
+        ("m", Shape::TriMesh(mesh), Vector3::new(-1.0, 0.5, 0.0)),
+        (
+            "pc",
+            Shape::PointCloud(Arc::new(cloud)),
+            Vector3::new(0.0, -1.0, 0.0),
+        ),
+        (
+            "cyl",
+            Shape::Cylinder {
+                half_height: 0.5,
+                radius: 0.1,
+            },
+            Vector3::new(0.0, 1.0, 0.0),
+        ),
+        ("floor", Shape::HalfSpace, Vector3::new(0.0, 0.0, -1.0)),
+    ] {
+        scene
+            .add(Obstacle::new(
+                name,
+                shape,
+                Isometry3::from_parts(at.into(), UnitQuaternion::identity()),
+            ))
+            .unwrap();
+    }
+    let cube = Cuboid::new(Vector3::new(0.1, 0.2, 0.05));
+    let mut r = rng(11);
+    let mut compared = 0;
+    for _ in 0..300 {
+        let pose = random_pose(&mut r, 1.5);
+        for shape in [&ball as &dyn parry3d_f64::shape::Shape, &cube] {
+            let exact = shape.compute_aabb(&pose);
+            let loose = exact.loosened(r.gen_range(0.0..0.3));
+            let want = scene.shape_distance(shape, &pose, 0.8);
+            for aabb in [exact, loose] {
+                let got = scene.boxed_shape_distance(shape, &pose, &aabb, 0.8);
+                match (want, got) {
+                    (Some(a), Some(b)) => assert!((a - b).abs() < 1e-12, "{a} vs {b}"),
+                    (None, None) => {}
+                    other => panic!("{other:?} at {pose:?}"),
+                }
+            }
+            compared += usize::from(want.is_some());
+        }
+    }
+    assert!(compared > 100, "only {compared} poses near an obstacle");
 }
 
 #[test]

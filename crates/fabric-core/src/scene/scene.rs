@@ -422,10 +422,25 @@ impl Scene {
         pose: &Isometry3<f64>,
         max: f64,
     ) -> Option<f64> {
-        if max.is_nan() || check_pose("shape_distance", pose).is_err() {
+        if self.is_empty() {
             return None;
         }
-        let shape_aabb = shape.compute_aabb(pose);
+        self.boxed_shape_distance(shape, pose, &shape.compute_aabb(pose), max)
+    }
+
+    /// [`Scene::shape_distance`] with a world box `shape_aabb` of the placed shape given by the caller (any
+    /// box containing it: it only selects and bounds the obstacles), for callers that keep one per pose.
+    pub fn boxed_shape_distance(
+        &self,
+        shape: &dyn parry3d_f64::shape::Shape,
+        pose: &Isometry3<f64>,
+        shape_aabb: &Aabb,
+        max: f64,
+    ) -> Option<f64> {
+        if self.is_empty() || max.is_nan() || check_pose("shape_distance", pose).is_err() {
+            return None;
+        }
+        let shape_aabb = *shape_aabb;
         let region = shape_aabb.loosened(max.max(0.0));
         let mut best: Option<f64> = None;
         let mut consider = |entry: &Entry| {
