@@ -825,8 +825,9 @@ impl MeshChecker {
 
     /// The distance of every self-collision pair ([`MeshChecker::self_pairs`]) at every state of `qs`:
     /// T × P row-major (m), exact below min(`cutoff`, max distance), +∞ beyond; in contact, negative
-    /// penetration depths with `depth`, and without, 0 for two meshes that are not both convex (contact verdicts,
-    /// e.g. a collision matrix; convex shapes read their depth, which costs little); the minimum of a row is [`MeshChecker::self_clearance`] (where below the cutoff).
+    /// penetration depths with `depth`, and without, 0 for two meshes that are not both convex (contact
+    /// verdicts, e.g. a collision matrix; convex shapes read their depth, which costs little); the minimum
+    /// of a row is [`MeshChecker::self_clearance`] (where below the cutoff).
     ///
     /// Errors: as [`MeshChecker::trajectory_self_clearance`].
     pub fn trajectory_pair_clearances(
@@ -1016,8 +1017,7 @@ impl MeshChecker {
     /// The self-collision shape pairs ([`MeshChecker::self_pairs`]) nearer than `within` (m, ≥ 0) at q
     /// (dof,): (shape i, shape j, distance m), nearest first; a pair in contact has distance ≤ 0 (with
     /// `depth`, parry's penetration depth where the shapes overlap; without, 0 for two meshes that are not
-    /// both convex). For reports
-    /// that name the links in contact, e.g. a start state MoveIt would refuse.
+    /// both convex). For reports that name the links in contact, e.g. a start state MoveIt would refuse.
     ///
     /// Errors: `Shape`, `NonFinite` (q), `Value` for a negative or non-finite `within`, or when parry
     /// cannot measure a pair.

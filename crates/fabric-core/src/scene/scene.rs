@@ -440,11 +440,10 @@ impl Scene {
         if self.is_empty() || max.is_nan() || check_pose("shape_distance", pose).is_err() {
             return None;
         }
-        let shape_aabb = *shape_aabb;
         let region = shape_aabb.loosened(max.max(0.0));
         let mut best: Option<f64> = None;
         let mut consider = |entry: &Entry| {
-            if let Some(d) = pair_distance(entry, shape, pose, &shape_aabb, max) {
+            if let Some(d) = pair_distance(entry, shape, pose, shape_aabb, max) {
                 if d <= max && !matches!(best, Some(b) if b <= d) {
                     best = Some(d);
                 }
