@@ -96,9 +96,9 @@ def main() -> None:
     print(f"{name}: {checker.num_shapes} collision shapes, {checker.num_self_pairs} self pairs, "
           f"{args.states} random states (seed {args.seed})\n")
     print("| query | calls | median (s) | largest (s) |\n|---|---|---|---|")
-    for name, ts in times.items():
+    for query, ts in times.items():
         if ts:
-            print(f"| {name} | {len(ts)} | {statistics.median(ts):.3g} | {max(ts):.3g} |")
+            print(f"| {query} | {len(ts)} | {statistics.median(ts):.3g} | {max(ts):.3g} |")
     if args.json:
         Path(args.json).write_text(json.dumps(times))
 

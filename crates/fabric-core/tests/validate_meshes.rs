@@ -214,16 +214,20 @@ fn cube_mesh_link_against_sphere_closed_form() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The OBJ text of [`cube_obj_dir`]'s cube in `dir` without its top face (z = 0.5): an open mesh.
+fn cube_without_top(dir: &Path) -> String {
+    let cube = std::fs::read_to_string(dir.join("cube.obj")).unwrap();
+    cube.lines()
+        .filter(|l| *l != "f 2 6 8 4")
+        .map(|l| format!("{l}\n"))
+        .collect()
+}
+
 /// A temporary folder holding `dented.obj`: the unit cube of [`cube_obj_dir`] with its top face (z = 0.5)
 /// replaced by four triangles meeting at (0, 0, `apex`) inside: a closed, outward, non-convex mesh.
 fn dented_obj_dir(tag: &str, apex: f64) -> PathBuf {
     let dir = cube_obj_dir(tag);
-    let cube = std::fs::read_to_string(dir.join("cube.obj")).unwrap();
-    let mut obj: String = cube
-        .lines()
-        .filter(|l| *l != "f 2 6 8 4")
-        .map(|l| format!("{l}\n"))
-        .collect();
+    let mut obj = cube_without_top(&dir);
     obj += &format!("v 0 0 {apex}\nf 2 6 9\nf 6 8 9\nf 8 4 9\nf 4 2 9\n");
     std::fs::write(dir.join("dented.obj"), obj).unwrap();
     dir
@@ -254,13 +258,7 @@ fn convex_meshes_alone_are_measured_as_their_hulls() {
     std::fs::remove_dir_all(&dir).unwrap();
     // An open mesh (the cube without its top face) is a surface, not a solid: never its hull.
     let dir = cube_obj_dir("open");
-    let cube = std::fs::read_to_string(dir.join("cube.obj")).unwrap();
-    let open: String = cube
-        .lines()
-        .filter(|l| *l != "f 2 6 8 4")
-        .map(|l| format!("{l}\n"))
-        .collect();
-    std::fs::write(dir.join("dented.obj"), open).unwrap();
+    std::fs::write(dir.join("dented.obj"), cube_without_top(&dir)).unwrap();
     let robot = one_joint_robot("prismatic", element, Some(&dir));
     let checker = MeshChecker::new(&robot).unwrap();
     assert!(checker.shapes()[0].hull.is_some());
