@@ -113,6 +113,29 @@ def test_model_cascade_moves_to_the_next_model_and_stops_after_the_last(context)
     assert policy.propose(context, [_record(thin, 1), _record(own, 1)]) is None
 
 
+def test_model_share_hands_over_once_a_model_used_its_part_of_the_budget(context):
+    """With a 6 s budget and two models, the first may use 3 s; the last model is never cut short, and
+    without a budget nothing is proposed."""
+    thin, own = context.models.planning
+    budgeted = dataclasses.replace(context, time_limit=6.0)
+    policy = planning.ModelShare()
+
+    def timed(model, n, seconds):
+        record = _record(model, n)
+        record.time = seconds
+        return record
+
+    assert policy.propose(budgeted, [timed(thin, 1, 1.0), timed(thin, 2, 1.5)]) is None
+    proposal = policy.propose(budgeted, [timed(thin, 1, 1.0), timed(thin, 2, 2.0)])
+    assert (proposal.model, proposal.n_commands, proposal.restart) == (own, 1, 0)
+    assert policy.propose(budgeted, [timed(thin, 1, 3.0), timed(own, 1, 3.0)]) is None
+    assert policy.propose(context, [timed(thin, 1, 100.0)]) is None
+    # a restart's run on the first model starts its share afresh, from what is left of the budget
+    restarted = [timed(thin, 1, 1.0), timed(own, 1, 2.0), timed(thin, 1, 1.0)]
+    assert policy.propose(budgeted, restarted) is None
+    assert policy.propose(budgeted, restarted + [timed(thin, 2, 0.5)]).model == own
+
+
 def test_restart_begins_a_new_round_on_the_first_model_until_its_rounds_are_used(context):
     thin, own = context.models.planning
     policy = planning.Restart(rounds=2)

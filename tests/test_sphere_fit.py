@@ -215,3 +215,44 @@ def test_the_cli_judges_fitted_sphere_pairs_by_the_robots_own_meshes(tmp_path, m
     args = cli.build_parser().parse_args(["solve", "--robot", str(urdf), "--ee-link", "top"])
     cli._robot(args)
     assert seen == [(["base", "middle", "top"], "MeshChecker", [("base", "top")])]
+
+
+def test_a_covering_model_replaces_spheres_that_leave_the_meshes_uncovered(tmp_path, monkeypatch):
+    """Spheres made for another checker (here one small sphere per link) leave centimetres of the meshes
+    outside; the covering model's spheres, fitted to the meshes the checker judges, leave none, on every link
+    that has geometry, and the robot given keeps its own spheres."""
+    from gfcs.sphere_fit import covering_model
+
+    monkeypatch.setenv("GFCS_CACHE_DIR", str(tmp_path))
+    meshes = gfcs.Robot.from_urdf(ARM.format(fore_sphere=""), ee_link="fore")
+    small = meshes.with_spheres([("base", [0, 0, 0], 0.05), ("upper", [0.2, 0, 0], 0.03),
+                                 ("fore", [0.15, 0, 0], 0.03)])
+    assert sphere_deficits(small, meshes).max() > 0.05
+    covering = covering_model(small, gfcs.MeshChecker(meshes))
+    assert np.all(sphere_deficits(covering, meshes) == 0.0)
+    assert set(covering.sphere_links) == {"base", "upper", "fore"}
+    assert len(small.sphere_radii) == 3 and list(small.sphere_radii) == [0.05, 0.03, 0.03]
+
+
+def test_a_solve_plans_on_covering_spheres_first_where_its_own_leave_the_meshes_uncovered(tmp_path, monkeypatch):
+    """models_for: the covering model comes first for spheres 10 cm short of a moving link's mesh, not for
+    spheres that cover it, nor unless asked; a result's settings rebuild it (model_named)."""
+    from types import SimpleNamespace
+
+    from gfcs.planning.models import model_named, models_for
+
+    monkeypatch.setenv("GFCS_CACHE_DIR", str(tmp_path))
+    meshes = gfcs.Robot.from_urdf(ARM.format(fore_sphere=""), ee_link="fore")
+    checker = gfcs.MeshChecker(meshes)
+    small = meshes.with_spheres([("base", [0, 0, 0], 0.15), ("upper", [0.2, 0, 0], 0.03),
+                                 ("fore", [0.15, 0, 0], 0.03)])
+    models = models_for(SimpleNamespace(robot=small, mesh_checker=checker), covering=True)
+    assert [m.name for m in models.planning] == ["covering", "spheres"]
+    covering = models.planning[0]
+    assert np.all(sphere_deficits(covering.robot, meshes) == 0.0)
+    rebuilt = model_named(small, covering.settings())
+    assert np.allclose(rebuilt.sphere_radii, covering.robot.sphere_radii)
+    assert [m.name for m in models_for(SimpleNamespace(robot=small, mesh_checker=checker)).planning] == ["spheres"]
+    fitted = with_fitted_spheres(meshes)
+    assert [m.name for m in models_for(SimpleNamespace(robot=fitted, mesh_checker=checker),
+                                       covering=True).planning] == ["spheres"]

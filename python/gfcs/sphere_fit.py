@@ -38,7 +38,7 @@ import numpy as np
 from gfcs.errors import InvalidValueError
 
 __all__ = ["fit_link_spheres", "fitted_spheres", "always_touching", "sphere_artefacts", "with_fitted_spheres",
-           "ALWAYS_SHARE", "ARTEFACT_SHARE", "CONTACT_SAMPLES"]
+           "covering_model", "ALWAYS_SHARE", "ARTEFACT_SHARE", "CONTACT_SAMPLES"]
 
 #: Largest number of points a link's fit iterates over (a seeded subsample; every point is covered at the end).
 FIT_POINTS = 3000
@@ -325,10 +325,36 @@ def with_fitted_spheres(robot: Any, max_per_link: int = 8, margin: float = 0.001
     if not bare:
         return robot
     fitted = robot.with_spheres(_robot_spheres(robot) + fitted_spheres(robot, bare, max_per_link, margin, cached))
-    contacts = _sphere_contacts(fitted, bare, CONTACT_SAMPLES, 0)  # one set of samples judges both ways
+    return _without_overlapping_pairs(fitted, bare, mesh_checker, left_out)
+
+
+def covering_model(robot: Any, mesh_checker: Any, max_per_link: int = 8, margin: float = 0.001) -> Any:
+    """``robot`` with its collision spheres replaced by spheres fitted (:func:`fitted_spheres`) to the collision
+    geometry of ``mesh_checker.robot`` (the meshes that judge its motions; links ``robot`` does not have are
+    left out), with the link pairs whose fitted spheres always overlap, or overlap where the meshes are apart,
+    left out of its self-collision checks (:func:`with_fitted_spheres`). Every point of those meshes lies
+    inside a sphere of its link: a motion whose spheres are clear has clear meshes, where a sphere model made
+    for another checker leaves centimetres of them uncovered (:func:`gfcs.coverage.sphere_deficits`)."""
+    from gfcs.problems import _robot_spheres
+
+    known = set(robot.link_names)
+    fitted = [s for s in fitted_spheres(mesh_checker.robot, None, max_per_link, margin) if s[0] in known]
+    links = sorted({link for link, _, _ in fitted})
+    if not links:
+        return robot
+    kept = [s for s in _robot_spheres(robot) if s[0] not in links]
+    return _without_overlapping_pairs(robot.with_spheres(kept + fitted), links, mesh_checker, None)
+
+
+def _without_overlapping_pairs(fitted: Any, links: Sequence[str], mesh_checker: Any,
+                               left_out: Optional[List[Tuple[str, str]]]) -> Any:
+    """``fitted`` with its link pairs (a link of ``links`` in each) whose spheres always overlap
+    (:func:`always_touching`) or, with a ``mesh_checker``, overlap where the meshes are apart
+    (:func:`sphere_artefacts`) left out of its self-collision checks; ``left_out`` receives them."""
+    contacts = _sphere_contacts(fitted, links, CONTACT_SAMPLES, 0)  # one set of samples judges both ways
     touching = _always(contacts, ALWAYS_SHARE)
     if mesh_checker is not None:
-        touching += [p for p in sphere_artefacts(fitted, bare, mesh_checker, contacts=contacts) if p not in touching]
+        touching += [p for p in sphere_artefacts(fitted, links, mesh_checker, contacts=contacts) if p not in touching]
     if left_out is not None:
         left_out.extend(touching)
     return fitted.with_disabled_pairs(touching) if touching else fitted

@@ -11,7 +11,7 @@ module                 holds
 ``models``             a robot's planning models, validator, limits and profile, resolved once per solve
 ``attempts``           :class:`Attempt` (what it plans with), :class:`AttemptRecord` (what it gave)
 ``policies``           retry policies: :class:`MoreCommands`, :class:`WiderMargin`, :class:`GoalContact`,
-                       :class:`ModelCascade`, :class:`Restart`
+                       :class:`ModelShare`, :class:`ModelCascade`, :class:`Restart`
 ``presets``            ``default`` and ``paper``
 ``budget``             the time budget's deadlines
 ``solve``              :func:`solve` and :func:`replay`
@@ -23,7 +23,7 @@ from gfcs.planning.budget import Budget
 from gfcs.planning.finish import FinishOptions, finish_rollout, rollout_commands
 from gfcs.planning.gfcop import BatchInfo, OptimResult, solve_gfcop
 from gfcs.planning.models import THIN_SPHERE_MARGIN, PlanningModel, RobotModels, models_for, planned_robot
-from gfcs.planning.policies import (GoalContact, ModelCascade, MoreCommands, PlanContext, Policy, Restart,
+from gfcs.planning.policies import (GoalContact, ModelCascade, ModelShare, MoreCommands, PlanContext, Policy, Restart,
                                     WiderMargin, cover_self_margins, default_policies, goal_contact,
                                     mesh_contacts)
 from gfcs.planning.presets import PRESETS, Preset, get_preset
@@ -39,7 +39,7 @@ __all__ = [
     "Candidate", "SelectionOptions", "select_candidate",
     "PlanningModel", "RobotModels", "models_for", "planned_robot", "THIN_SPHERE_MARGIN",
     "Attempt", "AttemptRecord", "combine_attempts",
-    "Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "ModelCascade", "Restart",
+    "Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "ModelShare", "ModelCascade", "Restart",
     "default_policies", "goal_contact", "cover_self_margins", "mesh_contacts",
     "Preset", "PRESETS", "get_preset", "Budget",
 ]

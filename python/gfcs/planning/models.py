@@ -4,7 +4,9 @@ and the robot's limits and profile.
 * Planning models, in the order a solve tries them (:class:`PlanningModel`): for a robot with a thinner
   sphere model on record and a collision-mesh validator (the shipped Panda and Franka descriptions given
   its spheres, :func:`gfcs.problems.thin_sphere_model`), first the thin spheres with a wider obstacle
-  margin, then the robot's own (covering) spheres; for any other robot, its own spheres.
+  margin, then the robot's own (covering) spheres; for a robot whose own spheres leave the validator's
+  meshes centimetres uncovered (a sphere model made for another checker), first spheres fitted around those
+  meshes (:func:`covering_model`), then its own; for any other robot, its own spheres.
 * Element spheres: where the validator's robot description models a part by a collision sphere (a
   head, a sensor dome), every planning model carries that sphere exactly in place of its own spheres inside
   it (:func:`gfcs.coverage.with_element_spheres`; ``element_spheres=False``, the ``paper`` preset: the
@@ -40,6 +42,13 @@ __all__ = ["PlanningModel", "RobotModels", "models_for", "model_named", "planned
 #: mesh-retry policy widens it further where they still touch (docs/tuning.md).
 THIN_SPHERE_MARGIN = 0.004
 
+#: How far [m] a robot's own spheres may leave the validator's meshes of a moving link uncovered before a solve
+#: plans on spheres fitted around those meshes first (:func:`covering_model`). The MotionBenchMaker Fetch's
+#: spheres miss its torso by 45 mm: there the covering spheres solve the shelf and cage problems its own
+#: spheres cannot, in half the time; the UR5's (30 mm, its forearm) and the MBM Panda's (19 mm) solve more as
+#: they are (docs/tuning.md).
+COVERING_DEFICIT = 0.04
+
 
 @dataclass(frozen=True)
 class PlanningModel:
@@ -61,8 +70,12 @@ class PlanningModel:
 
     def settings(self) -> Dict[str, Any]:
         """What a result records of the model so that :func:`model_named` rebuilds it: ``sphere_model``
-        ("thin" only) and ``element_spheres`` ([{link, center, radius}], when it carries any)."""
-        out: Dict[str, Any] = {"sphere_model": "thin"} if self.name == "thin" else {}
+        ("thin" or "covering"; the covering model's ``spheres`` [{link, center, radius}] with it) and
+        ``element_spheres`` ([{link, center, radius}], when it carries any)."""
+        out: Dict[str, Any] = {"sphere_model": self.name} if self.name in ("thin", "covering") else {}
+        if self.name == "covering":
+            out["spheres"] = [{"link": link, "center": [float(x) for x in c], "radius": float(r)} for link, c, r
+                              in zip(self.robot.sphere_links, self.robot.sphere_centers_local, self.robot.sphere_radii)]
         if self.element_spheres:
             out["element_spheres"] = [{"link": link, "center": list(c), "radius": r}
                                       for link, c, r in self.element_spheres]
@@ -103,11 +116,14 @@ class RobotModels:
         raise InvalidValueError(f"no planning model {name!r}; this robot has {[m.name for m in self.planning]}")
 
 
-def models_for(problem: Any, thin_spheres: bool = True, element_spheres: bool = True) -> RobotModels:
+def models_for(problem: Any, thin_spheres: bool = True, element_spheres: bool = True,
+               covering: bool = False) -> RobotModels:
     """The :class:`RobotModels` of ``problem`` (its robot and mesh checker). ``thin_spheres``: plan on a thin
     model first when the robot has one and the problem a validator to judge it (False: own spheres only,
     the ``paper`` preset). ``element_spheres``: every planning model carries the validator's collision
-    spheres (module docstring; False: the ``paper`` preset)."""
+    spheres (module docstring; False: the ``paper`` preset). ``covering``: plan on the covering model
+    (:func:`covering_model`) first when the robot's own spheres leave its meshes uncovered (the ``default``
+    preset)."""
     robot = problem.robot
     validator = getattr(problem, "mesh_checker", None)
     exact: Tuple[Tuple[str, Tuple[float, ...], float], ...] = ()
@@ -123,7 +139,53 @@ def models_for(problem: Any, thin_spheres: bool = True, element_spheres: bool = 
     own = model("spheres", robot)
     thin = _problems.thin_sphere_model(robot) if thin_spheres and validator is not None else None
     planning = (model("thin", thin, THIN_SPHERE_MARGIN), own) if thin is not None else (own,)
+    # a robot with a thin model on record has its covering spheres already: its own
+    fitted = covering_model(own.robot, validator) if covering and thin is None else None
+    if fitted is not None:
+        planning = (model("covering", fitted),) + planning
     return RobotModels(robot, planning, validator, _profile.profile_for(robot))
+
+
+#: The covering models built in this process (:func:`covering_model`), by what they depend on.
+_COVERING: Dict[Tuple[Any, ...], Any] = {}
+
+
+def covering_model(robot: Any, validator: Any) -> Optional[Any]:
+    """``robot`` with spheres fitted around its validator's collision meshes (:func:`gfcs.sphere_fit.covering_model`)
+    when its own spheres leave the meshes of a link its joints move uncovered by more than
+    :data:`COVERING_DEFICIT` (:func:`gfcs.coverage.sphere_deficits`; a fixed base is left out: it never
+    moves toward an obstacle), else None (no validator, or spheres near enough to the meshes: the shipped
+    Panda's, a robot's fitted ones). Built once per process for a robot and validator."""
+    if validator is None or not hasattr(validator, "robot"):
+        return None
+    key = (_problems.sphere_fingerprint(robot), tuple(robot.link_names), tuple(robot.joint_names),
+           tuple(sorted(robot.locked_positions.items())), tuple(np.asarray(robot.lower).tolist()),
+           tuple(np.asarray(robot.upper).tolist()), len(robot.self_collision_pairs),
+           tuple(_coverage._key(e) for e in validator.robot.collision_geometry()))
+    if key not in _COVERING:
+        from gfcs import sphere_fit
+
+        _COVERING[key] = sphere_fit.covering_model(robot, validator) if _uncovered(robot, validator, key) else None
+    return _COVERING[key]
+
+
+def _uncovered(robot: Any, validator: Any, key: Tuple[Any, ...]) -> bool:
+    """Whether ``robot``'s spheres leave a moving link's meshes more than :data:`COVERING_DEFICIT` uncovered;
+    kept in the disk cache (:mod:`gfcs.cache`) under ``key`` and the mesh files' bytes: reading and sampling
+    the meshes takes a second on a large robot, once per machine."""
+    from gfcs import cache as _cache
+
+    meshes = sorted({element[2] for element in key[-1] if element[2]})  # the mesh paths of the validator's geometry
+    digest = _cache.digest("covering_deficit", COVERING_DEFICIT, repr(key), [(m, _cache.file_digest(m)) for m in meshes],
+                           _cache.file_digest(__file__), _cache.file_digest(_coverage.__file__))
+    hit = _cache.load("covering", digest)
+    if isinstance(hit, bool):
+        return hit
+    deficit = _coverage.sphere_deficits(robot, validator.robot)
+    moving = np.isin(np.asarray(robot.sphere_links, dtype=str), _moving_links(robot))
+    uncovered = bool(np.any(deficit[moving] > COVERING_DEFICIT))
+    _cache.store("covering", digest, uncovered)
+    return uncovered
 
 
 def with_robot(problem: Any, robot: Any) -> Any:
@@ -140,10 +202,13 @@ def with_robot(problem: Any, robot: Any) -> Any:
 def model_named(robot: Any, settings: Optional[Dict[str, Any]]) -> Any:
     """``robot`` as the planning model a result's ``settings`` name (:meth:`PlanningModel.settings`)
     carries it: its thin model for ``sphere_model == "thin"`` (``robot`` itself when it has none, e.g. when
-    it already is that model), with the ``element_spheres`` recorded there."""
+    it already is that model), the recorded spheres for ``"covering"`` (the self-collision pairs the solve
+    left out of that model stay checked), with the ``element_spheres`` recorded there."""
     settings = settings or {}
     if settings.get("sphere_model") == "thin":
         robot = _problems.thin_sphere_model(robot) or robot
+    elif settings.get("sphere_model") == "covering":
+        robot = robot.with_spheres([(e["link"], e["center"], e["radius"]) for e in settings["spheres"]])
     recorded = settings.get("element_spheres") or []
     return _coverage.with_element_spheres(robot, [(e["link"], e["center"], e["radius"]) for e in recorded])
 
@@ -156,3 +221,15 @@ def planned_robot(result: Any, problem: Any) -> Any:
     if robot is not None:
         return robot
     return model_named(problem.robot, getattr(result, "settings", None))
+
+
+def _moving_links(robot: Any, samples: int = 4) -> list:
+    """The links of ``robot`` whose pose (in the root frame) changes with its joints: seeded configurations
+    within the limits, links whose poses differ between them by more than 1e-9."""
+    lower, upper = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
+    finite = np.isfinite(lower) & np.isfinite(upper)
+    q = np.random.default_rng(0).uniform(np.where(finite, lower, -np.pi), np.where(finite, upper, np.pi),
+                                         (samples, int(robot.dof)))
+    poses = np.asarray(robot.link_poses(q), dtype=np.float64).reshape(samples, len(robot.link_names), -1)
+    varies = np.abs(poses - poses[:1]).max(axis=(0, 2)) > 1e-9
+    return [name for name, v in zip(robot.link_names, varies) if v]

@@ -5,6 +5,8 @@ attempt; the first proposal runs, and the solve ends when an attempt succeeds, w
 or when the time budget leaves no room for another. An empty list is a solve without retries. The
 ``default`` preset's list, in order (:func:`default_policies`):
 
+* :class:`ModelShare`: with a time limit, the next planning model once the current one's attempts used their
+  share of the budget (asked first, so that one model cannot spend the budget the next one needs);
 * :class:`MoreCommands`: the same attempt with one more free command, up to :data:`MORE_COMMANDS` more than
   the solve's n (an approach corridor entered in steps, the arm led around a board by the extra commands);
 * :class:`WiderMargin`: after a round whose attempts failed only because a collision *mesh* touched
@@ -38,7 +40,7 @@ from gfcs.planning.attempts import Attempt, AttemptRecord
 from gfcs.planning.models import RobotModels
 
 __all__ = ["Policy", "PlanContext", "MoreCommands", "WiderMargin", "GoalContact", "MeshCover", "ModelCascade",
-           "Restart", "default_policies", "goal_contact", "endpoint_self_contact", "endpoint_contact",
+           "ModelShare", "Restart", "default_policies", "goal_contact", "endpoint_self_contact", "endpoint_contact",
            "EndpointContact", "cover_self_margins", "mesh_contacts", "CONTACT_SLACK", "MORE_COMMANDS"]
 
 #: The default policies' most free commands beyond the solve's n (:class:`MoreCommands`). Three: the Fetch's
@@ -58,6 +60,7 @@ class PlanContext:
         mesh_margin: the clearance [m] the meshes must keep for success.
         model_fabric: ``model_fabric(model)``: the fabric of a planning model at its own margin.
         model_problem: ``model_problem(model)``: the problem with that model's robot.
+        time_limit: the solve's budget [s], or None.
     """
 
     problem: Any
@@ -66,6 +69,7 @@ class PlanContext:
     mesh_margin: float
     model_fabric: Callable[[Any], Any]
     model_problem: Callable[[Any], Any]
+    time_limit: Optional[float] = None
 
 
 class Policy(Protocol):
@@ -366,6 +370,37 @@ class ModelCascade:
 
 
 @dataclass
+class ModelShare:
+    """With a time budget and another planning model left: once the attempts on the current model (its last
+    uninterrupted run of records) have used their share of the budget, the first attempt on the next model,
+    before any other policy's proposal. A model's share is an equal part of the time that was left when its
+    run started, among it and the models after it: with two models, the first may use half the budget. A
+    model's attempts can fail on one problem until the budget ends where the next model's succeed within a
+    second (the covering and the robot's own spheres on the Fetch's shelves and under its tables,
+    docs/tuning.md)."""
+
+    name: str = "model share"
+
+    def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
+        if context.time_limit is None:
+            return None
+        planning = list(context.models.planning)
+        last = records[-1].attempt
+        i = planning.index(last.model)
+        if i + 1 >= len(planning):
+            return None
+        start = len(records)
+        while start > 0 and records[start - 1].attempt.model == last.model:
+            start -= 1
+        before = sum(r.time for r in records[:start])
+        used = sum(r.time for r in records[start:])
+        share = max(0.0, float(context.time_limit) - before) / (len(planning) - i)
+        if used < share:
+            return None
+        return Attempt(planning[i + 1], context.n_commands, restart=last.restart)
+
+
+@dataclass
 class Restart:
     """When every other policy declined (each model's attempts failed): start the whole sequence again,
     from the first planning model and n_commands, with a fresh optimiser seed and twice the population of
@@ -389,12 +424,12 @@ class Restart:
 def default_policies(more_commands: int = MORE_COMMANDS, margin_step: float = 0.002, margin_rounds: int = 2,
                      goal_contact_slack: float = 0.002, cascade: bool = True,
                      mesh_cover: float = 0.0, restarts: int = 2) -> List[Any]:
-    """The ``default`` preset's policies in order: :class:`MoreCommands`, :class:`WiderMargin`,
-    :class:`GoalContact`, :class:`MeshCover` (``mesh_cover`` > 0: its ``max_extra``; off by default,
-    docs/tuning.md), :class:`ModelCascade`, :class:`Restart` (``restarts`` rounds); a policy whose
+    """The ``default`` preset's policies in order: :class:`ModelShare`, :class:`MoreCommands`,
+    :class:`WiderMargin`, :class:`GoalContact`, :class:`MeshCover` (``mesh_cover`` > 0: its ``max_extra``; off
+    by default, docs/tuning.md), :class:`ModelCascade`, :class:`Restart` (``restarts`` rounds); a policy whose
     parameter turns it off (0 extra commands, a 0 step or 0 rounds, a 0 slack, a 0 ``mesh_cover``,
-    ``cascade=False``, 0 restarts) is left out."""
-    policies: List[Any] = []
+    ``cascade=False`` for both model policies, 0 restarts) is left out."""
+    policies: List[Any] = [ModelShare()] if cascade else []
     if integer_at_least("more_commands", more_commands, 0) > 0:
         policies.append(MoreCommands(more_commands))
     if non_negative("margin_step", margin_step, " [m]") > 0 and integer_at_least("margin_rounds", margin_rounds, 0):

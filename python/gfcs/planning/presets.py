@@ -56,6 +56,8 @@ class Preset:
         thin_spheres: plan on a thinner sphere model first when the robot has one.
         element_spheres: every planning model carries the validator's collision spheres in place of its own
             spheres inside them (:func:`gfcs.planning.models.models_for`).
+        covering_spheres: plan on spheres fitted around the validator's meshes too, when the robot's own
+            spheres leave them uncovered (:func:`gfcs.planning.models.covering_model`).
         policies: ``policies()`` -> the retry policies, in order.
         fabric: configuration overrides applied over the fabric configuration given to the solve.
         stall_batches: early stop of the optimisation after this many stalled batches (0: every batch
@@ -94,6 +96,7 @@ class Preset:
     grazing_sweep_time: Optional[float] = None
     endpoint_contact: bool = False
     element_spheres: bool = False
+    covering_spheres: bool = False
     spheres_judge: bool = True
     selection_share: float = 1.0
 
@@ -114,7 +117,7 @@ PRESETS: Dict[str, Preset] = {
                       FinishOptions(), length_slack=0.1, mesh_candidates=32,
                       sampler="approach", thin_spheres=True, policies=default_policies,
                       repair=RepairOptions(), sweep_time=0.25, grazing_sweep_time=1.0, endpoint_contact=True,
-                      element_spheres=True, spheres_judge=False, selection_share=0.75, stall_batches=2),
+                      element_spheres=True, covering_spheres=True, spheres_judge=False, selection_share=0.75, stall_batches=2),
     "paper": Preset("paper",
                     RolloutSettings(blend_time=0.0, stall_window=0.0),
                     FinishOptions(retime_start=False, goal_blend=False, limit_velocity=False,

@@ -203,7 +203,8 @@ def solve(
                         sweep_time=sweep_time, selection_share=options.selection_share,
                         **({"stall_batches": stall, "stall_tol": float(stall_tol)} if stall else {}))
         models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres),
-                            chosen.element_spheres if element_spheres is None else bool(element_spheres))
+                            chosen.element_spheres if element_spheres is None else bool(element_spheres),
+                            chosen.covering_spheres)
         planner = _Planner(problem, models, fabric, n_commands, sampler, chosen, settings, finish, options,
                            recorded, budget)
         result = combine_records(planner.run(plan))
@@ -300,7 +301,8 @@ class _Planner:
         self._fabrics: Dict[Tuple[str, int], Any] = {}
         self._contact: Dict[str, Any] = {}
         self.context = PlanContext(problem, models, n_commands, options.selection.mesh_margin,
-                                   lambda model: self.fabric_for(Attempt(model, n_commands)), self.problem_for)
+                                   lambda model: self.fabric_for(Attempt(model, n_commands)), self.problem_for,
+                                   budget.limit)
 
     def problem_for(self, model: PlanningModel) -> Any:
         return with_robot(self.problem, model.robot)
