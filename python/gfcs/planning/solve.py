@@ -75,6 +75,7 @@ def solve(
     mesh_margin: float = _metrics.DEFAULT_MESH_MARGIN,
     thin_spheres: Optional[bool] = None,
     element_spheres: Optional[bool] = None,
+    covering_spheres: Optional[bool] = None,
     record_first_batch: bool = False,
     max_commands: Optional[int] = None,
     mesh_retry_margin: Optional[float] = None,
@@ -125,6 +126,9 @@ def solve(
         element_spheres: plan on the validator's collision spheres where its robot description has any, in
             place of the sphere model's spheres inside them (:func:`gfcs.planning.models.models_for`; None:
             the preset's, on / off).
+        covering_spheres: plan on spheres fitted around the validator's meshes first where the robot's own
+            leave them centimetres uncovered (:func:`gfcs.planning.models.covering_model`; None: the preset's,
+            on / off).
         record_first_batch: also select and judge what each attempt held after its first batch
             (``attempt_records[i].first_batch``; ``gfcs bench``'s "1 b" row). That work counts neither in
             the attempts' times nor in ``wall_time``.
@@ -204,7 +208,7 @@ def solve(
                         **({"stall_batches": stall, "stall_tol": float(stall_tol)} if stall else {}))
         models = models_for(problem, chosen.thin_spheres if thin_spheres is None else bool(thin_spheres),
                             chosen.element_spheres if element_spheres is None else bool(element_spheres),
-                            chosen.covering_spheres)
+                            chosen.covering_spheres if covering_spheres is None else bool(covering_spheres))
         planner = _Planner(problem, models, fabric, n_commands, sampler, chosen, settings, finish, options,
                            recorded, budget)
         result = combine_records(planner.run(plan))
