@@ -35,6 +35,8 @@ Integer arguments (thread counts, iteration counts, obstacle ids, link indices) 
 a negative or non-integer value raises ``InvalidValueError``.
 """
 
+import warnings
+
 from gfcs._core import (
     ConfigError,
     FormatError,
@@ -48,6 +50,11 @@ from gfcs._core import (
     ShapeError,
     UrdfError,
 )
+
+
+# One SRDF is read by every robot model a solve loads (its planning spheres, its collision meshes): what it
+# names that the robot lacks is said once per process. Appended, so a user's own filters take precedence.
+warnings.filterwarnings("once", message=r"SRDF .* not in robot", category=GfcsWarning, append=True)
 
 
 class MissingFileError(IoError, FileNotFoundError):
