@@ -232,6 +232,14 @@ def test_a_covering_model_replaces_spheres_that_leave_the_meshes_uncovered(tmp_p
     assert np.all(sphere_deficits(covering, meshes) == 0.0)
     assert set(covering.sphere_links) == {"base", "upper", "fore"}
     assert len(small.sphere_radii) == 3 and list(small.sphere_radii) == [0.05, 0.03, 0.03]
+    # a link the description models by a <sphere> alone carries that sphere, not spheres fitted around it
+    ball = ARM.replace('<geometry><cylinder radius="0.03" length="0.3"/></geometry>',
+                       '<geometry><sphere radius="0.07"/></geometry>').format(fore_sphere="")
+    balled = gfcs.Robot.from_urdf(ball, ee_link="fore")
+    covering = covering_model(small, gfcs.MeshChecker(balled))
+    fore = [(list(c), r) for link, c, r in zip(covering.sphere_links, covering.sphere_centers_local,
+                                                covering.sphere_radii) if link == "fore"]
+    assert len(fore) == 1 and fore[0][1] == pytest.approx(0.07) and np.allclose(fore[0][0], [0.15, 0, 0])
 
 
 def test_a_solve_plans_on_covering_spheres_first_where_its_own_leave_the_meshes_uncovered(tmp_path, monkeypatch):

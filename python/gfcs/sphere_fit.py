@@ -334,16 +334,22 @@ def covering_model(robot: Any, mesh_checker: Any, max_per_link: int = 8, margin:
     left out), with the link pairs whose fitted spheres always overlap, or overlap where the meshes are apart,
     left out of its self-collision checks (:func:`with_fitted_spheres`). Every point of those meshes lies
     inside a sphere of its link: a motion whose spheres are clear has clear meshes, where a sphere model made
-    for another checker leaves centimetres of them uncovered (:func:`gfcs.coverage.sphere_deficits`)."""
+    for another checker leaves centimetres of them uncovered (:func:`gfcs.coverage.sphere_deficits`). A link
+    the description models by ``<sphere>`` elements alone (the Fetch's head) carries those spheres exactly
+    (:func:`gfcs.coverage.element_spheres`), not spheres fitted around them."""
+    from gfcs.coverage import element_spheres
     from gfcs.problems import _robot_spheres
 
+    mesh_robot = mesh_checker.robot
     known = set(robot.link_names)
-    fitted = [s for s in fitted_spheres(mesh_checker.robot, None, max_per_link, margin) if s[0] in known]
-    links = sorted({link for link, _, _ in fitted})
+    shaped = sorted({e["link"] for e in mesh_robot.collision_geometry() if e["type"] != "sphere"} & known)
+    fitted = fitted_spheres(mesh_robot, shaped, max_per_link, margin) if shaped else []
+    exact = [s for s in element_spheres(mesh_robot) if s[0] in known and s[0] not in shaped]
+    links = sorted({link for link, _, _ in fitted + exact})
     if not links:
         return robot
     kept = [s for s in _robot_spheres(robot) if s[0] not in links]
-    return _without_overlapping_pairs(robot.with_spheres(kept + fitted), links, mesh_checker, None)
+    return _without_overlapping_pairs(robot.with_spheres(kept + fitted + exact), links, mesh_checker, None)
 
 
 def _without_overlapping_pairs(fitted: Any, links: Sequence[str], mesh_checker: Any,
