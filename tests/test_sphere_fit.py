@@ -264,3 +264,23 @@ def test_a_solve_plans_on_covering_spheres_first_where_its_own_leave_the_meshes_
     fitted = with_fitted_spheres(meshes)
     assert [m.name for m in models_for(SimpleNamespace(robot=fitted, mesh_checker=checker),
                                        covering=True).planning] == ["spheres"]
+
+
+def test_a_solve_on_covering_spheres_records_and_names_them(tmp_path, monkeypatch):
+    """The default preset plans the two-link arm on covering spheres (its own are 10 cm short); the result
+    records the model, the CLI summary names it, and the paper preset keeps the robot's own spheres."""
+    from gfcs import cli, planning
+    from gfcs.problems import Problem
+
+    monkeypatch.setenv("GFCS_CACHE_DIR", str(tmp_path))
+    meshes = gfcs.Robot.from_urdf(ARM.format(fore_sphere=""), ee_link="fore")
+    small = meshes.with_spheres([("base", [0, 0, 0], 0.15), ("upper", [0.2, 0, 0], 0.03),
+                                 ("fore", [0.15, 0, 0], 0.03)])
+    problem = Problem("arm/1", small, gfcs.Scene(), np.array([0.0, 0.0]), np.array([1.0, -1.0]),
+                      mesh_checker=gfcs.MeshChecker(meshes))
+    result = planning.solve(problem, seed=0, batches=1, population=8, threads=1, time_limit=5)
+    assert result.success and result.settings["sphere_model"] == "covering"
+    assert len(result.settings["spheres"]) == len(result.robot.sphere_radii)
+    assert "covering spheres fitted to the collision meshes" in cli.summary_text(result, problem)
+    paper = planning.solve(problem, seed=0, batches=1, population=8, threads=1, time_limit=5, preset="paper")
+    assert "sphere_model" not in paper.settings

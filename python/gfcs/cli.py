@@ -535,6 +535,9 @@ def summary_text(result: Any, problem: Any) -> str:
         margin = result.fabric_config["obstacles"]["margin"] if result.fabric_config else None
         lines.append("spheres   the shipped Panda's thin spheres (links 5-7, hand; gfcs.problems.thin_sphere_model)"
                      + (f", obstacle margin {margin * 1000:.0f} mm" if margin is not None else ""))
+    elif result.settings.get("sphere_model") == "covering":
+        lines.append(f"spheres   {len(result.settings.get('spheres', []))} covering spheres fitted to the collision "
+                     "meshes (the robot's own leave them centimetres uncovered; gfcs.planning.models.covering_model)")
     if result.pose_goal is not None:
         lines.append(_pose_goal_line(result, problem))
     t_stars = " + ".join(f"{t:.2f}" for t in result.t_stars)
