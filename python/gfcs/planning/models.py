@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+from collections import OrderedDict
 from dataclasses import dataclass
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -146,8 +147,10 @@ def models_for(problem: Any, thin_spheres: bool = True, element_spheres: bool = 
     return RobotModels(robot, planning, validator, _profile.profile_for(robot))
 
 
-#: The covering models built in this process (:func:`covering_model`), by what they depend on.
-_COVERING: Dict[Tuple[Any, ...], Any] = {}
+#: The covering models built in this process (:func:`covering_model`), by what they depend on; the most
+#: recently used :data:`_COVERING_KEPT` are kept.
+_COVERING: "OrderedDict[Tuple[Any, ...], Any]" = OrderedDict()
+_COVERING_KEPT = 32
 
 
 def covering_model(robot: Any, validator: Any) -> Optional[Any]:
@@ -166,6 +169,9 @@ def covering_model(robot: Any, validator: Any) -> Optional[Any]:
         from gfcs import sphere_fit
 
         _COVERING[key] = sphere_fit.covering_model(robot, validator) if _uncovered(robot, validator, key) else None
+        while len(_COVERING) > _COVERING_KEPT:
+            _COVERING.popitem(last=False)
+    _COVERING.move_to_end(key)
     return _COVERING[key]
 
 
@@ -223,7 +229,7 @@ def planned_robot(result: Any, problem: Any) -> Any:
     return model_named(problem.robot, getattr(result, "settings", None))
 
 
-def _moving_links(robot: Any, samples: int = 4) -> list:
+def _moving_links(robot: Any, samples: int = 4) -> List[str]:
     """The links of ``robot`` whose pose (in the root frame) changes with its joints: seeded configurations
     within the limits, links whose poses differ between them by more than 1e-9."""
     lower, upper = np.asarray(robot.lower, dtype=np.float64), np.asarray(robot.upper, dtype=np.float64)
