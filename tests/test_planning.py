@@ -134,6 +134,14 @@ def test_model_share_hands_over_once_a_model_used_its_part_of_the_budget(context
     restarted = [timed(thin, 1, 1.0), timed(own, 1, 2.0), timed(thin, 1, 1.0)]
     assert policy.propose(budgeted, restarted) is None
     assert policy.propose(budgeted, restarted + [timed(thin, 2, 0.5)]).model == own
+    # a run with a mesh-only failure (near a solution) may use twice its share, no more
+    near = _record(thin, 1, mesh_only=True)
+    near.time = 2.0
+    assert policy.propose(budgeted, [near, timed(thin, 2, 2.0)]) is None
+    assert policy.propose(budgeted, [near, timed(thin, 2, 4.0)]).model == own
+    assert planning.ModelShare(near_miss=1.0).propose(budgeted, [near, timed(thin, 2, 2.0)]).model == own
+    with pytest.raises(gfcs.InvalidValueError, match="ModelShare.near_miss"):
+        planning.ModelShare(near_miss=-1.0)
 
 
 def test_restart_begins_a_new_round_on_the_first_model_until_its_rounds_are_used(context):

@@ -377,9 +377,15 @@ class ModelShare:
     run started, among it and the models after it: with two models, the first may use half the budget. A
     model's attempts can fail on one problem until the budget ends where the next model's succeed within a
     second (the covering and the robot's own spheres on the Fetch's shelves and under its tables,
-    docs/tuning.md)."""
+    docs/tuning.md). A model one of whose attempts in the run failed only because a collision mesh touched
+    (:attr:`AttemptRecord.mesh_collision_only`: the goal reached, the spheres clear) is near a solution that
+    the mesh retries work on: it may use up to ``near_miss`` times its share."""
 
+    near_miss: float = 2.0
     name: str = "model share"
+
+    def __post_init__(self) -> None:
+        self.near_miss = non_negative("ModelShare.near_miss", self.near_miss)
 
     def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
         if context.time_limit is None:
@@ -395,6 +401,8 @@ class ModelShare:
         before = sum(r.time for r in records[:start])
         used = sum(r.time for r in records[start:])
         share = max(0.0, float(context.time_limit) - before) / (len(planning) - i)
+        if any(r.mesh_collision_only for r in records[start:]):
+            share *= max(1.0, self.near_miss)
         if used < share:
             return None
         return Attempt(planning[i + 1], context.n_commands, restart=last.restart)
