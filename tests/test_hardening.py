@@ -169,9 +169,8 @@ def test_srdf_links_the_urdf_lacks_give_one_warning():
     assert "bellows_link2" in str(ours[0].message) and "fetch.srdf" in str(ours[0].message)
     assert robot.dof > 0
     # a solve loads the SRDF with its planning and its mesh model: the same words are said once per process
-    script = ("import gfcs; [gfcs.Robot.from_urdf(u, srdf=s) for u in (u1, u2)]"
-              .replace("u1", repr(str(fetch / "fetch_spherized.urdf"))).replace("u2", repr(str(fetch / "fetch.urdf")))
-              .replace("srdf=s", f"srdf={str(fetch / 'fetch.srdf')!r}"))
+    urdfs = (str(fetch / "fetch_spherized.urdf"), str(fetch / "fetch.urdf"))
+    script = f"import gfcs\nfor u in {urdfs!r}: gfcs.Robot.from_urdf(u, srdf={str(fetch / 'fetch.srdf')!r})"
     env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True)
     assert run.stderr.count("bellows_link2") == 1, run.stderr

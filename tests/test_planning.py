@@ -140,8 +140,9 @@ def test_model_share_hands_over_once_a_model_used_its_part_of_the_budget(context
     assert policy.propose(budgeted, [near, timed(thin, 2, 2.0)]) is None
     assert policy.propose(budgeted, [near, timed(thin, 2, 4.0)]).model == own
     assert planning.ModelShare(near_miss=1.0).propose(budgeted, [near, timed(thin, 2, 2.0)]).model == own
-    with pytest.raises(gfcs.InvalidValueError, match="ModelShare.near_miss"):
-        planning.ModelShare(near_miss=-1.0)
+    for bad in (-1.0, 0.5):
+        with pytest.raises(gfcs.InvalidValueError, match="ModelShare.near_miss"):
+            planning.ModelShare(near_miss=bad)
 
 
 def test_restart_begins_a_new_round_on_the_first_model_until_its_rounds_are_used(context):

@@ -242,6 +242,13 @@ def test_a_covering_model_replaces_spheres_that_leave_the_meshes_uncovered(tmp_p
     assert len(fore) == 1 and fore[0][1] == pytest.approx(0.07) and np.allclose(fore[0][0], [0.15, 0, 0])
 
 
+def _arm_with_short_spheres():
+    """The ARM's mesh model and the same arm on one sphere per link, 10 cm short of the upper link's box."""
+    meshes = gfcs.Robot.from_urdf(ARM.format(fore_sphere=""), ee_link="fore")
+    return meshes, meshes.with_spheres([("base", [0, 0, 0], 0.15), ("upper", [0.2, 0, 0], 0.03),
+                                        ("fore", [0.15, 0, 0], 0.03)])
+
+
 def test_a_solve_plans_on_covering_spheres_first_where_its_own_leave_the_meshes_uncovered(tmp_path, monkeypatch):
     """models_for: the covering model comes first for spheres 10 cm short of a moving link's mesh, not for
     spheres that cover it, nor unless asked; a result's settings rebuild it (model_named)."""
@@ -250,10 +257,8 @@ def test_a_solve_plans_on_covering_spheres_first_where_its_own_leave_the_meshes_
     from gfcs.planning.models import model_named, models_for
 
     monkeypatch.setenv("GFCS_CACHE_DIR", str(tmp_path))
-    meshes = gfcs.Robot.from_urdf(ARM.format(fore_sphere=""), ee_link="fore")
+    meshes, small = _arm_with_short_spheres()
     checker = gfcs.MeshChecker(meshes)
-    small = meshes.with_spheres([("base", [0, 0, 0], 0.15), ("upper", [0.2, 0, 0], 0.03),
-                                 ("fore", [0.15, 0, 0], 0.03)])
     models = models_for(SimpleNamespace(robot=small, mesh_checker=checker), covering=True)
     assert [m.name for m in models.planning] == ["covering", "spheres"]
     covering = models.planning[0]
@@ -273,9 +278,7 @@ def test_a_solve_on_covering_spheres_records_and_names_them(tmp_path, monkeypatc
     from gfcs.problems import Problem
 
     monkeypatch.setenv("GFCS_CACHE_DIR", str(tmp_path))
-    meshes = gfcs.Robot.from_urdf(ARM.format(fore_sphere=""), ee_link="fore")
-    small = meshes.with_spheres([("base", [0, 0, 0], 0.15), ("upper", [0.2, 0, 0], 0.03),
-                                 ("fore", [0.15, 0, 0], 0.03)])
+    meshes, small = _arm_with_short_spheres()
     problem = Problem("arm/1", small, gfcs.Scene(), np.array([0.0, 0.0]), np.array([1.0, -1.0]),
                       mesh_checker=gfcs.MeshChecker(meshes))
     result = planning.solve(problem, seed=0, batches=1, population=8, threads=1, time_limit=5)

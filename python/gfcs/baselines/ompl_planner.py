@@ -9,8 +9,9 @@ The set-up follows what MoveIt does with OMPL, so that the rows compare with Mov
   the angle nearest the start, :func:`gfcs.joints.unwrap_goal`, and the simplifier removes detours).
 * Validity (:class:`gfcs.baselines.validity.SphereValidity`): the planning model GFCS plans with first
   (:func:`gfcs.planning.models.models_for`: the thin spheres with their wider margin where the robot has
-  them, else its own spheres; never the covering spheres GFCS may try first), every sphere at least the fabric's obstacle margin from the obstacles (2 mm by
-  default, 6 mm on the thin spheres), no self-collision of sphere pairs.
+  them, else its own spheres; never the covering spheres GFCS may try first), every sphere at least the
+  fabric's obstacle margin from the obstacles (2 mm by default, 6 mm on the thin spheres), no self-collision of
+  sphere pairs.
 * Motion checks at MoveIt's default resolution: ``longest_valid_segment_fraction`` 0.005 of the state
   space's maximum extent (13.04 rad for the Panda's 7 joints: a step of 0.065 rad), the states of a segment
   checked in at most two batched calls (a Python ``MotionValidator``).

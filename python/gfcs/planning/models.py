@@ -75,8 +75,8 @@ class PlanningModel:
         ``element_spheres`` ([{link, center, radius}], when it carries any)."""
         out: Dict[str, Any] = {"sphere_model": self.name} if self.name in ("thin", "covering") else {}
         if self.name == "covering":
-            out["spheres"] = [{"link": link, "center": [float(x) for x in c], "radius": float(r)} for link, c, r
-                              in zip(self.robot.sphere_links, self.robot.sphere_centers_local, self.robot.sphere_radii)]
+            out["spheres"] = [{"link": link, "center": c, "radius": r}
+                              for link, c, r in _problems._robot_spheres(self.robot)]
         if self.element_spheres:
             out["element_spheres"] = [{"link": link, "center": list(c), "radius": r}
                                       for link, c, r in self.element_spheres]

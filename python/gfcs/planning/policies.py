@@ -35,6 +35,7 @@ from typing import Any, Callable, List, Optional, Protocol, Sequence, Tuple
 import numpy as np
 
 from gfcs import metrics as _metrics
+from gfcs.errors import InvalidValueError
 from gfcs.planning._check import integer_at_least, non_negative
 from gfcs.planning.attempts import Attempt, AttemptRecord
 from gfcs.planning.models import RobotModels
@@ -361,12 +362,17 @@ class ModelCascade:
     name: str = "model cascade"
 
     def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
-        planning = list(context.models.planning)
-        last = records[-1].attempt
-        i = planning.index(last.model)
-        if i + 1 >= len(planning):
-            return None
-        return Attempt(planning[i + 1], context.n_commands, restart=last.restart)
+        return _next_model(context, records[-1].attempt)
+
+
+def _next_model(context: PlanContext, last: Attempt) -> Optional[Attempt]:
+    """The first attempt on the planning model after ``last``'s (n_commands, ``last``'s restart), or None
+    after the last model."""
+    planning = list(context.models.planning)
+    i = planning.index(last.model)
+    if i + 1 >= len(planning):
+        return None
+    return Attempt(planning[i + 1], context.n_commands, restart=last.restart)
 
 
 @dataclass
@@ -386,26 +392,24 @@ class ModelShare:
 
     def __post_init__(self) -> None:
         self.near_miss = non_negative("ModelShare.near_miss", self.near_miss)
+        if self.near_miss < 1.0:
+            raise InvalidValueError(f"ModelShare.near_miss must be ≥ 1 (a factor on the share), got {self.near_miss!r}")
 
     def propose(self, context: PlanContext, records: Sequence[AttemptRecord]) -> Optional[Attempt]:
-        if context.time_limit is None:
-            return None
-        planning = list(context.models.planning)
         last = records[-1].attempt
-        i = planning.index(last.model)
-        if i + 1 >= len(planning):
+        following = _next_model(context, last)
+        if context.time_limit is None or following is None:
             return None
         start = len(records)
         while start > 0 and records[start - 1].attempt.model == last.model:
             start -= 1
         before = sum(r.time for r in records[:start])
         used = sum(r.time for r in records[start:])
-        share = max(0.0, float(context.time_limit) - before) / (len(planning) - i)
+        models_left = len(context.models.planning) - list(context.models.planning).index(last.model)
+        share = max(0.0, float(context.time_limit) - before) / models_left
         if any(r.mesh_collision_only for r in records[start:]):
-            share *= max(1.0, self.near_miss)
-        if used < share:
-            return None
-        return Attempt(planning[i + 1], context.n_commands, restart=last.restart)
+            share *= self.near_miss
+        return following if used >= share else None
 
 
 @dataclass
