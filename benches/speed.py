@@ -31,6 +31,7 @@ import argparse
 import compileall
 import json
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -68,17 +69,32 @@ def run(cmd: Sequence[str], **kwargs: Any) -> subprocess.CompletedProcess:
     return subprocess.run([str(c) for c in cmd], check=True, env=env, cwd=ROOT, **kwargs)
 
 
+def criterion_median(folder: str) -> Optional[float]:
+    """Criterion's median (µs) of the case written to ``target/criterion/<folder>`` (group and case as one
+    folder name), None when absent."""
+    est = ROOT / "target" / "criterion" / folder / "new" / "estimates.json"
+    return json.loads(est.read_text())["median"]["point_estimate"] / 1e3 if est.is_file() else None
+
+
 def criterion(measurement_time: float) -> Dict[str, Dict[str, float]]:
-    """Criterion's median (µs) of every case, with ψ and without (``_no_psi``)."""
-    run(["cargo", "bench", "-p", "fabric-core", "--bench", "acceleration", "--", "--warm-up-time", "1",
-         "--measurement-time", str(measurement_time)], stdout=subprocess.DEVNULL)
+    """Criterion's median (µs) of every case, with ψ and without (``_no_psi``), and under "budget" the cage
+    step's parts: the same states with the obstacle barrier off, one obstacle barrier evaluation, and the
+    mean leaves per cage evaluation (the last count the benchmark prints)."""
+    proc = run(["cargo", "bench", "-p", "fabric-core", "--bench", "acceleration", "--", "--warm-up-time", "1",
+                "--measurement-time", str(measurement_time)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+               text=True)
     out: Dict[str, Dict[str, float]] = {}
     for case in CRITERION_CASES:
         for suffix in ("", "_no_psi"):
-            # criterion writes the group "acceleration" and the case as one folder name
-            est = ROOT / "target" / "criterion" / f"acceleration_{case}{suffix}" / "new" / "estimates.json"
-            if est.is_file():
-                out.setdefault(case, {})[suffix or "psi"] = json.loads(est.read_text())["median"]["point_estimate"] / 1e3
+            value = criterion_median(f"acceleration_{case}{suffix}")
+            if value is not None:
+                out.setdefault(case, {})[suffix or "psi"] = value
+    leaves = re.findall(r"mean leaves per evaluation along the recorded rollout: ([0-9.]+)", proc.stderr)
+    budget = {"obstacles_off": criterion_median("acceleration_mbm_panda_cage_scene_obstacles_off_no_psi"),
+              "barrier": criterion_median("barrier_obstacle_eval")}
+    if leaves and "mbm_panda_cage_scene" in out:
+        budget["leaves"] = float(leaves[-1])
+    out["budget"] = {k: v for k, v in budget.items() if v is not None}
     return out
 
 
@@ -214,6 +230,15 @@ def write(args: argparse.Namespace, m: Dict[str, Any], crit: Dict[str, Dict[str,
         c = crit.get(case)
         if c:
             L.append(f"| {label} | {c.get('psi', float('nan')):.2f} | {c.get('_no_psi', float('nan')):.2f} |")
+    budget = crit.get("budget", {})
+    if cage is not None and {"obstacles_off", "barrier", "leaves"} <= set(budget):
+        rest = cage - budget["obstacles_off"]
+        L += ["", f"Where the cage step goes: the same states with the obstacle barrier off take "
+              f"{budget['obstacles_off']:.2f} µs (kinematics, self-collision, attractors, the solve); the other "
+              f"{rest:.2f} µs are the obstacle leaves with their broadphase queries and distances, "
+              f"{budget['leaves']:.1f} leaves per step in all (joint limits and self-collision included). One "
+              f"obstacle barrier evaluation alone (`barrier/obstacle_eval`: metric, geometry with its brake, "
+              f"forcing) takes {budget['barrier'] * 1e3:.1f} ns."]
 
     L += ["", f"**The built-in problem** (`python -m gfcs solve --json x.json`, {len(solves)} runs each; s):", "",
           "| | batches | optimisation | first batch | whole solve | process wall time | cost t* |",

@@ -192,7 +192,8 @@ def test_speed_section_marks_each_target_from_the_figures():
 
     speed = load_script("benches/speed.py")
     machine = {"cpu": "test CPU", "cores": 2, "commit": "abc1234", "date": "2026-01-01", "load": 0.1}
-    crit = {"mbm_panda_free_space": {"psi": 2.1, "_no_psi": 1.9}, "mbm_panda_cage_scene": {"psi": 8.0, "_no_psi": 7.5}}
+    crit = {"mbm_panda_free_space": {"psi": 2.1, "_no_psi": 1.9}, "mbm_panda_cage_scene": {"psi": 8.0, "_no_psi": 7.5},
+            "budget": {"obstacles_off": 2.25, "barrier": 0.0237, "leaves": 72.9}}
     gfcs_run = {"median_us": 4.0, "rollout_us_per_step": 3.5, "spheres": 81, "self_pairs": 1195, "obstacles": 10}
     runs = [{"gfcs": dict(gfcs_run, median_us=us), "fabrics": {"median_us": 1600.0, "casadi_median_us": 1400.0}}
             for us in (4.0, 5.0, 4.5)]
@@ -211,6 +212,8 @@ def test_speed_section_marks_each_target_from_the_figures():
     assert "0.600 s | **not met**" in lines["`gfcs solve` from the shell"]
     assert "0.050 s | met" in lines["built-in problem: first batch"]
     assert "Fitted exponent from 10 obstacles on: 1.00" in page and "test CPU" in page
+    # the cage step's budget: the obstacle part is the step less the step with the obstacle barrier off
+    assert "take 2.25 µs" in page and "other 5.25 µs" in page and "72.9 leaves" in page and "23.7 ns" in page
 
 
 def test_unseen_robots_disables_the_adjacent_pairs_setup_assistant_would(tmp_path):

@@ -9,6 +9,12 @@
 //! scene 0001 (8 boxes: a cube inside a cage of base, cap, back, left and right walls and two front
 //! bars, the hand reaching in), at states recorded from its start toward its goal.
 //!
+//! Where a cluttered step's time goes: the cage states are also timed with the obstacle barrier off
+//! (`mbm_panda_cage_scene_obstacles_off_no_psi`: kinematics, self-collision, attractors and the solve;
+//! the difference is the obstacle leaves with their broadphase and distances), and one obstacle
+//! `Barrier::eval` is timed alone (`barrier/obstacle_eval`, 64 leaf states across the influence
+//! radius, half approaching); the mean leaves per evaluation are printed with the recorded states.
+//!
 //! Each case runs twice: with a `FabricWorkspace::new` (diagnostics with the forcing potential ψ) and,
 //! suffixed `_no_psi`, with `FabricWorkspace::for_rollouts` (ψ off: what a rollout step and
 //! `gfcs.Fabric.acceleration` evaluate; the same q̈ bit for bit).
@@ -18,6 +24,7 @@
 use std::sync::Arc;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use fabric_core::fabric::components::Barrier;
 use fabric_core::fabric::{Fabric, FabricConfig, FabricWorkspace};
 use fabric_core::robot::Robot;
 use fabric_core::scene::Scene;
@@ -160,11 +167,45 @@ fn acceleration(c: &mut Criterion) {
             eprintln!("skipping the cage scene: the fabric fails at its start state");
         } else {
             bench_states(c, "mbm_panda_cage_scene", &fabric, &scene, &states, &goal);
+            let mut config = FabricConfig::default();
+            config.obstacles.enabled = false;
+            let without = Fabric::new(fabric.robot().clone(), config).expect("fabric");
+            bench_workspace(
+                c,
+                "mbm_panda_cage_scene_obstacles_off_no_psi",
+                &without,
+                &scene,
+                &states,
+                &goal,
+                &mut FabricWorkspace::for_rollouts(&without),
+            );
         }
     } else {
         eprintln!("skipping the MotionBenchMaker Panda: shared data directory not found (set GFCS_SHARED)");
     }
 }
 
-criterion_group!(benches, acceleration);
+/// One obstacle barrier evaluation (GF VII-A2: metric, geometry, forcing; ψ off as in rollouts) at 64
+/// leaf states: x across the default influence radius from inside the margin, ẋ alternating sign.
+fn barrier(c: &mut Criterion) {
+    let cfg = FabricConfig::default().obstacles;
+    let b = Barrier::from_config(&cfg);
+    let leaves: Vec<(f64, f64)> = (0..64)
+        .map(|k| {
+            let x = -0.002 + (cfg.influence + 0.002) * k as f64 / 64.0;
+            let xd = if k % 2 == 0 { -0.4 } else { 0.3 };
+            (x, xd)
+        })
+        .collect();
+    let mut i = 0;
+    c.bench_function("barrier/obstacle_eval", |bench| {
+        bench.iter(|| {
+            let (x, xd) = leaves[i % leaves.len()];
+            i += 1;
+            black_box(b.eval(black_box(x), black_box(xd), false))
+        })
+    });
+}
+
+criterion_group!(benches, acceleration, barrier);
 criterion_main!(benches);
