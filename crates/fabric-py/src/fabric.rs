@@ -19,7 +19,7 @@ use crate::convert::{self, output};
 use crate::errors::{detached, error, guarded};
 use crate::robot::PyRobot;
 use crate::rollout::{
-    candidate_rows, evaluate_output, options_from_kwargs, PyRollout, PySequenceRollout,
+    evaluate_output, initial_state, options_from_kwargs, BatchInputs, PyRollout, PySequenceRollout,
 };
 use crate::scene::PyScene;
 
@@ -82,22 +82,6 @@ impl PyFabric {
             last_metric: Mutex::new(Vec::new()),
             ws,
         }
-    }
-
-    /// The initial state of a rollout: `q0` (dof,) rad and `qd0` (dof,) rad/s, zeros when None; checked
-    /// in that order.
-    fn initial_state(
-        &self,
-        q0: &Bound<'_, PyAny>,
-        qd0: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<(Vec<f64>, Vec<f64>)> {
-        let n = self.dof();
-        let q0 = convert::vector(q0, "q0", n)?;
-        let qd0 = match qd0 {
-            Some(v) if !v.is_none() => convert::vector(v, "qd0", n)?,
-            _ => vec![0.0; n],
-        };
-        Ok((q0, qd0))
     }
 
     /// One evaluation of `Fabric::acceleration` in `scene` (with explicit end-effector `targets` when given)
@@ -474,7 +458,7 @@ impl PyFabric {
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyRollout> {
         let n = self.dof();
-        let (q0, qd0) = self.initial_state(q0, qd0)?;
+        let (q0, qd0) = initial_state(q0, qd0, n)?;
         let command = convert::vector(command, "command", n)?;
         let opts = options_from_kwargs("Fabric.rollout", options, false, 0, record)?.rollout;
         let (fabric, scene) = self.shared();
@@ -506,7 +490,7 @@ impl PyFabric {
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PySequenceRollout> {
         let n = self.dof();
-        let (q0, qd0) = self.initial_state(q0, qd0)?;
+        let (q0, qd0) = initial_state(q0, qd0, n)?;
         let (commands, n_commands) = convert::rows(commands, "commands", n)?;
         let goal = convert::vector(goal, "goal", n)?;
         let opts =
@@ -540,20 +524,29 @@ impl PyFabric {
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let n = self.dof();
-        let (q0, qd0) = self.initial_state(q0, qd0)?;
-        let goal = convert::vector(goal, "goal", n)?;
-        let (data, _, n_commands) = candidate_rows(candidates, n)?;
-        let threads = convert::threads(threads)?;
-        let opts = options_from_kwargs(
+        let b = BatchInputs::parse(
             "Fabric.evaluate",
-            options,
-            true,
-            n_commands,
+            n,
+            q0,
+            qd0,
+            goal,
+            candidates,
+            threads,
             return_trajectories,
+            options,
         )?;
         let (fabric, scene) = self.shared();
         let results = detached(py, move || {
-            core_rollout::evaluate_batch(&fabric, &scene, &q0, &qd0, &goal, &data, &opts, threads)
+            core_rollout::evaluate_batch(
+                &fabric,
+                &scene,
+                &b.q0,
+                &b.qd0,
+                &b.goal,
+                &b.candidates,
+                &b.options,
+                b.threads,
+            )
         })?;
         evaluate_output(py, results, n, return_trajectories)
     }

@@ -18,7 +18,7 @@ use crate::convert::{self, output};
 use crate::errors::{detached, error, guarded};
 use crate::fabric::ee_targets;
 use crate::robot::PyRobot;
-use crate::rollout::{candidate_rows, evaluate_output, options_from_kwargs, PyRollout};
+use crate::rollout::{evaluate_output, initial_state, options_from_kwargs, BatchInputs, PyRollout};
 use crate::scene::PyScene;
 
 /// RMPflow policy for one robot in one scene.
@@ -45,20 +45,6 @@ impl PyRmpflow {
             .read()
             .unwrap_or_else(PoisonError::into_inner)
             .clone()
-    }
-
-    fn initial_state(
-        &self,
-        q0: &Bound<'_, PyAny>,
-        qd0: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<(Vec<f64>, Vec<f64>)> {
-        let n = self.dof();
-        let q0 = convert::vector(q0, "q0", n)?;
-        let qd0 = match qd0 {
-            Some(v) if !v.is_none() => convert::vector(v, "qd0", n)?,
-            _ => vec![0.0; n],
-        };
-        Ok((q0, qd0))
     }
 }
 
@@ -242,7 +228,7 @@ impl PyRmpflow {
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyRollout> {
         let n = self.dof();
-        let (q0, qd0) = self.initial_state(q0, qd0)?;
+        let (q0, qd0) = initial_state(q0, qd0, n)?;
         let command = convert::vector(command, "command", n)?;
         let targets: Option<EeTargets> = ee_target
             .filter(|t| !t.is_none())
@@ -282,20 +268,29 @@ impl PyRmpflow {
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let n = self.dof();
-        let (q0, qd0) = self.initial_state(q0, qd0)?;
-        let goal = convert::vector(goal, "goal", n)?;
-        let (data, _, n_commands) = candidate_rows(candidates, n)?;
-        let threads = convert::threads(threads)?;
-        let opts = options_from_kwargs(
+        let b = BatchInputs::parse(
             "Rmpflow.evaluate",
-            options,
-            true,
-            n_commands,
+            n,
+            q0,
+            qd0,
+            goal,
+            candidates,
+            threads,
             return_trajectories,
+            options,
         )?;
         let (rmp, scene) = (self.rmp.clone(), self.scene_snapshot());
         let results = detached(py, move || {
-            rmp_evaluate_batch(&rmp, &scene, &q0, &qd0, &goal, &data, &opts, threads)
+            rmp_evaluate_batch(
+                &rmp,
+                &scene,
+                &b.q0,
+                &b.qd0,
+                &b.goal,
+                &b.candidates,
+                &b.options,
+                b.threads,
+            )
         })?;
         evaluate_output(py, results, n, return_trajectories)
     }

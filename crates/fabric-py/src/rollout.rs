@@ -204,6 +204,66 @@ pub fn rollout_option_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(out)
 }
 
+/// The initial state of a rollout: `q0` (dof,) rad and `qd0` (dof,) rad/s, zeros when None; checked
+/// in that order.
+pub fn initial_state(
+    q0: &Bound<'_, PyAny>,
+    qd0: Option<&Bound<'_, PyAny>>,
+    dof: usize,
+) -> PyResult<(Vec<f64>, Vec<f64>)> {
+    let q0 = convert::vector(q0, "q0", dof)?;
+    let qd0 = match qd0 {
+        Some(v) if !v.is_none() => convert::vector(v, "qd0", dof)?,
+        _ => vec![0.0; dof],
+    };
+    Ok((q0, qd0))
+}
+
+/// The checked arguments of a policy's `evaluate` (a batch of candidate command sequences).
+pub struct BatchInputs {
+    /// Initial joint positions (dof,) and velocities (dof,).
+    pub q0: Vec<f64>,
+    pub qd0: Vec<f64>,
+    /// The final command (dof,).
+    pub goal: Vec<f64>,
+    /// The candidates, row-major (N, n·dof).
+    pub candidates: Vec<f64>,
+    /// Worker threads (None: all cores).
+    pub threads: Option<usize>,
+    pub options: SequenceOptions,
+}
+
+impl BatchInputs {
+    /// Parse the arguments of `method` (e.g. "Fabric.evaluate") for a robot of `dof` joints, in the order
+    /// the signature lists them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn parse(
+        method: &str,
+        dof: usize,
+        q0: &Bound<'_, PyAny>,
+        qd0: Option<&Bound<'_, PyAny>>,
+        goal: &Bound<'_, PyAny>,
+        candidates: &Bound<'_, PyAny>,
+        threads: Option<&Bound<'_, PyAny>>,
+        return_trajectories: bool,
+        options: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<BatchInputs> {
+        let (q0, qd0) = initial_state(q0, qd0, dof)?;
+        let goal = convert::vector(goal, "goal", dof)?;
+        let (candidates, _, n_commands) = candidate_rows(candidates, dof)?;
+        let threads = convert::threads(threads)?;
+        let options = options_from_kwargs(method, options, true, n_commands, return_trajectories)?;
+        Ok(BatchInputs {
+            q0,
+            qd0,
+            goal,
+            candidates,
+            threads,
+            options,
+        })
+    }
+}
+
 /// The candidates (N, n·dof) of an `evaluate` call: (row-major data, N, n), shape and finiteness checked.
 pub fn candidate_rows(
     candidates: &Bound<'_, PyAny>,
