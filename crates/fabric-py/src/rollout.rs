@@ -221,8 +221,9 @@ pub fn initial_state(
 
 /// The checked arguments of a policy's `evaluate` (a batch of candidate command sequences).
 pub struct BatchInputs {
-    /// Initial joint positions (dof,) and velocities (dof,).
+    /// Initial joint positions (dof,), rad or m.
     pub q0: Vec<f64>,
+    /// Initial joint velocities (dof,), rad/s or m/s (zeros when not given).
     pub qd0: Vec<f64>,
     /// The final command (dof,).
     pub goal: Vec<f64>,
@@ -230,6 +231,7 @@ pub struct BatchInputs {
     pub candidates: Vec<f64>,
     /// Worker threads (None: all cores).
     pub threads: Option<usize>,
+    /// The rollout and sequence options of the keyword arguments.
     pub options: SequenceOptions,
 }
 
@@ -265,7 +267,7 @@ impl BatchInputs {
 }
 
 /// The candidates (N, n·dof) of an `evaluate` call: (row-major data, N, n), shape and finiteness checked.
-pub fn candidate_rows(
+fn candidate_rows(
     candidates: &Bound<'_, PyAny>,
     dof: usize,
 ) -> PyResult<(Vec<f64>, usize, usize)> {
