@@ -267,10 +267,7 @@ impl BatchInputs {
 }
 
 /// The candidates (N, n·dof) of an `evaluate` call: (row-major data, N, n), shape and finiteness checked.
-fn candidate_rows(
-    candidates: &Bound<'_, PyAny>,
-    dof: usize,
-) -> PyResult<(Vec<f64>, usize, usize)> {
+fn candidate_rows(candidates: &Bound<'_, PyAny>, dof: usize) -> PyResult<(Vec<f64>, usize, usize)> {
     let cand = convert::array(candidates, "candidates")?;
     let (rows, n_commands) = match cand.shape.as_slice() {
         [r, c] if dof > 0 && c % dof == 0 => (*r, c / dof),
