@@ -280,11 +280,13 @@ def write(args: argparse.Namespace, m: Dict[str, Any], crit: Dict[str, Dict[str,
     if "obstacles" in curves:
         rows = curves["obstacles"]
         L += ["Time per step against obstacles:", "", table(rows), ""]
-        big = [r for r in rows if r["obstacles"] >= 10]
-        L.append(f"Fitted exponent from 10 obstacles on: {slope(big, 'obstacles', 'rollout_us'):.2f}. Flat up to "
-                 "~10 obstacles (the fixed cost: kinematics, self-collision, the solve), then about linear in the "
-                 "obstacles within reach of the arm: the broadphase (a BVH beyond 16 obstacles) costs little, the "
-                 "leaves (one per sphere–obstacle pair within the influence radius) grow with the density.")
+        # the exponent over the points from 10 and from 100 obstacles on (each fit needs two points)
+        fits = [f"from {lo} {'obstacles ' if lo == 10 else ''}on: {slope(part, 'obstacles', 'rollout_us'):.2f}"
+                for lo in (10, 100) if len(part := [r for r in rows if r["obstacles"] >= lo]) >= 2]
+        L.append(f"Fitted exponent {'; '.join(fits)}. Flat up to ~10 "
+                 "obstacles (the fixed cost: kinematics, self-collision, the solve), then growing toward linear as the "
+                 "leaves (one per sphere–obstacle pair within the influence radius, as many as the obstacles within "
+                 "reach of the arm) outweigh the fixed cost; the broadphase (a BVH beyond 16 obstacles) costs little.")
     if "spheres" in curves:
         L += ["", "Time per step against collision spheres (each of the 57 repeated k times; 10 obstacles; "
               "self-collision off):", "", table(curves["spheres"]), "",

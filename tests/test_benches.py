@@ -202,7 +202,7 @@ def test_speed_section_marks_each_target_from_the_figures():
     row = {"problem": "box/0001", "label": "Ours (5 b)", "success": True, "time": 0.3, "cost": 3.0,
            "ee_length": 1.0, "cspace_length": 5.0}
     stall = {k: [row, dict(row, label="Ours (5 b, retry)")] for k in (0, 1)}
-    curves = {"obstacles": [{"obstacles": n, "rollout_us": 2.0 * n, "python_us": 2.5 * n} for n in (1, 10, 100)]}
+    curves = {"obstacles": [{"obstacles": n, "rollout_us": 2.0 * n, "python_us": 2.5 * n} for n in (1, 10, 100, 1000)]}
     args = argparse.Namespace(measurement_time=3.0, stall_limit=1, scaling_repeat=1)
     page = speed.write(args, machine, crit, runs, [solve] * 3, [dict(solve, batches=2)] * 3, stall, curves)
     lines = {line.split("|")[1].strip(): line for line in page.splitlines() if line.startswith("| ")}
@@ -211,7 +211,7 @@ def test_speed_section_marks_each_target_from_the_figures():
     assert "| 356 | met" in lines["ratio to `fabrics` `compute_action`, 10 obstacles"]  # 1600 / 4.5
     assert "0.600 s | **not met**" in lines["`gfcs solve` from the shell"]
     assert "0.050 s | met" in lines["built-in problem: first batch"]
-    assert "Fitted exponent from 10 obstacles on: 1.00" in page and "test CPU" in page
+    assert "Fitted exponent from 10 obstacles on: 1.00; from 100 on: 1.00" in page and "test CPU" in page
     # the cage step's budget: the obstacle part is the step less the step with the obstacle barrier off
     assert "take 2.25 µs" in page and "other 5.25 µs" in page and "72.9 leaves" in page and "23.7 ns" in page
 
