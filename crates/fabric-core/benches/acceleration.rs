@@ -1,7 +1,8 @@
 //! One fabric evaluation `Fabric::acceleration` of the Panda (forward kinematics, all collision spheres
 //! against a MotionBenchMaker-like "box" scene built in code, self-collision pairs, joint limits, joint
 //! attraction, energization and speed control), at states recorded along a rollout so that the number of
-//! barrier leaves is representative. Target: ≤ 10 µs on one core.
+//! barrier leaves is representative. Targets on one core (BENCHMARKS.md "Speed"): ≤ 2 µs for the MBM Panda
+//! in free space, ≤ 5 µs in the cage scene.
 //!
 //! Benchmarks: the shipped Panda (`Robot::panda()`), and the spherized MotionBenchMaker Panda (59 spheres)
 //! when the shared data directory is present (`../shared` or `$GFCS_SHARED`; skipped with a message
