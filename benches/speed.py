@@ -280,9 +280,11 @@ def write(args: argparse.Namespace, m: Dict[str, Any], crit: Dict[str, Dict[str,
     if "obstacles" in curves:
         rows = curves["obstacles"]
         L += ["Time per step against obstacles:", "", table(rows), ""]
-        # the exponent over the points from 10 and from 100 obstacles on (each fit needs two points)
-        fits = [f"from {lo} {'obstacles ' if lo == 10 else ''}on: {slope(part, 'obstacles', 'rollout_us'):.2f}"
-                for lo in (10, 100) if len(part := [r for r in rows if r["obstacles"] >= lo]) >= 2]
+        fits = []
+        for lo, label in ((10, "from 10 obstacles on"), (100, "from 100 on")):
+            part = [r for r in rows if r["obstacles"] >= lo]
+            if len(part) >= 2:  # a fit needs two points
+                fits.append(f"{label}: {slope(part, 'obstacles', 'rollout_us'):.2f}")
         L.append(f"Fitted exponent {'; '.join(fits)}. Flat up to ~10 "
                  "obstacles (the fixed cost: kinematics, self-collision, the solve), then growing toward linear as the "
                  "leaves (one per sphere–obstacle pair within the influence radius, as many as the obstacles within "
