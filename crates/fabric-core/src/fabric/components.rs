@@ -171,6 +171,10 @@ pub fn damper_weight(x: f64, x_min: f64) -> f64 {
     if x_min <= 0.0 {
         return if x < 0.0 { 2.0 } else { 0.0 };
     }
+    // at or beyond x_min, where a barrier leaf mostly is: 0 without a division
+    if x >= x_min {
+        return 0.0;
+    }
     if x >= 0.0 {
         smoothstep((x_min - x) / x_min)
     } else {
@@ -191,6 +195,8 @@ pub fn barrier_geometry(c: f64, x: f64, xd: f64, x_min: f64, tau: f64) -> f64 {
     let share = (2.0 - damper_weight(x, x_min)).min(1.0);
     if share <= 0.0 {
         0.0
+    } else if share == 1.0 {
+        braking_acceleration(c, xd, tau)
     } else {
         braking_acceleration(c, xd, tau / share)
     }
@@ -201,7 +207,11 @@ pub fn barrier_geometry(c: f64, x: f64, xd: f64, x_min: f64, tau: f64) -> f64 {
 /// m > 0; ≤ 0 (it enters the forcing, where −b ẋ pushes x up). See [`Barrier::braking_time`].
 pub fn barrier_damping(x: f64, xd: f64, m: f64, x_min: f64, tau: f64) -> f64 {
     if xd < 0.0 && m > 0.0 && tau > 0.0 {
-        damper_weight(x, x_min) * m / tau * xd
+        match damper_weight(x, x_min) {
+            // the product below, −0, without its division
+            0.0 => -0.0,
+            w => w * m / tau * xd,
+        }
     } else {
         0.0
     }
@@ -464,6 +474,9 @@ mod tests {
         }
         assert_eq!(damper_weight(-1e-9, 0.0), 2.0);
         assert_eq!(damper_weight(1e-9, 0.0), 0.0);
+        assert_eq!(damper_weight(0.0, 0.0), 0.0);
+        // the early return for x ≥ x_min lets NaN through
+        assert!(damper_weight(f64::NAN, x_min).is_nan());
     }
 
     #[test]
