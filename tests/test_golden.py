@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import dataclasses
 import math
 import sys
 from pathlib import Path
