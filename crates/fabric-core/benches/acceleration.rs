@@ -14,7 +14,9 @@
 //! (`mbm_panda_cage_scene_obstacles_off_no_psi`: kinematics, self-collision, attractors and the solve;
 //! the difference is the obstacle leaves with their broadphase and distances), and one obstacle
 //! `Barrier::eval` is timed alone (`barrier/obstacle_eval`, 64 leaf states across the influence
-//! radius, half approaching); the mean leaves per evaluation are printed with the recorded states.
+//! radius, half approaching); the mean leaves per evaluation are printed with the recorded states, and
+//! a digest of the bits of their rollout's q̈ (a speed change that claims the same q̈ bit for bit leaves
+//! the digests unchanged; `cargo bench -p fabric-core --bench acceleration -- --test` prints them alone).
 //!
 //! Each case runs twice: with a `FabricWorkspace::new` (diagnostics with the forcing potential ψ) and,
 //! suffixed `_no_psi`, with `FabricWorkspace::for_rollouts` (ψ off: what a rollout step and
@@ -35,11 +37,16 @@ use fabric_core::scene::Scene;
 mod fabric_support;
 use fabric_support::{box_scene, mbm_panda, mbm_problem, shared_root};
 
+/// The 64-bit FNV-1a offset basis and prime, for the q̈ digest of [`recorded_states`].
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
+
 const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
 /// A goal with the hand inside the box (sphere-model clearance of a few cm).
 const GOAL: [f64; 7] = [0.45, 0.35, 0.19, -1.9, -0.1, 2.3, 0.8];
 
-/// (q, q̇) every 5th step of a 4 s semi-implicit Euler rollout from `start` toward `goal`.
+/// (q, q̇) every 5th step of a 4 s semi-implicit Euler rollout from `start` toward `goal`; prints the mean
+/// leaves per evaluation and the digest of the bits of every q̈ of the rollout (FNV-1a over 64-bit words).
 fn recorded_states(
     fabric: &Fabric,
     scene: &Scene,
@@ -50,6 +57,7 @@ fn recorded_states(
     let (mut q, mut qd, mut qdd) = (start.to_vec(), vec![0.0; 7], vec![0.0; 7]);
     let mut out = Vec::new();
     let mut leaves = 0;
+    let mut digest = FNV_OFFSET;
     for k in 0..400 {
         if fabric
             .acceleration(scene, &q, &qd, goal, &mut ws, &mut qdd)
@@ -58,6 +66,9 @@ fn recorded_states(
             break;
         }
         leaves += fabric.diagnostics(&ws).leaves;
+        for v in &qdd {
+            digest = (digest ^ v.to_bits()).wrapping_mul(FNV_PRIME);
+        }
         if k % 5 == 0 {
             out.push((q.clone(), qd.clone()));
         }
@@ -67,7 +78,8 @@ fn recorded_states(
         }
     }
     eprintln!(
-        "{} spheres, {} self-collision pairs; mean leaves per evaluation along the recorded rollout: {:.1}",
+        "{} spheres, {} self-collision pairs; mean leaves per evaluation along the recorded rollout: {:.1}; \
+         q̈ digest {digest:016x}",
         fabric.robot().spheres().len(),
         fabric.robot().self_collision_pairs().len(),
         leaves as f64 / 400.0
