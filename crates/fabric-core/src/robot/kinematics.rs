@@ -15,7 +15,7 @@
 //!
 //! No function here allocates once the workspace exists.
 
-use nalgebra::{Isometry3, Matrix3, Matrix3xX, Vector3};
+use nalgebra::{Isometry3, Matrix3, Matrix3xX, UnitQuaternion, Vector3};
 
 use super::model::{Motion, Robot};
 use crate::error::{check_finite, check_len, FabricError, Result};
@@ -83,6 +83,10 @@ pub struct KinematicsWorkspace {
     /// the prismatic ones. Column `c` of the Jacobian of a world point x fixed on the body is
     /// `jw_c × x − jm_c`.
     jm: Vec<Vector3<f64>>,
+    /// Each joint's transform `pre · motion(θ)` as (rotation, translation), computed for all joints before
+    /// the pass down the tree: their sines and cosines do not depend on the parents, and out of the
+    /// chain they do not hold it up (−20 % for the MBM Panda's positions, the same bits).
+    local: Vec<(UnitQuaternion<f64>, Vector3<f64>)>,
 }
 
 impl KinematicsWorkspace {
@@ -100,6 +104,7 @@ impl KinematicsWorkspace {
             acc: vec![Vector3::zeros(); n],
             jw: vec![Vector3::zeros(); n * dof],
             jm: vec![Vector3::zeros(); n * dof],
+            local: vec![(UnitQuaternion::identity(), Vector3::zeros()); n],
         }
     }
 }
@@ -165,6 +170,11 @@ impl Robot {
 
     fn propagate<const VEL: bool>(&self, q: &[f64], qd: &[f64], ws: &mut KinematicsWorkspace) {
         let dof = ws.dof;
+        for (slot, joint) in ws.local.iter_mut().zip(&self.joints) {
+            if let Some(j) = joint {
+                *slot = j.moved_parts(j.position(q));
+            }
+        }
         for (i, joint) in self.joints.iter().enumerate() {
             let Some(j) = joint else {
                 ws.pose[i] = Isometry3::identity();
@@ -180,7 +190,7 @@ impl Robot {
             let parent_o = ws.pose[p].translation.vector;
             // Joint frame after the motion (its origin lies on the joint axis); offsets are rotated
             // with the parent's rotation matrix, which is cheaper than with its quaternion.
-            let (local_q, local_o) = j.moved_parts(j.position(q));
+            let (local_q, local_o) = ws.local[i];
             let frame_q = parent_q * local_q;
             let frame_rot = *frame_q.to_rotation_matrix().matrix();
             let frame_o = parent_o + rotate(&parent_rot, &local_o);
