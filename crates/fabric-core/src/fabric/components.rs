@@ -208,7 +208,7 @@ pub fn barrier_geometry(c: f64, x: f64, xd: f64, x_min: f64, tau: f64) -> f64 {
 pub fn barrier_damping(x: f64, xd: f64, m: f64, x_min: f64, tau: f64) -> f64 {
     if xd < 0.0 && m > 0.0 && tau > 0.0 {
         match damper_weight(x, x_min) {
-            // the product below, −0, without its division
+            // w = 0: the product w m/τ ẋ below is −0 (ẋ < 0); without its division
             0.0 => -0.0,
             w => w * m / tau * xd,
         }

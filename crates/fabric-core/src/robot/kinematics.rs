@@ -84,8 +84,8 @@ pub struct KinematicsWorkspace {
     /// `jw_c × x − jm_c`.
     jm: Vec<Vector3<f64>>,
     /// Each joint's transform `pre · motion(θ)` as (rotation, translation), computed for all joints before
-    /// the pass down the tree: their sines and cosines do not depend on the parents, and out of the
-    /// chain they do not hold it up (−20 % for the MBM Panda's positions, the same bits).
+    /// the pass down the tree: their sines and cosines do not depend on the parents, and computed out of
+    /// the chain of parent-to-child products they do not hold it up (the same values bit for bit).
     local: Vec<(UnitQuaternion<f64>, Vector3<f64>)>,
 }
 
