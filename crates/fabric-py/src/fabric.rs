@@ -36,14 +36,13 @@ pub struct PyFabric {
     /// The root metric M̃ (dof × dof, row-major) of the last `acceleration` call, empty before it.
     last_metric: Mutex<Vec<f64>>,
     /// Scratch of `acceleration` (ψ off: see `LastCall`), kept between calls: building it (kinematics
-    /// workspaces, one task point per sphere) cost about as much as the evaluation itself (MBM Panda,
-    /// 81 spheres, near free space: 10.6-14.8 µs per call with it, 5.5-8.5 µs without).
+    /// workspaces, one task point per sphere) costs about as much as an evaluation.
     ws: Mutex<FabricWorkspace>,
 }
 
 /// The last `acceleration` call: its inputs (the scene it saw included) and diagnostics. The call
 /// evaluates with the forcing potential ψ off (`FabricWorkspace::set_potential`; ψ only reports energy,
-/// and its soft-plus terms took 9 % of a step's profile in a cluttered scene, BENCHMARKS.md "Speed"), so
+/// and its soft-plus terms are a measurable part of a cluttered step, BENCHMARKS.md "Speed"), so
 /// `diagnostics()` evaluates ψ when asked for it, at these inputs: q̈ and every other diagnostic are the
 /// same bit for bit with ψ on or off (fabric-core's engine tests).
 struct LastCall {
