@@ -535,18 +535,7 @@ impl PyFabric {
             options,
         )?;
         let (fabric, scene) = self.shared();
-        let results = detached(py, move || {
-            core_rollout::evaluate_batch(
-                &fabric,
-                &scene,
-                &b.q0,
-                &b.qd0,
-                &b.goal,
-                &b.candidates,
-                &b.options,
-                b.threads,
-            )
-        })?;
+        let results = b.run(py, fabric, scene, core_rollout::evaluate_batch)?;
         evaluate_output(py, results, n, return_trajectories)
     }
 

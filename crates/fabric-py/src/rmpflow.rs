@@ -279,19 +279,12 @@ impl PyRmpflow {
             return_trajectories,
             options,
         )?;
-        let (rmp, scene) = (self.rmp.clone(), self.scene_snapshot());
-        let results = detached(py, move || {
-            rmp_evaluate_batch(
-                &rmp,
-                &scene,
-                &b.q0,
-                &b.qd0,
-                &b.goal,
-                &b.candidates,
-                &b.options,
-                b.threads,
-            )
-        })?;
+        let results = b.run(
+            py,
+            self.rmp.clone(),
+            self.scene_snapshot(),
+            rmp_evaluate_batch,
+        )?;
         evaluate_output(py, results, n, return_trajectories)
     }
 

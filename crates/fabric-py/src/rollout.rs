@@ -1,17 +1,20 @@
 //! Result classes of rollouts (`Rollout`, GFCS eq. 1–3) and command sequences (`SequenceRollout`,
 //! GFCS eq. 4–8), and the parsing of rollout options from Python keyword arguments.
 
+use std::sync::Arc;
+
 use fabric_core::rollout::{
     Integrator, RolloutOptions, RolloutResult, SequenceOptions, SequenceResult, StopReason,
     Trajectory,
 };
+use fabric_core::scene::Scene;
 use fabric_core::FabricError;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 
 use crate::convert::{self, output, typed_output};
-use crate::errors::error;
+use crate::errors::{detached, error};
 
 /// Python name of a stop reason: "reached", "timeout", "non_finite" or "stalled".
 pub fn reason_name(r: StopReason) -> &'static str {
@@ -219,6 +222,19 @@ pub fn initial_state(
     Ok((q0, qd0))
 }
 
+/// A core batch evaluation of a policy `P` in a scene (`fabric_core::rollout::evaluate_batch`,
+/// `fabric_core::rmpflow::rmp_evaluate_batch`): (policy, scene, q0, qd0, goal, candidates, options, threads).
+pub type BatchEvaluation<P> = fn(
+    &P,
+    &Scene,
+    &[f64],
+    &[f64],
+    &[f64],
+    &[f64],
+    &SequenceOptions,
+    Option<usize>,
+) -> fabric_core::Result<Vec<SequenceResult>>;
+
 /// The checked arguments of a policy's `evaluate` (a batch of candidate command sequences).
 pub struct BatchInputs {
     /// Initial joint positions (dof,), rad or m.
@@ -262,6 +278,28 @@ impl BatchInputs {
             candidates,
             threads,
             options,
+        })
+    }
+
+    /// Run `evaluate` on these inputs for `policy` in `scene`, with the GIL released.
+    pub fn run<P: Send + Sync>(
+        self,
+        py: Python<'_>,
+        policy: Arc<P>,
+        scene: Arc<Scene>,
+        evaluate: BatchEvaluation<P>,
+    ) -> PyResult<Vec<SequenceResult>> {
+        detached(py, move || {
+            evaluate(
+                &policy,
+                &scene,
+                &self.q0,
+                &self.qd0,
+                &self.goal,
+                &self.candidates,
+                &self.options,
+                self.threads,
+            )
         })
     }
 }
