@@ -64,6 +64,24 @@ def test_acceleration_and_diagnostics(fabric):
     assert np.linalg.norm(fabric.acceleration(GOAL, np.zeros(7), GOAL)) < 0.1 * np.linalg.norm(qdd)
 
 
+def test_metric_and_diagnostics_describe_the_last_successful_call(robot, scene):
+    """``metric()`` is M̃ (dof, dof), symmetric positive definite, of the last ``acceleration`` call; a call
+    that fails in the evaluation (a finite but overflowing velocity) changes neither it nor ``diagnostics()``."""
+    f = gfcs.Fabric(robot, scene)
+    assert f.metric() is None
+    f.acceleration(Q0, np.full(7, 0.1), GOAL)
+    m, d = f.metric(), f.diagnostics()
+    assert m.shape == (7, 7) and m.dtype == np.float64
+    np.testing.assert_array_equal(m, m.T)
+    assert np.linalg.eigvalsh(m).min() > 0.0
+    with pytest.raises(gfcs.NonFiniteError):
+        f.acceleration(Q0, np.full(7, 1e200), GOAL)
+    np.testing.assert_array_equal(f.metric(), m)
+    assert f.diagnostics() == d
+    f.acceleration(GOAL, np.zeros(7), GOAL)
+    assert not np.array_equal(f.metric(), m)
+
+
 def test_diagnostics_potential_is_evaluated_on_demand(robot, scene):
     """``acceleration`` skips the forcing potential ψ; ``diagnostics()`` evaluates it at the last call's
     state: with only the joint attractor it is the closed form k ln cosh(α‖q − command‖) (GF VII-A1), with

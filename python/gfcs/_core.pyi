@@ -499,7 +499,7 @@ class Fabric:
         alpha_boost, alpha_reg, leaves. The forcing potential ψ is evaluated here at the last call's state
         (one more fabric evaluation); ``potential=False`` skips it (``potential`` is then NaN)."""
     def metric(self) -> Optional[FloatArray]:
-        """(dof, dof) root metric M̃ of the last ``acceleration`` call (GF eq. 17), or None before it."""
+        """(dof, dof) root metric M̃ of the last successful ``acceleration`` call (GF eq. 17), or None before it."""
     def rollout(
         self, q0: ArrayLike, qd0: Optional[ArrayLike], command: ArrayLike, record: bool = True,
         **options: Unpack[RolloutOptions],

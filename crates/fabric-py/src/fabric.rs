@@ -33,14 +33,13 @@ pub struct PyFabric {
     robot: Py<PyRobot>,
     scene: RwLock<Arc<Scene>>,
     last: Mutex<Option<LastCall>>,
-    /// The root metric M̃ (dof × dof, row-major) of the last `acceleration` call, empty before it.
-    last_metric: Mutex<Vec<f64>>,
     /// Scratch of `acceleration` (ψ off: see `LastCall`), kept between calls: building it (kinematics
     /// workspaces, one task point per sphere) costs about as much as an evaluation.
     ws: Mutex<FabricWorkspace>,
 }
 
-/// The last `acceleration` call: its inputs (the scene it saw included) and diagnostics. The call
+/// The last successful `acceleration` call: its inputs (the scene it saw included), diagnostics and root
+/// metric (a failed call leaves it as it was, so `diagnostics()` and `metric()` describe one call). The call
 /// evaluates with the forcing potential ψ off (`FabricWorkspace::set_potential`; ψ only reports energy,
 /// and its soft-plus terms are a measurable part of a cluttered step, BENCHMARKS.md "Speed"), so
 /// `diagnostics()` evaluates ψ when asked for it, at these inputs: q̈ and every other diagnostic are the
@@ -52,6 +51,8 @@ struct LastCall {
     command: Vec<f64>,
     targets: Option<EeTargets>,
     diag: Diagnostics,
+    /// The root metric M̃ (dof × dof; symmetric, so its column-major storage is also row-major).
+    metric: Vec<f64>,
 }
 
 /// Robots up to this many coordinates get `acceleration`'s q̈ in a stack buffer (no allocation).
@@ -78,13 +79,13 @@ impl PyFabric {
             robot: self.robot.clone_ref(py),
             scene: RwLock::new(self.scene_snapshot()),
             last: Mutex::new(None),
-            last_metric: Mutex::new(Vec::new()),
             ws,
         }
     }
 
     /// One evaluation of `Fabric::acceleration` in `scene` (with explicit end-effector `targets` when given)
-    /// in the kept workspace, ψ on or off (`potential`); q̈ into `qdd` (dof,), the diagnostics returned.
+    /// in the kept workspace, ψ on or off (`potential`); q̈ into `qdd` (dof,), the diagnostics returned and,
+    /// with `metric`, the root metric M̃ (dof × dof) written into it.
     #[allow(clippy::too_many_arguments)]
     fn evaluate_once(
         &self,
@@ -96,6 +97,7 @@ impl PyFabric {
         targets: Option<&EeTargets>,
         potential: bool,
         qdd: &mut [f64],
+        metric: Option<&mut Vec<f64>>,
     ) -> PyResult<Diagnostics> {
         let fabric = &self.fabric;
         // the GIL is held throughout, so the lock is never contended; after a panic inside (poisoned
@@ -116,13 +118,10 @@ impl PyFabric {
             Ok(fabric.diagnostics(ws))
         });
         ws.set_potential(false);
-        // M̃ is symmetric: its column-major storage is also row-major
-        let mut metric = self
-            .last_metric
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner);
-        metric.clear();
-        metric.extend_from_slice(ws.root().m.as_slice());
+        if let (Ok(_), Some(metric)) = (&result, metric) {
+            metric.clear();
+            metric.extend_from_slice(ws.root().m.as_slice());
+        }
         result
     }
 
@@ -194,7 +193,6 @@ impl PyFabric {
             robot: robot.unbind(),
             scene: RwLock::new(Arc::new(scene)),
             last: Mutex::new(None),
-            last_metric: Mutex::new(Vec::new()),
             ws,
         })
     }
@@ -380,8 +378,18 @@ impl PyFabric {
             &mut heap
         };
         let scene = self.scene_snapshot();
-        let diag =
-            self.evaluate_once(py, &scene, &q, &qd, &command, targets.as_ref(), false, qdd)?;
+        let mut metric = Vec::with_capacity(n * n);
+        let diag = self.evaluate_once(
+            py,
+            &scene,
+            &q,
+            &qd,
+            &command,
+            targets.as_ref(),
+            false,
+            qdd,
+            Some(&mut metric),
+        )?;
         *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Some(LastCall {
             scene,
             q,
@@ -389,6 +397,7 @@ impl PyFabric {
             command,
             targets,
             diag,
+            metric,
         });
         Ok(numpy::PyArray1::from_slice(py, qdd))
     }
@@ -420,23 +429,21 @@ impl PyFabric {
                 call.targets.as_ref(),
                 true,
                 &mut qdd,
+                None,
             )?;
             diag.potential = with_psi.potential;
         }
         diagnostics_dict(py, &diag).map(Some)
     }
 
-    /// The root metric M̃ (dof, dof) of the last `acceleration` call (GF eq. 17: the summed pulled-back
-    /// Finsler metrics, which weight a constrained fabric's projection, Lemma IV.3), or None before it.
+    /// The root metric M̃ (dof, dof) of the last successful `acceleration` call (GF eq. 17: the summed
+    /// pulled-back Finsler metrics, which weight a constrained fabric's projection, Lemma IV.3), or None
+    /// before it.
     fn metric<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
-        let m = self
-            .last_metric
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .clone();
-        if m.is_empty() {
-            return Ok(None);
-        }
+        let m = match &*self.last.lock().unwrap_or_else(PoisonError::into_inner) {
+            Some(call) => call.metric.clone(),
+            None => return Ok(None),
+        };
         let n = self.dof();
         output(py, m, &[n, n]).map(Some)
     }
