@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+import gfcs
 from gfcs import metrics as m
 
 
@@ -224,19 +225,62 @@ def test_checked_states_visit_a_slow_path_at_the_check_resolution_and_keep_a_fas
     np.testing.assert_array_equal(m.checked_states(fast, step=0.005), fast)
 
 
-class _CountingChecker:
-    """Mesh checker double: obstacle clearance 0.2 m everywhere, counting the states it is asked about."""
+def _visited_by_definition(q, step):
+    """The rows :func:`checked_indices` visits, by its definition: the first, every next row at least
+    ``step`` (max over joints) from the last one visited, and the last."""
+    keep = [0]
+    for k in range(1, len(q) - 1):
+        if np.max(np.abs(q[k] - q[keep[-1]])) >= step:
+            keep.append(k)
+    return keep + ([len(q) - 1] if len(q) > 1 else [])
 
-    def __init__(self):
+
+def test_checked_indices_follow_their_definition_on_generated_paths():
+    """Slow, fast, mixed and standing paths of 1-8 joints (steps from 10⁻⁴ to 3·10⁻² rad, some rows
+    standing still): the rows skipped by the summed-steps bound are exactly those the definition skips."""
+    rng = np.random.default_rng(7)
+    for trial in range(600):
+        n = int(rng.integers(1, 40)) if trial % 3 else int(rng.integers(100, 800))
+        steps = rng.normal(size=(n, int(rng.integers(1, 9)))) * 10 ** rng.uniform(-4.0, -1.5)
+        steps *= rng.uniform(size=(n, 1)) < rng.uniform(0.2, 1.0)  # standing rows
+        q = np.cumsum(steps, axis=0)
+        step = (0.001, 0.005, 0.01)[trial % 3]
+        assert m.checked_indices(q, step).tolist() == _visited_by_definition(q, step), trial
+
+
+class _CountingChecker:
+    """Mesh checker double: obstacle clearance 0.2 m everywhere except at the configurations whose first
+    joint is in ``contact`` (clearance 0 there), counting the states it is asked about."""
+
+    def __init__(self, contact=()):
         self.states = self.calls = 0
+        self.contact = {round(float(c), 9) for c in contact}
 
     def min_clearance(self, scene, q, threads=None, cutoff=None):
         self.states += len(q)
         self.calls += 1
-        return 0.2
+        return 0.0 if any(round(float(r[0]), 9) in self.contact for r in q) else 0.2
 
     def min_self_clearance(self, q, threads=None, cutoff=None):
         return 0.2
+
+
+def test_a_contact_first_mesh_check_rejects_after_the_first_call_with_the_same_verdicts():
+    """With ``likely_contact`` the states are checked lowest value first: a path touching where that value
+    is lowest fails after one call of MESH_CHECK_CHUNK states instead of after every state before the
+    contact; a clear path is checked on all of its states in calls of 8, 16, 32, ...; verdicts do not
+    depend on the order."""
+    q = np.stack([np.linspace(0.0, 6.0, 601), np.zeros(601)], axis=1)  # 10 mrad steps: every state checked
+    likely = np.abs(np.arange(601) - 500.0)  # the spheres come nearest at sample 500
+    plain, first = _CountingChecker(contact=[q[500, 0]]), _CountingChecker(contact=[q[500, 0]])
+    assert not m.mesh_check(plain, None, q)[2] and plain.states == 601
+    clear, _, ok, complete = m.mesh_check(first, None, q, likely_contact=likely)
+    assert (clear, ok, complete) == (0.0, False, True) and first.states == m.MESH_CHECK_CHUNK
+    free = _CountingChecker()
+    assert m.mesh_check(free, None, q, likely_contact=likely)[2:] == (True, True)
+    assert free.states == 601 and free.calls == 7  # 8, 16, 32, 64, 128, 256, then the 97 left
+    with pytest.raises(gfcs.ShapeError, match="likely_contact"):
+        m.mesh_check(_CountingChecker(), None, q, likely_contact=likely[:-1])
 
 
 def test_a_mesh_check_past_its_deadline_stops_with_a_negative_verdict():

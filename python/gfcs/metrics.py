@@ -67,9 +67,10 @@ MESH_REPORT_RANGE = 0.002
 #: Resolution [rad or m, max over joints] at which collision checks visit a path (:func:`checked_states`):
 #: half the 0.01 rad at which validators commonly interpolate a returned trajectory.
 MESH_CHECK_STEP = 0.005
-#: States of the first mesh-check call when a deadline bounds the check (:func:`mesh_check`); each next call
-#: takes twice as many, at most as many as the time left allows at the rate measured so far, so that a check
-#: overruns its deadline by about one call of this size at most.
+#: States of the first mesh-check call when a deadline bounds the check or an order puts the likely contacts
+#: first (:func:`mesh_check`); each next call takes twice as many (with a deadline at most as many as the time
+#: left allows at the rate measured so far, so that a check overruns its deadline by about one call of this
+#: size at most).
 MESH_CHECK_CHUNK = 8
 #: Default clearance [m] the collision meshes must keep, from the obstacles and between links, at every
 #: configuration of a trajectory (its states and the straight segments between them) for it to count as
@@ -317,14 +318,26 @@ def checked_indices(q: Any, step: float = MESH_CHECK_STEP) -> np.ndarray:
     samples lie farther apart keeps all of them."""
     qa = np.atleast_2d(np.asarray(q, dtype=np.float64))
     n = qa.shape[0]
-    if n > 2 and np.all(np.max(np.abs(np.diff(qa[:-1], axis=0)), axis=1) >= step):
+    if n < 2:
+        return np.arange(n, dtype=np.int64)
+    steps = np.max(np.abs(np.diff(qa, axis=0)), axis=1)  # steps[k - 1]: row k − 1 to row k
+    if n > 2 and np.all(steps[:-1] >= step):
         return np.arange(n, dtype=np.int64)  # every step is that long: every row is visited
-    keep = [0]
-    for k in range(1, n - 1):
-        if np.max(np.abs(qa[k] - qa[keep[-1]])) >= step:
+    # Rows are compared with the last one visited only where the sum of the steps since then (an upper
+    # bound of that distance, the triangle inequality, slackened for its rounding) reaches `step`: the
+    # rows of a slow stretch are passed over without a comparison each.
+    reach = step * (1.0 - 1e-9)
+    rows = qa.tolist()  # plain floats: the same differences as numpy's, without a call per row
+    keep, since = [0], 0.0
+    for k, s in enumerate(steps[:-1].tolist(), start=1):
+        since += s
+        if since < reach:
+            continue
+        last = keep[-1]
+        if (s if last == k - 1 else max(abs(a - b) for a, b in zip(rows[k], rows[last]))) >= step:
             keep.append(k)
-    if n > 1:
-        keep.append(n - 1)
+            since = 0.0
+    keep.append(n - 1)
     return np.asarray(keep, dtype=np.int64)
 
 
@@ -343,7 +356,7 @@ def mesh_verdict(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_
 
 def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_MESH_MARGIN,
                deadline: Optional[float] = None, sweep_time: Optional[float] = None,
-               ) -> Tuple[float, float, bool, bool]:
+               likely_contact: Optional[Any] = None) -> Tuple[float, float, bool, bool]:
     """The mesh part of the success criterion over the samples of ``q`` (T, dof).
 
     The exact mesh distances are computed only up to :func:`mesh_report_cutoff` ``(margin)``: pairs of
@@ -356,6 +369,15 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
     states, then twice as many each time within the time left, and a check that reaches the deadline stops
     there with a negative verdict: exact distances between
     detailed meshes take up to a tenth of a second per state, and a solve's budget bounds its checks too.
+
+    **Contact-first order.** ``likely_contact`` (T,), one value per sample of ``q`` (e.g. the sphere model's
+    clearance, :func:`trajectory_metrics` passes it), orders the states: the lowest first, in calls of
+    :data:`MESH_CHECK_CHUNK` states, then twice as many each time. The check stops at the first call with a
+    state within the margin, so that a path that touches where its spheres come nearest is rejected after
+    a few states instead of after every state before the contact (a selection judges many such candidates:
+    BENCHMARKS.md "Contact-first mesh checks"). The verdict does not depend on the order (it fails when any
+    state is within the margin and is decided on all of them otherwise); on a failure the clearances
+    returned are the minima over the states checked until then.
 
     A path whose checked states all keep more than ``margin`` + :data:`INTERPOLATION_ALLOWANCE` passes;
     one whose states keep more than ``margin``, but not all that much more, passes when the continuous
@@ -371,10 +393,17 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
         every state was checked)), each clearance +inf when no shape comes within
         :func:`mesh_report_cutoff` ``(margin)`` (over the states checked).
     """
-    qa = checked_states(q)
+    q_all = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    rows = checked_indices(q_all)
+    if likely_contact is not None:
+        order = np.asarray(likely_contact, dtype=np.float64).reshape(-1)
+        if order.shape != (q_all.shape[0],):
+            raise ShapeError(f"likely_contact: expected shape ({q_all.shape[0]},), got {order.shape}")
+        rows = rows[np.argsort(order[rows], kind="stable")]
+    qa = q_all[rows]
     cutoff = mesh_report_cutoff(margin)
     n = qa.shape[0]
-    chunk = n if deadline is None else MESH_CHECK_CHUNK
+    chunk = n if deadline is None and likely_contact is None else MESH_CHECK_CHUNK
     clear = self_clear = math.inf
     start, began = 0, time.perf_counter()
     while start < n:
@@ -384,7 +413,9 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
         start += part.shape[0]
         if clear <= margin or self_clear <= margin:
             return clear, self_clear, False, True
-        if deadline is not None and start < n:
+        if deadline is None:
+            chunk *= 2
+        elif start < n:
             now = time.perf_counter()
             if now > deadline:
                 return clear, self_clear, False, False
@@ -394,8 +425,7 @@ def mesh_check(mesh_checker: Any, scene: Any, q: Any, margin: float = DEFAULT_ME
         return clear, self_clear, True, True
     left = None if deadline is None else max(0.0, deadline - time.perf_counter())
     capped = sweep_time is not None and (left is None or sweep_time < left)
-    sweep = mesh_checker.sweep(scene, np.atleast_2d(np.asarray(q, dtype=np.float64)), margin=float(margin),
-                               time_limit=sweep_time if capped else left)
+    sweep = mesh_checker.sweep(scene, q_all, margin=float(margin), time_limit=sweep_time if capped else left)
     return clear, self_clear, bool(sweep["ok"]), bool(sweep["complete"]) or capped
 
 
@@ -536,8 +566,10 @@ def trajectory_metrics(
     )
     continuous = continuous_mask(robot)
     final_error = float(np.linalg.norm(joint_difference(qa[-1], g, continuous)))
-    clear = float(np.min(obstacle_clearance(robot, scene, qa)))
-    self_clear = float(np.min(self_clearance(robot, qa)))
+    clear_k = obstacle_clearance(robot, scene, qa)
+    self_clear_k = self_clearance(robot, qa)
+    clear = float(np.min(clear_k))
+    self_clear = float(np.min(self_clear_k))
     # continuous joints have no position limits
     limits_ok = within_limits(qa[:, ~continuous], np.asarray(robot.lower)[~continuous],
                               np.asarray(robot.upper)[~continuous], limit_tol)
@@ -548,8 +580,9 @@ def trajectory_metrics(
     mesh_ok = True
     extra: Dict[str, Any] = {}
     if mesh_checker is not None:
+        # the states where the spheres come nearest to anything first (contact-first order)
         mesh_clear, mesh_self, mesh_ok, complete = mesh_check(mesh_checker, scene, qa, mesh_margin, deadline,
-                                                             sweep_time)
+                                                             sweep_time, np.minimum(clear_k, self_clear_k))
         extra["mesh_check_complete"] = complete
         extra["mesh_clearance"] = mesh_clear
         extra["mesh_self_clearance"] = mesh_self
