@@ -39,20 +39,37 @@ GROUPS = {"ur5": "manipulator", "fetch": "arm_with_torso", "panda": "panda_arm"}
 SHIPPED = "shipped"
 
 
-def mbm_robot(name: str, shared_arg: Optional[str]) -> Tuple[Any, Any, Any]:
-    """(robot, mesh checker, table_pick/0001's scene) of a MotionBenchMaker robot of the shared data folder, or
-    of the shipped Panda in the MotionBenchMaker Panda's scene."""
+def shared_folder(shared_arg: Optional[str]) -> Path:
+    """The shared data folder: ``shared_arg``, else GFCS_SHARED or ``../shared``; exits when there is none."""
     shared = Path(shared_arg) if shared_arg else problems.shared_dir()
     if shared is None:
         raise SystemExit("shared data folder not found: pass --shared or set GFCS_SHARED")
+    return shared
+
+
+def mbm_robot_checker(shared: Path, name: str) -> Tuple[Any, Any]:
+    """(robot planning the group of ``GROUPS``, mesh checker of its URDF and SRDF) of the MotionBenchMaker robot
+    ``name`` (a key of ``GROUPS``) of the shared data folder."""
+    folder = shared / "robots" / f"mbm_{name}"
+    urdf, srdf = folder / f"{name}_spherized.urdf", folder / f"{name}.srdf"
+    robot, _ = srdf_groups.robot_for_group(str(urdf), str(srdf), GROUPS[name], mesh_dir=str(folder))
+    return robot, problems.urdf_mesh_checker(folder / f"{name}.urdf", robot, mesh_dir=folder, srdf=srdf)
+
+
+def mbm_problems_dir(shared: Path, name: str) -> Path:
+    """The MotionBenchMaker problem folder of robot ``name`` (the Panda's for the shipped Panda)."""
+    return shared / ("mbm" if name in ("panda", SHIPPED) else f"mbm_{name}")
+
+
+def mbm_robot(name: str, shared_arg: Optional[str]) -> Tuple[Any, Any, Any]:
+    """(robot, mesh checker, table_pick/0001's scene) of a MotionBenchMaker robot of the shared data folder, or
+    of the shipped Panda in the MotionBenchMaker Panda's scene."""
+    shared = shared_folder(shared_arg)
     if name == SHIPPED:
         robot, checker = gfcs.Robot.panda(), problems.shipped_panda_checker()
     else:
-        folder = shared / "robots" / f"mbm_{name}"
-        urdf, srdf = folder / f"{name}_spherized.urdf", folder / f"{name}.srdf"
-        robot, _ = srdf_groups.robot_for_group(str(urdf), str(srdf), GROUPS[name], mesh_dir=str(folder))
-        checker = problems.urdf_mesh_checker(folder / f"{name}.urdf", robot, mesh_dir=folder, srdf=srdf)
-    mbm = shared / ("mbm" if name in ("panda", SHIPPED) else f"mbm_{name}") / "table_pick"
+        robot, checker = mbm_robot_checker(shared, name)
+    mbm = mbm_problems_dir(shared, name) / "table_pick"
     return robot, checker, problems.load_mbm(mbm / "scene0001.yaml", mbm / "request0001.yaml", robot=robot).scene
 
 

@@ -26,23 +26,15 @@ from typing import Any, Dict, List
 import numpy as np
 
 import gfcs
-from gfcs import metrics, problems, srdf_groups
+from gfcs import metrics, problems
 from gfcs.planning import get_preset, rollout_commands, solve
-
-#: (problem folder, URDF folder, planning group) of each MotionBenchMaker robot
-ROBOTS = {"ur5": ("mbm_ur5", "mbm_ur5", "manipulator"), "panda": ("mbm", "mbm_panda", "panda_arm"),
-          "fetch": ("mbm_fetch", "mbm_fetch", "arm_with_torso")}
+from mesh_check import GROUPS, mbm_problems_dir, mbm_robot_checker, shared_folder  # benches/ is the script's folder
 
 
 def load(shared: Path, name: str, limit: int) -> List[Any]:
     """The first ``limit`` problems of each class, with the robot's mesh checker."""
-    folder, robot_folder, group = ROBOTS[name]
-    rdir = shared / "robots" / robot_folder
-    stem = "panda" if name == "panda" else name
-    urdf, srdf = rdir / f"{stem}_spherized.urdf", rdir / f"{stem}.srdf"
-    robot, _ = srdf_groups.robot_for_group(str(urdf), str(srdf), group, mesh_dir=str(rdir))
-    checker = problems.urdf_mesh_checker(rdir / f"{stem}.urdf", robot, mesh_dir=rdir, srdf=srdf)
-    return problems.load_mbm_dir(shared / folder, limit=limit, robot=robot, mesh_checker=checker)
+    robot, checker = mbm_robot_checker(shared, name)
+    return problems.load_mbm_dir(mbm_problems_dir(shared, name), limit=limit, robot=robot, mesh_checker=checker)
 
 
 def judge(problem: Any, q: np.ndarray, contact_first: bool) -> Dict[str, Any]:
@@ -61,14 +53,12 @@ def judge(problem: Any, q: np.ndarray, contact_first: bool) -> Dict[str, Any]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shared", default=None, help="shared data folder (default: GFCS_SHARED or ../shared)")
-    ap.add_argument("--robot", choices=sorted(ROBOTS), default="ur5")
+    ap.add_argument("--robot", choices=sorted(GROUPS), default="ur5")
     ap.add_argument("--limit", type=int, default=3, help="problems per class")
     ap.add_argument("--top", type=int, default=8, help="candidates judged per problem")
     ap.add_argument("--json", type=Path, default=None, help="write the raw judgements here")
     args = ap.parse_args()
-    shared = Path(args.shared) if args.shared else problems.shared_dir()
-    if shared is None:
-        raise SystemExit("shared data folder not found: pass --shared or set GFCS_SHARED")
+    shared = shared_folder(args.shared)
     rows = []
     settings = get_preset("default").settings
     for problem in load(shared, args.robot, args.limit):
